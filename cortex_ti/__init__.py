@@ -1,0 +1,9 @@
+"""cortex-ti: the three-dimensional viscous active cell cortex of Bächer et al., Front. Phys. 9:753230 (2021).
+
+Units throughout: lengths in the initial radius R0 = 1, viscosities in eta_s = 1,
+times in t_a = eta_s / zeta_0. Sign conventions: outward normal n, curvature
+C_ab = -n . d_a d_b X (a sphere has C = 2/R > 0), zeta > 0 is contractile tension,
+P = p_inside - p_outside.
+"""
+
+__version__ = "0.1.0"
