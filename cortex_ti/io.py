@@ -1,0 +1,516 @@
+"""Trajectory files: one netCDF4/HDF5 file per run.
+
+Layout (written with ``h5netcdf``; open with ``xarray.open_dataset(path,
+engine="h5netcdf")`` or :func:`open_trajectory`)::
+
+    dimensions:  time (unlimited), node, xyz = 3, face, corner = 3
+    variables:   time(time)                  [t_a]       coordinate
+                 points(time, node, xyz)     [R0]
+                 velocity(time, node, xyz)   [R0/t_a]
+                 active_stress(time, node)   [zeta_0]
+                 pressure(time)              [zeta_0/R0] NaN without incompressibility
+                 triangles(face, corner)     int32, 0-based node indices
+                 ... extra per-frame variables declared by the caller
+    attributes:  effects, scene, cortex_ti_version, created, + caller's
+
+Every variable carries ``units`` and ``long_name``.
+
+Crash safety: frames go to ``<path>.partial`` and are flushed to disk one by
+one, so a killed run leaves a readable partial file of the frames written so
+far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
+to ``<path>``, so the final path never holds a half-written file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5netcdf
+import h5py
+import numpy as np
+
+from . import __version__
+from .errors import CortexError
+
+__all__ = [
+    "PARTIAL_SUFFIX",
+    "FRAME_VARIABLES",
+    "TrajectoryWriter",
+    "open_trajectory",
+    "last_frame",
+    "partial_path",
+]
+
+#: Suffix of the file a run writes to until it finishes.
+PARTIAL_SUFFIX = ".partial"
+
+#: The per-frame variables every trajectory has: name -> (dims, attrs).
+FRAME_VARIABLES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
+    "points": (("time", "node", "xyz"), {"units": "R0", "long_name": "node positions"}),
+    "velocity": (("time", "node", "xyz"), {"units": "R0/t_a", "long_name": "cortex velocity at the nodes"}),
+    "active_stress": (("time", "node"), {"units": "zeta_0", "long_name": "isotropic active tension zeta at the nodes"}),
+    "pressure": (("time",), {"units": "zeta_0/R0", "long_name": "pressure difference P = p_inside - p_outside (NaN without incompressibility)"}),
+}
+_TIME_ATTRS = {"units": "t_a", "long_name": "time"}
+_TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each triangle"}
+_EXTRA_DIMS = ("time", "node", "xyz")
+_RESERVED = {"time", "triangles", *FRAME_VARIABLES}
+_TIME_CHUNK = 1024
+
+
+def partial_path(path: str | os.PathLike) -> Path:
+    """The in-progress file of a trajectory: ``<path>.partial``."""
+    return Path(os.fspath(path) + PARTIAL_SUFFIX)
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _attr_value(name: str, value: Any) -> Any:
+    """Convert a global attribute to a type netCDF4 can store."""
+    if isinstance(value, (bool, np.bool_)):
+        return np.int8(value)
+    if isinstance(value, (str, int, float, np.integer, np.floating)):
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = np.asarray(value)
+        if arr.dtype.kind in "iuf" and arr.ndim == 1:
+            return arr
+    raise TypeError(
+        f"global attribute {name!r}: cannot store {type(value).__name__} in netCDF "
+        "(use a string, a number or a 1-d list of numbers)"
+    )
+
+
+def _global_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The caller's attributes plus effects/scene derived from a Scene, version and time."""
+    from .scene import Scene  # local import: scene.py does not need io.py
+
+    out: dict[str, Any] = {}
+    attrs = dict(attrs)
+    scene = attrs.get("scene")
+    if isinstance(scene, Scene):
+        attrs["scene"] = scene.to_yaml()
+        attrs.setdefault("effects", list(scene.data["effects"]))
+    effects = attrs.get("effects")
+    if effects is not None and not isinstance(effects, str):
+        attrs["effects"] = ",".join(effects)
+    missing = [k for k in ("effects", "scene") if k not in attrs]
+    if missing:
+        raise ValueError(
+            f"TrajectoryWriter attrs must contain {' and '.join(missing)} "
+            "(or 'scene' as a Scene, from which effects are derived)"
+        )
+    attrs.pop("cortex_ti_version", None)  # always this package's version
+    out["effects"] = _attr_value("effects", attrs.pop("effects"))
+    out["scene"] = _attr_value("scene", attrs.pop("scene"))
+    out["cortex_ti_version"] = __version__
+    out["created"] = _attr_value("created", attrs.pop("created", _now()))
+    for key, value in attrs.items():
+        out[key] = _attr_value(key, value)
+    return out
+
+
+class TrajectoryWriter:
+    """Write a run frame by frame to ``<path>.partial``; rename to ``path`` at the end.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Final file name (``.h5`` by convention).  Its folder is created if needed.
+    triangles : (n_faces, 3) int array
+        Triangles as 0-based node indices; stored once as ``triangles`` (int32).
+    n_nodes : int
+        Number of mesh nodes.
+    attrs : dict
+        Global attributes.  Must contain ``scene`` (the scene YAML text, or a
+        :class:`~cortex_ti.scene.Scene`, which is stored as ``to_yaml()``) and
+        ``effects`` (a comma-separated string or a list of names; derived from a
+        Scene when omitted).  ``cortex_ti_version`` and ``created`` are added.
+        Other values must be strings, numbers or 1-d lists of numbers (bools
+        are stored as 0/1).
+    extra_vars : dict, optional
+        Extra per-frame float64 variables: ``name -> (dims, attrs)``, dims a
+        tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")``
+        (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
+        attrs must give ``units`` and ``long_name``.
+    resume : bool, optional
+        If ``<path>.partial`` exists, reopen it and continue after its last
+        frame instead of starting over.  Its triangles, node count, variables
+        and scene must match; its ``created`` attribute is kept and the time of
+        resumption is appended to the ``resumed`` attribute.  Without a partial
+        file a new one is started.
+
+    Notes
+    -----
+    * Each :meth:`append` writes one frame and flushes it to disk, so a killed
+      process leaves a readable partial file of the frames written so far.
+      (A kill *during* the flush itself can still corrupt it: HDF5 is not
+      journaled.)
+    * The final path never exists half-written: :meth:`finish` closes the file,
+      fsyncs it and renames it with :func:`os.replace`.
+    * As a context manager, leaving the block normally calls :meth:`finish`
+      and leaving it with an exception calls :meth:`abort` (no file is left).
+      A process that dies without either keeps its ``.partial`` file for resume.
+
+    Examples
+    --------
+    ::
+
+        with TrajectoryWriter("run.h5", triangles, len(x), {"scene": scene}) as w:
+            w.append(0.0, x, v, zeta, p)       # one frame, flushed to run.h5.partial
+        # leaving the block renamed run.h5.partial -> run.h5
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        triangles: np.ndarray,
+        n_nodes: int,
+        attrs: Mapping[str, Any],
+        extra_vars: Mapping[str, tuple[tuple[str, ...], Mapping[str, str]]] | None = None,
+        resume: bool = False,
+    ) -> None:
+        self.path = Path(os.fspath(path))
+        self.partial = partial_path(self.path)
+        n_nodes = int(n_nodes)
+        if n_nodes <= 0:
+            raise ValueError(f"n_nodes must be positive, got {n_nodes}")
+        tri = np.asarray(triangles)
+        if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
+            raise ValueError(f"triangles must have shape (n_faces, 3), got {tri.shape}")
+        if tri.dtype.kind not in "iu":
+            raise ValueError(f"triangles must be integer node indices, got dtype {tri.dtype}")
+        if tri.min() < 0 or tri.max() >= n_nodes:
+            raise ValueError(f"triangles index nodes outside 0..{n_nodes - 1}")
+        self.n_nodes = n_nodes
+        self.triangles = tri.astype(np.int32)
+        self._sizes = {"time": 1, "node": n_nodes, "xyz": 3}
+        self._extra = self._check_extra(extra_vars or {})
+        self._attrs = _global_attrs(attrs)
+        self._h5: h5py.File | None = None
+        self._nc: h5netcdf.File | None = None
+        self._n = 0
+        self._last_t = -math.inf
+        self._state = "open"
+        if resume and self.partial.exists():
+            self._reopen()
+        else:
+            self._create()
+
+    # ----------------------------------------------------------------------------- setup
+    @staticmethod
+    def _check_extra(extra_vars: Mapping) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
+        out = {}
+        for name, spec in extra_vars.items():
+            try:
+                dims, attrs = spec
+            except (TypeError, ValueError):
+                raise ValueError(f"extra_vars[{name!r}] must be (dims, attrs)") from None
+            dims = tuple(dims)
+            if name in _RESERVED:
+                raise ValueError(f"extra variable {name!r} clashes with a standard variable")
+            if not dims or dims[0] != "time" or any(d not in _EXTRA_DIMS for d in dims) \
+                    or len(set(dims)) != len(dims):
+                raise ValueError(
+                    f"extra variable {name!r}: dims must start with 'time' and use "
+                    f"{_EXTRA_DIMS} without repeats, got {dims}"
+                )
+            attrs = dict(attrs)
+            missing = [k for k in ("units", "long_name") if not isinstance(attrs.get(k), str)]
+            if missing:
+                raise ValueError(f"extra variable {name!r}: attrs must give {' and '.join(missing)}")
+            out[name] = (dims, attrs)
+        return out
+
+    def _variables(self) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
+        return {**FRAME_VARIABLES, **self._extra}
+
+    def _create(self) -> None:
+        self.partial.parent.mkdir(parents=True, exist_ok=True)
+        self._h5 = h5py.File(self.partial, "w", track_order=True)
+        try:
+            nc = h5netcdf.File(self._h5, "w")
+            self._nc = nc
+            nc.dimensions = {
+                "time": None,
+                "node": self.n_nodes,
+                "xyz": 3,
+                "face": len(self.triangles),
+                "corner": 3,
+            }
+            t = nc.create_variable("time", ("time",), "f8", chunks=(_TIME_CHUNK,))
+            t.attrs.update(_TIME_ATTRS)
+            for name, (dims, attrs) in self._variables().items():
+                chunks = tuple(1 if d == "time" else self._sizes[d] for d in dims)
+                if chunks == (1,):
+                    chunks = (_TIME_CHUNK,)
+                var = nc.create_variable(name, dims, "f8", chunks=chunks)
+                var.attrs.update(attrs)
+            tri = nc.create_variable("triangles", ("face", "corner"), "i4", data=self.triangles)
+            tri.attrs.update(_TRIANGLE_ATTRS)
+            nc.attrs.update(self._attrs)
+            self._flush()
+        except BaseException:
+            self._close()
+            self.partial.unlink(missing_ok=True)
+            raise
+
+    def _reopen(self) -> None:
+        where = f"cannot resume '{self.partial}'"
+        try:
+            self._h5 = h5py.File(self.partial, "r+")
+            self._nc = h5netcdf.File(self._h5, "a")
+        except (OSError, ValueError, KeyError) as exc:
+            self._close()
+            raise CortexError(
+                f"{where}: it is not a readable trajectory ({exc}); delete it to start over"
+            ) from None
+        nc = self._nc
+        try:
+            problems = []
+            dims = {k: d.size for k, d in nc.dimensions.items()}
+            if dims.get("node") != self.n_nodes:
+                problems.append(f"it has {dims.get('node')} nodes, the run has {self.n_nodes}")
+            elif "triangles" not in nc.variables or \
+                    not np.array_equal(nc["triangles"][...], self.triangles):
+                problems.append("its triangles differ from the run's mesh")
+            want = set(self._variables()) | {"time", "triangles"}
+            have = set(nc.variables)
+            if want != have:
+                diff = sorted(want ^ have)
+                problems.append(f"its variables differ from the run's: {', '.join(diff)}")
+            if nc.attrs.get("scene") != self._attrs["scene"]:
+                problems.append("it was written for a different scene")
+            if problems:
+                raise CortexError(
+                    f"{where}: {'; '.join(problems)}; delete it or run without resume"
+                )
+            self._n = int(dims["time"])
+            if self._n:
+                self._last_t = float(nc["time"][self._n - 1])
+            resumed = nc.attrs.get("resumed", "")
+            for key, value in self._attrs.items():
+                if key not in ("created",):
+                    nc.attrs[key] = value
+            nc.attrs["resumed"] = f"{resumed},{_now()}" if resumed else _now()
+            self._flush()
+        except BaseException:
+            self._close()
+            raise
+
+    # ----------------------------------------------------------------------------- writing
+    @property
+    def n_frames(self) -> int:
+        """Number of frames in the file (including those of a resumed partial file)."""
+        return self._n
+
+    def _flush(self) -> None:
+        self._nc.flush()   # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
+        self._h5.flush()   # push data and metadata to disk
+
+    def append(self, t: float, points, velocity, active_stress, pressure: float, **extra) -> None:
+        """Write one frame and flush it to disk.
+
+        Parameters
+        ----------
+        t : float
+            Time of the frame (t_a); finite and larger than the previous frame's.
+        points, velocity : (n_nodes, 3) arrays
+            Node positions and velocities.
+        active_stress : (n_nodes,) array
+            Active tension zeta at the nodes.
+        pressure : float
+            P = p_inside - p_outside (NaN when not computed).
+        **extra
+            One value per extra variable declared in ``extra_vars`` (all of
+            them, no others), shaped like its non-time dims.
+        """
+        if self._state != "open":
+            raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
+        t = float(t)
+        if not math.isfinite(t) or t <= self._last_t:
+            raise ValueError(
+                f"frame time must be finite and increase: got t = {t} after t = {self._last_t}"
+            )
+        n = self.n_nodes
+        values = {
+            "points": self._array("points", points, (n, 3)),
+            "velocity": self._array("velocity", velocity, (n, 3)),
+            "active_stress": self._array("active_stress", active_stress, (n,)),
+            "pressure": self._array("pressure", pressure, ()),
+        }
+        unknown = sorted(set(extra) - set(self._extra))
+        missing = sorted(set(self._extra) - set(extra))
+        if unknown or missing:
+            raise ValueError(
+                "append(): "
+                + "; ".join(
+                    s for s in (
+                        f"undeclared extra variables {unknown}" if unknown else "",
+                        f"missing extra variables {missing}" if missing else "",
+                    ) if s
+                )
+            )
+        for name, (dims, _) in self._extra.items():
+            shape = tuple(self._sizes[d] for d in dims[1:])
+            values[name] = self._array(name, extra[name], shape)
+
+        k = self._n
+        nc = self._nc
+        nc.resize_dimension("time", k + 1)
+        for name, value in values.items():
+            nc[name][k, ...] = value
+        nc["time"][k] = t  # last: a frame is complete once its time is set
+        self._n = k + 1
+        self._last_t = t
+        self._flush()
+
+    @staticmethod
+    def _array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+        arr = np.asarray(value, dtype=np.float64)
+        if arr.shape != shape:
+            raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+        return arr
+
+    # ----------------------------------------------------------------------------- closing
+    def _close(self) -> None:
+        nc, h5 = self._nc, self._h5
+        self._nc = self._h5 = None
+        try:
+            if nc is not None:
+                nc.close()
+        finally:
+            if h5 is not None:
+                h5.close()
+
+    def finish(self) -> Path:
+        """Close the file and atomically rename ``<path>.partial`` to ``path``.
+
+        Returns
+        -------
+        Path
+            The final path.  Calling it again returns the path without doing anything.
+        """
+        if self._state == "finished":
+            return self.path
+        if self._state != "open":
+            raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
+        self._close()
+        with open(self.partial, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(self.partial, self.path)
+        self._state = "finished"
+        return self.path
+
+    def abort(self) -> None:
+        """Close and delete the ``.partial`` file, so a failed run leaves no file.
+
+        Does nothing after :meth:`finish` (the finished file is kept) or a
+        previous :meth:`abort`.
+        """
+        if self._state != "open":
+            return
+        self._state = "aborted"
+        try:
+            self._close()
+        finally:
+            self.partial.unlink(missing_ok=True)
+
+    def __enter__(self) -> "TrajectoryWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is None:
+            self.finish()
+        else:
+            self.abort()
+        return False
+
+    def __repr__(self) -> str:
+        return f"<TrajectoryWriter '{self.partial}' {self._n} frames, {self._state}>"
+
+
+# --------------------------------------------------------------------------------------
+# Reading
+# --------------------------------------------------------------------------------------
+
+def _existing(path: str | os.PathLike) -> Path:
+    p = Path(os.fspath(path))
+    if p.exists():
+        return p
+    partial = partial_path(p)
+    if partial.exists():
+        return partial
+    raise CortexError(f"trajectory file '{p}' not found")
+
+
+def open_trajectory(path: str | os.PathLike):
+    """Open a trajectory (final or ``.partial``) as an :class:`xarray.Dataset`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.  If it does not exist but ``<path>.partial`` does, that is opened.
+
+    Returns
+    -------
+    xarray.Dataset
+        Lazily loaded; close it (or use it as a context manager) when done.
+
+    Raises
+    ------
+    CortexError
+        If neither the file nor its partial file exists.
+    """
+    import xarray as xr  # local import: writing does not need xarray
+
+    return xr.open_dataset(_existing(path), engine="h5netcdf")
+
+
+def last_frame(path: str | os.PathLike) -> dict[str, Any]:
+    """The last frame of a trajectory, for resuming a run.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A final or ``.partial`` trajectory file; if ``path`` does not exist but
+        ``<path>.partial`` does, that is read.
+
+    Returns
+    -------
+    dict
+        ``n_frames`` (int), ``time`` (float), ``points`` and ``velocity``
+        ((n_nodes, 3) arrays), ``active_stress`` ((n_nodes,) array),
+        ``pressure`` (float), ``extra`` (dict name -> value of each extra
+        per-frame variable) and ``path`` (the file read).  With no frames,
+        ``n_frames`` is 0 and the other values are None (``extra`` is empty).
+    """
+    file = _existing(path)
+    try:
+        with h5netcdf.File(file, "r") as nc:
+            n = int(nc.dimensions["time"].size)
+            out: dict[str, Any] = {"path": file, "n_frames": n}
+            if n == 0:
+                out.update(time=None, points=None, velocity=None, active_stress=None,
+                           pressure=None, extra={})
+                return out
+            out["time"] = float(nc["time"][n - 1])
+            for name in FRAME_VARIABLES:
+                out[name] = np.asarray(nc[name][n - 1, ...])
+            out["pressure"] = float(out["pressure"])
+            out["extra"] = {
+                name: np.asarray(var[n - 1, ...])
+                for name, var in nc.variables.items()
+                if name not in _RESERVED and var.dimensions[:1] == ("time",)
+            }
+            return out
+    except (OSError, KeyError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
