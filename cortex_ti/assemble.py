@@ -1,0 +1,160 @@
+r"""Compose the terms the effects call for into one sparse least-squares system.
+
+The discrete force balance (paper Eqs. 34, 38) is the overdetermined linear system
+
+.. math::  M x + p\,P \approx r, \qquad G x = 0
+
+with ``x`` the velocity unknowns, ``P`` the pressure (only with the
+``incompressibility`` effect; ``p`` is -1 on the normal rows) and ``G`` the dense
+constraint rows. With the ``fixed_normal_velocity`` effect the normal rows are not
+assembled and the velocity of node ``i`` is written ``v_i = u_1 e_xi + u_2 e_eta``,
+so ``v_n = 0`` holds exactly and the unknowns are the two tangential components;
+otherwise the unknowns are the Cartesian components.
+
+:func:`assemble` runs only the terms of the enabled effects; the geometry-dependent
+weights of every term are summed first and turned into matrix entries by one
+Taichi kernel (:func:`_scatter_kernel`), writing COO triplets that SciPy converts
+to CSR.
+"""
+
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import taichi as ti
+
+from . import runtime
+from .geometry import Geometry, f64_1, f64_2, f64_3, f64_4, i32_1, i32_2
+from .terms import AssemblyContext, Physics, active_terms
+
+i64_1 = ti.types.ndarray(dtype=ti.i64, ndim=1)
+
+
+@ti.func
+def _emit(rows: ti.template(), cols: ti.template(), vals: ti.template(), basis: ti.template(),
+          base, row, node, coef):
+    for b in range(basis.shape[1]):
+        bv = ti.Vector([basis[node, b, 0], basis[node, b, 1], basis[node, b, 2]])
+        rows[base + b] = row
+        cols[base + b] = node * basis.shape[1] + b
+        vals[base + b] = coef.dot(bv)
+
+
+@ti.kernel
+def _scatter_kernel(
+    stencil: i32_2, ssize: i32_1, fit: f64_3, normal: f64_2, basis: f64_3,
+    W: f64_4, W0: f64_3, Wn: f64_3, Wn0: f64_2, offsets: i64_1,
+    rows: i64_1, cols: i64_1, vals: f64_1,
+):
+    """Row r of node i: sum_k W[k] . V_k + W0 . v_i + sum_k Wn[k] d_k v_n + Wn0 v_n,i,
+    with V_k = sum_a F[k, a] (v_a - v_i) and d_k v_n = sum_a F[k, a] (n_a . v_a - n_i . v_i).
+    Slot 0 of each row holds node i, slot j > 0 the stencil node j - 1."""
+    nrow = W.shape[1]
+    for i in range(stencil.shape[0]):
+        s = ssize[i]
+        ni = ti.Vector([normal[i, 0], normal[i, 1], normal[i, 2]])
+        for r in range(nrow):
+            center = ti.Vector([W0[i, r, 0], W0[i, r, 1], W0[i, r, 2]]) + Wn0[i, r] * ni
+            row_base = offsets[i] + r * (s + 1) * basis.shape[1]
+            for j in range(s):
+                a = stencil[i, j]
+                cv = ti.Vector([0.0, 0.0, 0.0])
+                cn = 0.0
+                for k in ti.static(range(5)):
+                    f = fit[i, k, j]
+                    cv += f * ti.Vector([W[i, r, k, 0], W[i, r, k, 1], W[i, r, k, 2]])
+                    cn += f * Wn[i, r, k]
+                na = ti.Vector([normal[a, 0], normal[a, 1], normal[a, 2]])
+                center -= cv + cn * ni
+                _emit(rows, cols, vals, basis, row_base + (j + 1) * basis.shape[1], i * nrow + r, a, cv + cn * na)
+            _emit(rows, cols, vals, basis, row_base, i * nrow + r, i, center)
+
+
+@dataclass
+class LinearSystem:
+    """``min |M x + p P - r|^2`` subject to ``G x = 0`` (see module docstring)."""
+
+    matrix: sp.csr_matrix             # M, (rows, unknowns)
+    rhs: np.ndarray                   # r
+    pressure_column: np.ndarray | None  # p, or None without the pressure unknown
+    constraints: np.ndarray           # G, (m, unknowns), dense
+    constraint_names: list[str]
+    basis: np.ndarray                 # (N, nb, 3): v_i = sum_b x[nb i + b] basis[i, b]
+    terms: list[str] = field(default_factory=list)
+
+    @property
+    def n_unknowns(self) -> int:
+        return self.matrix.shape[1]
+
+    def velocity(self, x: np.ndarray) -> np.ndarray:
+        """Cartesian nodal velocities ``(N, 3)`` from the unknowns."""
+        nb = self.basis.shape[1]
+        return np.einsum("nb,nbc->nc", x.reshape(-1, nb), self.basis)
+
+    def unknowns(self, velocity: np.ndarray) -> np.ndarray:
+        """Project Cartesian velocities onto the unknowns (inverse of :meth:`velocity`)."""
+        return np.einsum("nc,nbc->nb", velocity, self.basis).ravel()
+
+    def residual(self, x: np.ndarray, pressure: float = 0.0) -> np.ndarray:
+        res = self.matrix @ x - self.rhs
+        if self.pressure_column is not None:
+            res += self.pressure_column * pressure
+        return res
+
+
+_EYE = np.eye(3)
+
+
+def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
+    """Cartesian unit vectors, or the tangent frame when v_n is fixed to zero."""
+    if physics.normal_balance:
+        return np.broadcast_to(_EYE, (geometry.n_nodes, 3, 3)).copy()
+    return geometry.tangent_frame()
+
+
+def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray) -> LinearSystem:
+    """Build the least-squares system of the effects in ``physics`` on this shape."""
+    runtime.ensure()
+    ctx = AssemblyContext(geometry, physics, np.ascontiguousarray(zeta, dtype=np.float64))
+    terms = active_terms(physics)
+    for term in terms:
+        term.apply(ctx)
+    n, nrow = geometry.n_nodes, physics.rows_per_node
+    basis = velocity_basis(geometry, physics)
+    nb = basis.shape[1]
+    per_node = nrow * (geometry.stencil_size.astype(np.int64) + 1) * nb
+    offsets = np.zeros(n, dtype=np.int64)
+    np.cumsum(per_node[:-1], out=offsets[1:])
+    nnz = int(per_node.sum())
+    rows = np.empty(nnz, dtype=np.int64)
+    cols = np.empty(nnz, dtype=np.int64)
+    vals = np.empty(nnz)
+    _scatter_kernel(geometry.stencil, geometry.stencil_size, geometry.fit, geometry.normal, basis,
+                    ctx.W, ctx.W0, ctx.Wn, ctx.Wn0, offsets, rows, cols, vals)
+    rhs = ctx.rhs
+    if physics.normal_balance:
+        # Row equilibration: the tangential rows hold second derivatives (~1/h^2), the
+        # normal row first derivatives (~1/h). Scaling the normal row by 1/h_i gives both
+        # the same weight in the least squares; the (nearly consistent) solution is
+        # unchanged but spurious modes of wide stencils are suppressed and the
+        # conditioning improves by ~1/h.
+        weight = np.ones((n, nrow))
+        weight[:, 2] = 1.0 / geometry.edge_length
+        vals *= weight.ravel()[rows]
+        rhs = rhs * weight
+    matrix = sp.csr_matrix((vals, (rows, cols)), shape=(n * nrow, n * nb))
+    pcol = None
+    if ctx.pressure:
+        pcol = np.zeros(n * nrow)
+        pcol[2::nrow] = -1.0 / geometry.edge_length
+    if ctx.constraints:
+        dense = np.concatenate([c.rows for c in ctx.constraints], axis=0)
+        gmat = np.einsum("mnc,nbc->mnb", dense, basis).reshape(dense.shape[0], -1)
+    else:
+        gmat = np.zeros((0, n * nb))
+    names = [f"{c.name}[{k}]" if c.rows.shape[0] > 1 else c.name
+             for c in ctx.constraints for k in range(c.rows.shape[0])]
+    return LinearSystem(matrix=matrix, rhs=rhs.ravel(), pressure_column=pcol,
+                        constraints=gmat, constraint_names=names, basis=basis,
+                        terms=[t.name for t in terms])

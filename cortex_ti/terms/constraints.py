@@ -1,0 +1,56 @@
+r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multiplier.
+
+* Rigid-body gauge (always on: the force balance contains only derivatives of the
+  velocity, so a rigid motion can be added to any solution): zero total velocity
+  ``sum_i A_i v_i = 0`` (Eq. 36) and zero angular momentum
+  ``sum_i A_i (x_i - x_c) x v_i = 0`` (Eq. 37), ``A_i`` the Meyer mixed area, ``x_c``
+  the area-weighted centroid (with zero total velocity the reference point drops out).
+* Incompressibility (effect ``incompressibility``): the pressure difference ``P``
+  becomes an unknown of the normal balance and the enclosed volume is kept,
+  ``sum_i v_n,i W_i = 0`` (Eq. 35). We take ``W_i = n_i . dV/dx_i``, the derivative
+  of the *triangulated* volume along the direction the node is advected in
+  (Eq. 60), rather than the mixed area ``A_i``: both converge to the same
+  ``integral of v_n dS = 0``, but with this choice the discrete volume is exactly
+  stationary under normal advection, so it is conserved to O(dt^2) per step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import AssemblyContext, Constraint, Term, register
+
+
+def rigid_body_rows(points: np.ndarray, area: np.ndarray) -> np.ndarray:
+    """Rows (6, N, 3): total velocity (3) and angular momentum (3), area-weighted."""
+    n = points.shape[0]
+    rows = np.zeros((6, n, 3))
+    centroid = (area[:, None] * points).sum(0) / area.sum()
+    r = points - centroid
+    eye = np.eye(3)
+    for k in range(3):
+        rows[k, :, k] = area
+        rows[3 + k] = area[:, None] * np.cross(eye[k], r)
+    return rows
+
+
+@register
+class RigidBodyGauge(Term):
+    effect = None
+    name = "zero total velocity and angular momentum"
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        g = ctx.geometry
+        ctx.constraints.append(Constraint("momentum", rigid_body_rows(g.points, g.area)))
+
+
+@register
+class Incompressibility(Term):
+    effect = "incompressibility"
+    name = "pressure and volume conservation"
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        g = ctx.geometry
+        weight = np.einsum("nc,nc->n", g.normal, g.volume_gradient)
+        ctx.pressure = True
+        ctx.constraints.append(Constraint("volume", (weight[:, None] * g.normal)[None]))
