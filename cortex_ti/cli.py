@@ -1,0 +1,93 @@
+"""Command line: ``cortex-ti run | scenes | check``.
+
+Every problem with the input (scene, mesh, values) is reported as one line naming
+it, with exit status 2 and no output file; an unexpected internal error keeps its
+traceback (exit status 1) so it can be reported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from pathlib import Path
+
+from .errors import CortexError
+
+log = logging.getLogger("cortex_ti")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021).")
+    p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a scene and write its trajectory (HDF5, opens with xarray)")
+    run.add_argument("scene", help="scene YAML file, or the name of a built-in scene (see 'cortex-ti scenes')")
+    run.add_argument("-o", "--output", required=True, type=Path, help="output file (.h5)")
+    run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                     help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)")
+    run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
+    run.add_argument("--threads", type=int, default=None, help="CPU threads for Taichi")
+
+    chk = sub.add_parser("check", help="validate a scene (and its mesh) without solving")
+    chk.add_argument("scene")
+    chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+
+    sub.add_parser("scenes", help="list the built-in scenes")
+    return p
+
+
+def _run(args) -> int:
+    from . import runtime
+    from .scene import load_scene
+    from .simulation import Simulation
+
+    scene = load_scene(args.scene, args.overrides)
+    runtime.init(args.arch, args.threads)
+    t0 = time.perf_counter()
+    sim = Simulation(scene)
+    out = sim.run(args.output)
+    log.info("wrote %s (%s nodes, %.1f s)", out, sim.mesh.n_nodes, time.perf_counter() - t0)
+    print(out)
+    return 0
+
+
+def _check(args) -> int:
+    from .mesh import build_topology
+    from .scene import load_scene
+    from .simulation import scene_mesh
+
+    scene = load_scene(args.scene, args.overrides)
+    mesh = scene_mesh(scene)
+    build_topology(mesh)
+    print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {', '.join(sorted(scene.effects))})")
+    return 0
+
+
+def _scenes(_args) -> int:
+    from .scene import builtin_scene_names, load_scene
+
+    for name in builtin_scene_names():
+        desc = " ".join(load_scene(name)["description"].split())
+        print(f"{name:28s} {desc[:90]}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    level = logging.WARNING - 10 * min(args.verbose + 1, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return {"run": _run, "check": _check, "scenes": _scenes}[args.command](args)
+    except CortexError as exc:
+        print(f"cortex-ti: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("cortex-ti: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
