@@ -318,3 +318,28 @@ def error_measures(v, v_an) -> tuple[float, float]:
     with np.errstate(divide="ignore", invalid="ignore"):
         eps_rel = float(np.sqrt(np.mean(d * d)) / vmax)
     return eps, eps_rel
+
+
+def scene_solution(scene, points) -> np.ndarray:
+    """The analytic velocity for a static sphere scene, chosen by its effects.
+
+    Full system (normal balance, no bending viscosity) -> :func:`sphere_full_solution`;
+    tangential system (fixed normal velocity, harmonics only) -> :func:`sphere_tangential_solution`;
+    with bending viscosity (harmonics only) -> :func:`sphere_bending_solution`.
+    Raises ValueError for scenes without a closed-form solution.
+    """
+    if scene["mesh.file"]:
+        raise ValueError("analytic solutions exist only for the icosphere scenes")
+    radius = float(scene["mesh.radius"])
+    patterns = scene["active_stress"]
+    if scene.has("fixed_normal_velocity"):
+        return sphere_tangential_solution(points, patterns, radius=radius, eta_s=scene["viscosity.shear"])
+    if scene.has("bending_viscosity"):
+        terms = [t for p in patterns if p["type"] == "harmonics" for t in p["terms"]]
+        if len(terms) != sum(len(p.get("terms", [])) for p in patterns) or len(patterns) != 1:
+            raise ValueError("with bending viscosity the analytic solution needs a single harmonics pattern")
+        v, _ = sphere_bending_solution(points, terms, radius, scene["viscosity.shear"], scene["viscosity.bulk"],
+                                       scene["viscosity.bending"], scene["viscosity.bending_bulk"])
+        return v
+    v, _ = sphere_full_solution(points, patterns, radius=radius, eta_b=scene["viscosity.bulk"])
+    return v

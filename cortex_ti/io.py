@@ -514,3 +514,17 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
             return out
     except (OSError, KeyError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+
+
+def write_dataset(ds, path: str | os.PathLike) -> Path:
+    """Write an xarray Dataset (netCDF4 layout through h5netcdf) atomically: temporary name, then rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + PARTIAL_SUFFIX)
+    try:
+        ds.to_netcdf(tmp, engine="h5netcdf")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
