@@ -30,10 +30,17 @@ def _parser() -> argparse.ArgumentParser:
                      help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)")
     run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
     run.add_argument("--threads", type=int, default=None, help="CPU threads for Taichi")
+    run.add_argument("--resume", action="store_true",
+                     help="continue an interrupted run from OUTPUT.partial (only the scene's time section may change)")
 
     chk = sub.add_parser("check", help="validate a scene (and its mesh) without solving")
     chk.add_argument("scene")
     chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
+
+    exp = sub.add_parser("export", help="write a trajectory as a ParaView series (one VTU per frame + .pvd)")
+    exp.add_argument("trajectory", type=Path)
+    exp.add_argument("-o", "--output", type=Path, default=None, help="folder (default: next to the file)")
+    exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
 
     sub.add_parser("scenes", help="list the built-in scenes")
     return p
@@ -48,7 +55,12 @@ def _run(args) -> int:
     runtime.init(args.arch, args.threads)
     t0 = time.perf_counter()
     sim = Simulation(scene)
-    out = sim.run(args.output)
+    try:
+        out = sim.run(args.output, resume=args.resume)
+    except KeyboardInterrupt:
+        print(f"cortex-ti: interrupted; frames so far are in {args.output}.partial, continue with --resume",
+              file=sys.stderr)
+        return 130
     log.info("wrote %s (%s nodes, %.1f s)", out, sim.mesh.n_nodes, time.perf_counter() - t0)
     print(out)
     return 0
@@ -66,6 +78,15 @@ def _check(args) -> int:
     return 0
 
 
+def _export(args) -> int:
+    from .export import export_vtu_series
+
+    if not args.trajectory.exists():
+        raise CortexError(f"trajectory file '{args.trajectory}' does not exist")
+    print(export_vtu_series(args.trajectory, args.output, args.every))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -80,7 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     level = logging.WARNING - 10 * min(args.verbose + 1, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:
-        return {"run": _run, "check": _check, "scenes": _scenes}[args.command](args)
+        return {"run": _run, "check": _check, "export": _export, "scenes": _scenes}[args.command](args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2

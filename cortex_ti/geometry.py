@@ -190,7 +190,7 @@ class Geometry:
     """
 
     points: np.ndarray        # (N, 3)
-    frame: np.ndarray         # (N, 3, 3) rows e_xi, e_eta, n (angle-weighted normal)
+    frame: np.ndarray         # (N, 3, 3) rows e_xi, e_eta, and the angle-weighted normal (fit coordinates)
     area: np.ndarray          # (N,) Meyer mixed area
     volume_gradient: np.ndarray  # (N, 3) dV/dx_i of the enclosed volume
     stencil: np.ndarray       # (N, S) int32 fit stencil, padded with -1
@@ -205,7 +205,6 @@ class Geometry:
     christoffel: np.ndarray   # (N, 2, 2, 2) Gamma^c_ab stored as [c, a, b]
     height_fit: np.ndarray    # (N, 5) fitted derivatives of the height over the tangent plane
     ring: np.ndarray | None = None  # (N, max valence) one-ring, padded with -1
-    _normal: np.ndarray | None = None
     _edge: np.ndarray | None = None
 
     @property
@@ -214,10 +213,15 @@ class Geometry:
 
     @property
     def normal(self) -> np.ndarray:
-        """Angle-weighted node normals (the direction of normal velocity and advection)."""
-        if self._normal is None:
-            self._normal = np.ascontiguousarray(self.frame[:, 2, :])
-        return self._normal
+        """The node's unit normal: the normal of its fitted patch ``(N, 3)``.
+
+        This is *the* normal of the physics: ``v_n = v . n`` in the bending term and the
+        volume constraint, the direction of advection (Eq. 60), the frame in which
+        ``v_n = 0`` is imposed. The angle-weighted normal (``frame[:, 2]``, paper Sec. 3.1)
+        only defines the local coordinates of the fit; it is first-order accurate on
+        irregular meshes, the fitted normal to the order of the fit.
+        """
+        return self.normal_fit
 
     @property
     def edge_length(self) -> np.ndarray:
@@ -235,7 +239,7 @@ class Geometry:
         the normal of the fitted patch is accurate to the order of the fit, so
         constraints on the normal velocity use this frame.
         """
-        nf = self.normal_fit
+        nf = self.normal
         t1 = self.frame[:, 0, :] - np.einsum("nc,nc->n", self.frame[:, 0, :], nf)[:, None] * nf
         t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
         return np.ascontiguousarray(np.stack([t1, np.cross(nf, t1)], axis=1))

@@ -62,6 +62,21 @@ _RESERVED = {"time", "triangles", *FRAME_VARIABLES}
 _TIME_CHUNK = 1024
 
 
+def _same_scene_but_time(a, b) -> bool:
+    """Scenes equal up to their ``time`` section (a run may be resumed with a new t_end or dt)."""
+    import yaml
+
+    try:
+        da, db = yaml.safe_load(a), yaml.safe_load(b)
+    except Exception:
+        return a == b
+    if not isinstance(da, dict) or not isinstance(db, dict):
+        return a == b
+    da.pop("time", None)
+    db.pop("time", None)
+    return da == db
+
+
 def partial_path(path: str | os.PathLike) -> Path:
     """The in-progress file of a trajectory: ``<path>.partial``."""
     return Path(os.fspath(path) + PARTIAL_SUFFIX)
@@ -144,7 +159,7 @@ class TrajectoryWriter:
     resume : bool, optional
         If ``<path>.partial`` exists, reopen it and continue after its last
         frame instead of starting over.  Its triangles, node count, variables
-        and scene must match; its ``created`` attribute is kept and the time of
+        and scene (up to its ``time`` section) must match; its ``created`` attribute is kept and the time of
         resumption is appended to the ``resumed`` attribute.  Without a partial
         file a new one is started.
 
@@ -287,8 +302,8 @@ class TrajectoryWriter:
             if want != have:
                 diff = sorted(want ^ have)
                 problems.append(f"its variables differ from the run's: {', '.join(diff)}")
-            if nc.attrs.get("scene") != self._attrs["scene"]:
-                problems.append("it was written for a different scene")
+            if not _same_scene_but_time(nc.attrs.get("scene"), self._attrs["scene"]):
+                problems.append("it was written for a different scene (only the time section may change)")
             if problems:
                 raise CortexError(
                     f"{where}: {'; '.join(problems)}; delete it or run without resume"
@@ -423,6 +438,18 @@ class TrajectoryWriter:
             self._close()
         finally:
             self.partial.unlink(missing_ok=True)
+
+    def close_partial(self) -> Path | None:
+        """Close but keep ``<path>.partial`` for :option:`--resume` (interrupted or failed
+        dynamic runs); a partial file without any frame is deleted instead."""
+        if self._state != "open":
+            return None
+        if self._n == 0:
+            self.abort()
+            return None
+        self._state = "kept"
+        self._close()
+        return self.partial
 
     def __enter__(self) -> "TrajectoryWriter":
         return self

@@ -19,7 +19,7 @@ from . import __version__, runtime
 from .assemble import assemble
 from .errors import CortexError
 from .geometry import Geometry, StencilChooser, compute_geometry
-from .io import TrajectoryWriter
+from .io import TrajectoryWriter, last_frame, partial_path
 from .linalg import ConstrainedLeastSquares, SolveInfo
 from .mesh import Mesh, Topology, build_topology, icosphere, load_mesh
 from .scene import Scene
@@ -109,13 +109,32 @@ class Simulation:
             "cortex_ti_version": __version__,
         }
 
-    def run(self, output: str | Path) -> Path:
-        """Run the scene and write its trajectory file (atomically)."""
+    def evaluate(self, points: np.ndarray):
+        """Solve on ``points`` and package what the time integration needs."""
+        from .dynamics import Evaluation
+
+        sol = self.solve(points)
+        self._accumulate(sol)
+        return Evaluation(points=points, velocity=sol.velocity, normal=self.geometry.normal.copy(),
+                          pressure=sol.pressure, solution=sol, edge_length=self.geometry.edge_length.copy())
+
+    def _accumulate(self, sol: Solution) -> None:
+        for k, v in sol.seconds.items():
+            self.seconds[k] = self.seconds.get(k, 0.0) + v
+
+    @property
+    def pattern_axis(self) -> np.ndarray:
+        """The axis of the active-stress pattern (the first ring's axis; +z otherwise)."""
+        for pat in self.scene["active_stress"] if self.scene.has("active_stress") else []:
+            if "axis" in pat:
+                a = np.asarray(pat["axis"], dtype=float)
+                return a / np.linalg.norm(a)
+        return np.array([0.0, 0.0, 1.0])
+
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+        """Run the scene and write its trajectory file (atomically; dynamic runs resumable)."""
         if self.scene.has("shape_evolution"):
-            raise CortexError(
-                f"scene '{self.scene.name}' asks for shape_evolution, which this version cannot run yet; "
-                "remove it from effects to solve the static force balance"
-            )
+            return self._run_dynamics(Path(output), resume, progress)
         attrs = self.output_attrs()
         with TrajectoryWriter(output, self.mesh.faces, self.mesh.n_nodes, attrs,
                               extra_vars=SOLVE_DIAGNOSTICS) as writer:
@@ -128,3 +147,80 @@ class Simulation:
             pressure = sol.pressure if self.scene.has("incompressibility") else float("nan")
             writer.append(0.0, sol.points, sol.velocity, self.zeta, pressure, **sol.diagnostics)
         return Path(output)
+
+    def _run_dynamics(self, output: Path, resume: bool, progress: bool) -> Path:
+        from .diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
+        from .dynamics import integrate, make_scheme
+
+        sc = self.scene
+        t_end, dt, save_every = float(sc["time.t_end"]), float(sc["time.dt"]), float(sc["time.save_every"])
+        extra = dict(SOLVE_DIAGNOSTICS)
+        extra.update({k: (("time",), v) for k, v in DIAGNOSTIC_ATTRS.items()})
+        extra["dt"] = (("time",), {"units": "t_a", "long_name": "time step the integrator takes next"})
+        points, t0 = self.mesh.points, 0.0
+        if resume and partial_path(output).exists():
+            last = last_frame(partial_path(output))
+            if last["n_frames"]:
+                points, t0, dt = last["points"], float(last["time"]), float(last["extra"]["dt"])
+                self.zeta = np.asarray(last["active_stress"], dtype=float)
+                log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, last["n_frames"], dt)
+            else:
+                resume = False
+        elif resume:
+            log.info("nothing to resume at %s; starting from t = 0", partial_path(output))
+            resume = False
+        axis = self.pattern_axis
+        faces = self.mesh.faces
+        has_p = sc.has("incompressibility")
+        self.seconds = {}
+        writer = TrajectoryWriter(output, faces, self.mesh.n_nodes, self.output_attrs(), extra_vars=extra,
+                                  resume=resume)
+
+        def on_frame(t, ev, dt_next, final=False):
+            diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
+            writer.append(t, ev.points, ev.velocity, self.zeta, ev.pressure if has_p else float("nan"),
+                          dt=dt_next, **ev.solution.diagnostics, **diag)
+
+        scheme = make_scheme(sc["time.scheme"], self.evaluate, tol=float(sc["time.tol"]),
+                             dt_max=float(sc["time.dt_max"]))
+        bar = _progress_bar(t0, t_end) if progress else None
+        try:
+            stats = integrate(self.evaluate, points, t0, t_end, dt, scheme, save_every, on_frame,
+                              steady_tol=float(sc["time.steady_tol"]), progress=bar, write_first=not resume)
+        except BaseException:
+            writer.close_partial()
+            raise
+        finally:
+            if bar is not None:
+                bar.close()
+        path = writer.finish()
+        self.stats = stats
+        per = {k: v / max(stats.solves, 1) * 1e3 for k, v in self.seconds.items()}
+        log.info("%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
+                 sc.name, t_end, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
+                 ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()))
+        return path
+
+
+class _progress_bar:
+    """tqdm bar over simulated time; silent when stderr is not a terminal."""
+
+    def __init__(self, t0: float, t_end: float):
+        from tqdm import tqdm
+
+        self._bar = tqdm(total=round(t_end, 6), initial=round(t0, 6), unit="t_a", disable=None,
+                         bar_format="{l_bar}{bar}| t={n:.3f}/{total:.3f} [{elapsed}<{remaining}{postfix}]")
+        self._t = t0
+        self._start = time.perf_counter()
+
+    def __call__(self, t, ev, dt, stats):
+        if self._bar.disable:
+            return
+        self._bar.update(round(t - self._t, 6))
+        self._t = t
+        rate = stats.steps / max(time.perf_counter() - self._start, 1e-9)
+        vmax = float(np.max(np.abs(ev.normal_speed)))
+        self._bar.set_postfix_str(f"{rate:.1f} steps/s, dt={dt:.2g}, max|v_n|={vmax:.2e}", refresh=False)
+
+    def close(self):
+        self._bar.close()

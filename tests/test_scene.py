@@ -85,8 +85,9 @@ def test_shipped_scene_values(name):
         assert t21 == {"l": 2, "m": 1, "coeff": 1.0}
     # defaults filled from the schema
     assert scene["solver"] == {"backend": "auto", "reuse": True, "rtol": 1e-10}
-    assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler",
-                             "save_every": 0.01, "steady_tol": 1e-6}
+    assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler", "save_every": 0.01,
+                             "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05}
+    assert scene["numerics"] == {"fit": "quartic"}
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -162,7 +163,7 @@ def test_defaults_and_canonical_numbers():
                                        "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
     assert list(scene.data) == ["name", "description", "mesh", "viscosity", "active_stress",
-                                "effects", "solver", "time"]
+                                "effects", "numerics", "solver", "time"]
 
 
 def test_yaml_reads_exponent_without_dot_as_float(tmp_path):
@@ -229,7 +230,7 @@ def test_error_names_the_scene_file(tmp_path):
     ("viscocity.bulk=1", "unknown key 'viscocity' (did you mean 'viscosity'?)"),
     ("time.dtt=1", "unknown key 'time.dtt' (did you mean 'time.dt'?)"),
     ("foo=1", "unknown key 'foo' (valid keys here: name, description, mesh, viscosity, "
-              "active_stress, effects, solver, time)"),
+              "active_stress, effects, numerics, solver, time)"),
     # wrong types
     ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
     ("solver.reuse=3", "solver.reuse: 3 is not of type 'boolean'"),
@@ -245,8 +246,8 @@ def test_error_names_the_scene_file(tmp_path):
     ("time.dt=.nan", "time.dt must be a finite number > 0, got nan"),
     ("active_stress.0.terms.0.coeff=.inf", "active_stress.0.terms.0.coeff must be a finite number, got inf"),
     # enums
-    ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso, cholmod; got 'mkl'"),
-    ("time.scheme=rk4", "time.scheme must be one of: euler, heun, rk23; got 'rk4'"),
+    ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso; got 'mkl'"),
+    ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler; got 'rk4'"),
 ])
 def test_schema_errors_name_the_key(override, expected):
     assert scene_error(overrides=[override]) == f"scene 'sphere_y20_full': " + (
@@ -464,8 +465,8 @@ def test_override_creates_missing_section():
     assert "time" not in data
     apply_override(data, "time.dt=1e-3")
     assert data["time"] == {"dt": 0.001}
-    scene = scene_from_dict(base(), ["time.dt=2.5e-4", "time.scheme=rk23"])
-    assert scene["time.dt"] == 2.5e-4 and scene["time.scheme"] == "rk23"
+    scene = scene_from_dict(base(), ["time.dt=2.5e-4", "time.scheme=adaptive"])
+    assert scene["time.dt"] == 2.5e-4 and scene["time.scheme"] == "adaptive"
     assert scene["time.t_end"] == 3.0  # the rest from defaults
 
 

@@ -1,0 +1,281 @@
+r"""Shape evolution by normal advection of the nodes (paper Eq. 60).
+
+Every node moves with its normal velocity, ``dx_i/dt = (v_i . n_i) n_i``; the active
+tension stays attached to the node (it was evaluated once, on the initial shape).
+Each right-hand-side evaluation recomputes the geometry, the fits and the
+constrained solve on the current shape.
+
+Schemes (``time.scheme``), all explicit:
+
+``euler``     the paper's scheme, fixed step ``time.dt``, first order.
+``heun``      explicit trapezoid (RK2), fixed step, second order, two solves per step.
+``adaptive``  Heun with the embedded Euler estimate of the local error and a step-size
+              controller: the step grows while the estimated displacement error per step
+              stays below ``time.tol`` (in R0) and shrinks (the step is redone) when it
+              does not. The explicit stability limit shows up as a growing error
+              estimate, so the controller settles below it by itself. ``time.dt`` is
+              the first step, ``time.dt_max`` the largest.
+
+A fixed-step scheme whose step is too large for the problem blows up: high-frequency
+normal modes grow by a factor each step. :class:`StabilityGuard` watches the normal
+speed and the mesh and stops such a run with a :class:`~cortex_ti.errors.StabilityError`
+that names the step size to try, before the output fills with garbage.
+
+Frames are written every ``time.save_every`` (the steps are shortened to land on the
+frame times exactly), and the run stops at ``time.t_end`` or when ``max |v_n|`` falls
+below ``time.steady_tol``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import StabilityError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Evaluation:
+    """The solve on one shape: the velocity and the normal the nodes move along."""
+
+    points: np.ndarray
+    velocity: np.ndarray
+    normal: np.ndarray
+    pressure: float
+    solution: object  # simulation.Solution
+    edge_length: np.ndarray | None = None  # (N,) mean edge length at each node
+
+    @property
+    def normal_speed(self) -> np.ndarray:
+        return np.einsum("nc,nc->n", self.velocity, self.normal)
+
+    @property
+    def rate(self) -> np.ndarray:
+        """dx/dt of the nodes: the normal part of the velocity."""
+        return self.normal_speed[:, None] * self.normal
+
+
+@dataclass
+class StepResult:
+    points: np.ndarray        # the new shape
+    dt: float                 # the step taken
+    error: float              # estimated local displacement error (R0), nan if not estimated
+    accepted: bool = True
+    dt_next: float | None = None
+    solves: int = 1
+
+
+SCHEMES: dict[str, type] = {}
+
+
+def register_scheme(name):
+    def deco(cls):
+        cls.name = name
+        SCHEMES[name] = cls
+        return cls
+
+    return deco
+
+
+@register_scheme("euler")
+class Euler:
+    """x_{n+1} = x_n + dt v_n(x_n) n(x_n)."""
+
+    adaptive = False
+
+    def __init__(self, evaluate, **_):
+        self.evaluate = evaluate
+
+    def step(self, ev: Evaluation, dt: float) -> StepResult:
+        return StepResult(ev.points + dt * ev.rate, dt, float("nan"), solves=0)
+
+
+@register_scheme("heun")
+class Heun:
+    """Explicit trapezoid: predictor Euler, corrector with the average rate."""
+
+    adaptive = False
+
+    def __init__(self, evaluate, **_):
+        self.evaluate = evaluate
+
+    def _pair(self, ev, dt):
+        pred = ev.points + dt * ev.rate
+        ev2 = self.evaluate(pred)
+        new = ev.points + 0.5 * dt * (ev.rate + ev2.rate)
+        return new, float(np.max(np.linalg.norm(new - pred, axis=1)))
+
+    def step(self, ev, dt):
+        new, err = self._pair(ev, dt)
+        return StepResult(new, dt, err, solves=1)
+
+
+@register_scheme("adaptive")
+class AdaptiveHeun(Heun):
+    """Heun with the embedded Euler error estimate and a step-size controller."""
+
+    adaptive = True
+    SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
+
+    def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-9, **_):
+        super().__init__(evaluate)
+        self.tol, self.dt_max, self.dt_min = tol, dt_max, dt_min
+
+    def step(self, ev, dt):
+        new, err = self._pair(ev, dt)
+        ratio = err / self.tol
+        factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio ** -0.5))
+        dt_next = min(self.dt_max, dt * factor)
+        if ratio > 1.0 or not np.all(np.isfinite(new)):
+            if dt <= self.dt_min:
+                raise StabilityError(f"the adaptive step fell below time.dt_min = {self.dt_min:g} at error {err:.2e}")
+            return StepResult(ev.points, dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
+        return StepResult(new, dt, err, dt_next=dt_next, solves=1)
+
+
+@register_scheme("adaptive_euler")
+class AdaptiveEuler(Euler):
+    """Euler with the step set from the change of the normal rate between steps.
+
+    Euler's local error is ``dt^2 |x''| / 2`` and ``x''`` is estimated, at no extra
+    solve, from the rates of the last two steps: ``|r_k - r_{k-1}| / dt_{k-1}``. The next
+    step is the one that keeps that estimate at ``tol``. Near the explicit stability
+    limit the rates start to oscillate, the estimate grows and the step shrinks, so the
+    step hovers below the limit by itself: one solve per step, like the paper's Euler,
+    at the largest step that stays stable and accurate. Steps are never redone (that
+    would need a second solve); the stability guard still stops a run that diverges.
+    """
+
+    adaptive = True
+    GROW, SHRINK = 1.5, 0.2
+
+    def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-9, **_):
+        super().__init__(evaluate)
+        self.tol, self.dt_max, self.dt_min = tol, dt_max, dt_min
+        self._prev = None  # (points, rate, dt) of the step before
+
+    def step(self, ev, dt):
+        err = float("nan")
+        dt_next = dt
+        if self._prev is not None and self._prev[0].shape == ev.points.shape:
+            _, prev_rate, prev_dt = self._prev
+            curvature = np.max(np.linalg.norm(ev.rate - prev_rate, axis=1)) / prev_dt
+            err = 0.5 * prev_dt ** 2 * curvature        # error estimate of the step just taken
+            ideal = np.sqrt(2.0 * self.tol / curvature) if curvature > 0 else self.dt_max
+            dt_next = min(self.dt_max, dt * self.GROW, max(dt * self.SHRINK, ideal))
+            dt = min(dt, dt_next)
+        self._prev = (ev.points, ev.rate, dt)
+        return StepResult(ev.points + dt * ev.rate, dt, err, dt_next=dt_next, solves=0)
+
+
+@dataclass
+class StabilityGuard:
+    """Stops a fixed-step run that is going unstable, naming the step to try.
+
+    Signs of an explicit instability, checked after every step: non-finite positions;
+    a node displaced by more than ``max_fraction`` of its shortest edge in one step; or
+    the largest normal speed growing by more than ``growth`` per step for
+    ``patience`` consecutive steps while exceeding its running minimum by ``jump``.
+    """
+
+    growth: float = 1.5
+    patience: int = 3
+    jump: float = 10.0
+    max_fraction: float = 0.5
+    _history: list = field(default_factory=list)
+
+    def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
+        suggestion = f"try time.dt={dt / 4:.3g} or time.scheme=adaptive"
+        if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
+            raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
+        move = np.linalg.norm(new_points - old_points, axis=1)
+        worst = int(np.argmax(move / edge_length))
+        if move[worst] > self.max_fraction * edge_length[worst]:
+            raise StabilityError(
+                f"the step dt={dt:.3g} at t={t:.4g} moves node {worst} by {move[worst]:.3g}, "
+                f"{move[worst] / edge_length[worst]:.2f} of its edge length: the explicit scheme is unstable; {suggestion}")
+        vmax = float(np.max(np.abs(ev.normal_speed)))
+        self._history.append(vmax)
+        h = self._history
+        if len(h) > self.patience:
+            recent = h[-self.patience - 1:]
+            if all(b > self.growth * a for a, b in zip(recent[:-1], recent[1:])) and vmax > self.jump * min(h):
+                raise StabilityError(
+                    f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
+                    f"(t={t:.4g}): the explicit scheme is unstable at this step; {suggestion}")
+
+
+def make_scheme(name: str, evaluate, **options):
+    if name not in SCHEMES:
+        from .errors import SceneError
+
+        raise SceneError(f"unknown time scheme {name!r}; choose one of {', '.join(SCHEMES)}")
+    return SCHEMES[name](evaluate, **options)
+
+
+@dataclass
+class RunStats:
+    steps: int = 0
+    rejected: int = 0
+    solves: int = 0
+    seconds: dict = field(default_factory=lambda: {"geometry": 0.0, "assembly": 0.0, "solve": 0.0})
+    wall: float = 0.0
+    stopped: str = "t_end"
+
+
+def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
+              save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
+              guard: StabilityGuard | None = None, write_first: bool = True) -> RunStats:
+    """Advance the shape from ``t0`` to ``t_end``.
+
+    ``evaluate(points) -> Evaluation`` solves the force balance on a shape;
+    ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
+    resumed run has that frame already) and at every multiple of ``save_every``.
+    """
+    stats = RunStats()
+    start = _time.perf_counter()
+    guard = guard if guard is not None else StabilityGuard()
+    t, dt = t0, dt0
+    x = points0
+    ev = evaluate(x)
+    stats.solves += 1
+    if write_first:
+        on_frame(t, ev, dt, final=False)
+    next_save = t0 + save_every
+    eps = 1e-9 * max(save_every, 1e-12)
+    while True:
+        if progress is not None:
+            progress(t, ev, dt, stats)
+        vmax = float(np.max(np.abs(ev.normal_speed)))
+        if t >= t_end - eps:
+            break
+        if steady_tol > 0 and vmax < steady_tol:
+            stats.stopped = "steady"
+            break
+        h = min(dt, t_end - t, next_save - t)
+        res = scheme.step(ev, h)
+        stats.solves += res.solves
+        if not res.accepted:
+            stats.rejected += 1
+            dt = res.dt_next
+            continue
+        if guard is not None:
+            guard.check(t + res.dt, res.dt, x, res.points, ev, ev.edge_length)
+        x, t = res.points, t + res.dt  # the scheme may take a shorter step than offered
+        stats.steps += 1
+        if scheme.adaptive and res.dt_next is not None:
+            # keep the controller's proposal, not the step shortened to reach a frame time
+            dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
+        ev = evaluate(x)
+        stats.solves += 1
+        if t >= next_save - eps or t >= t_end - eps:
+            on_frame(t, ev, dt, final=t >= t_end - eps)
+            next_save = t0 + save_every * (math.floor((t - t0) / save_every + 0.5) + 1)
+    stats.wall = _time.perf_counter() - start
+    return stats
