@@ -42,9 +42,12 @@ def scene_error(data=None, overrides=(), source=None) -> str:
 
 # ----------------------------------------------------------------------------- shipped scenes
 
-def test_builtin_names_are_exactly_the_four_scenes():
-    assert builtin_scene_names() == sorted(SHIPPED)
-    for name in SHIPPED:
+FURROWS = ["furrow_p4_a1", "furrow_p4_a3", "furrow_p8_a1"]
+
+
+def test_builtin_names_are_exactly_the_shipped_scenes():
+    assert builtin_scene_names() == sorted(SHIPPED + FURROWS)
+    for name in SHIPPED + FURROWS:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
         assert path.parent.parent.name == "config"
@@ -516,3 +519,20 @@ def test_scene_from_dict_does_not_modify_input():
     before = copy.deepcopy(data)
     scene_from_dict(data, ["viscosity.shear=3", "time.dt=1e-4"])
     assert data == before
+
+
+@pytest.mark.parametrize("name,p,amp,bend,bend_b", [
+    ("furrow_p8_a1", 8, 1.0, 5e-4, 2.5e-3),
+    ("furrow_p4_a1", 4, 1.0, 5e-4, 2.5e-3),
+    ("furrow_p4_a3", 4, 3.0, 1e-4, 3.5e-3),
+])
+def test_furrow_scenes_carry_the_paper_parameters(name, p, amp, bend, bend_b):
+    """conventions.md, 'Scenes of the paper': Eq. 59 with zeta_0 = 1, sigma = 10, eta_s = eta_b = 1."""
+    scene = load_scene(name)
+    (ring,) = scene["active_stress"]
+    assert ring["type"] == "ring" and ring["p"] == p and ring["amplitude"] == amp
+    assert ring["zeta0"] == 1.0 and ring["sigma"] == 10.0 and ring["axis"] == [0, 0, 1]
+    assert scene["viscosity.shear"] == scene["viscosity.bulk"] == 1.0
+    assert (scene["viscosity.bending"], scene["viscosity.bending_bulk"]) == (bend, bend_b)
+    assert scene["mesh.nodes"] == 2562 and scene["time.dt"] == 5e-4 and scene["time.t_end"] == 3.0
+    assert {"shape_evolution", "bending_viscosity", "incompressibility"} <= scene.effects
