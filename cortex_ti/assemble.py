@@ -25,6 +25,7 @@ import scipy.sparse as sp
 import taichi as ti
 
 from . import runtime
+from .errors import SolverError
 from .geometry import Geometry, f64_1, f64_2, f64_3, f64_4, i32_1, i32_2
 from .terms import AssemblyContext, Physics, active_terms
 
@@ -116,7 +117,15 @@ def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
 def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray) -> LinearSystem:
     """Build the least-squares system of the effects in ``physics`` on this shape."""
     runtime.ensure()
-    ctx = AssemblyContext(geometry, physics, np.ascontiguousarray(zeta, dtype=np.float64))
+    if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
+        raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
+                          "viscosity.shear > 0): without it every area-preserving flow is a solution")
+    zeta = np.ascontiguousarray(zeta, dtype=np.float64)
+    if not np.all(np.isfinite(zeta)):
+        bad = np.flatnonzero(~np.isfinite(zeta))
+        raise SolverError(f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, "
+                          f"value {zeta[bad[0]]})")
+    ctx = AssemblyContext(geometry, physics, zeta)
     terms = active_terms(physics)
     for term in terms:
         term.apply(ctx)

@@ -385,7 +385,12 @@ class StencilChooser:
 
 
 def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares fit operators ``(N, P, S)`` and their quality (smallest scaled pivot)."""
+    """Least-squares fit operators ``(N, P, S)`` and their quality (smallest scaled pivot).
+
+    The quality is measured first; rank-deficient nodes get an identity placeholder
+    so the batched solve cannot fail, and the caller widens their stencil and
+    fits them again (their placeholder operator is never used).
+    """
     nm = np.einsum("nsp,nsq->npq", design, design)
     diag = np.einsum("npp->np", nm).max(axis=1)
     try:
@@ -393,7 +398,10 @@ def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.n
         quality = np.einsum("npp->np", low).min(axis=1) ** 2 / diag
     except np.linalg.LinAlgError:
         quality = np.linalg.eigvalsh(nm)[:, 0] / diag
-        nm = nm + np.eye(nm.shape[1]) * (diag * 1e-300)[:, None, None]
+    bad = ~(quality > FIT_QUALITY_MIN)
+    if bad.any():
+        nm = nm.copy()
+        nm[bad] = np.eye(nm.shape[1])
     fit = np.linalg.solve(nm, np.swapaxes(design, 1, 2))
     return fit, quality
 

@@ -411,9 +411,10 @@ def _check_rules(data: dict) -> None:
                 f"the effect '{name}' requires 'normal_balance' in effects "
                 "(it cannot be combined with 'fixed_normal_velocity')"
             )
-    if "shear_viscosity" not in seen and "bulk_viscosity" not in seen:
+    if "shear_viscosity" not in seen:
         raise SceneError(
-            "effects must contain at least one of 'shear_viscosity' and 'bulk_viscosity'"
+            "effects must contain 'shear_viscosity': without shear viscosity every area-preserving "
+            "flow costs nothing and the force balance does not determine the velocity"
         )
 
     # --- effects agree with coefficients

@@ -21,7 +21,7 @@ from .errors import CortexError
 from .geometry import Geometry, StencilChooser, compute_geometry
 from .io import TrajectoryWriter, last_frame, partial_path
 from .linalg import ConstrainedLeastSquares, SolveInfo
-from .mesh import Mesh, Topology, build_topology, icosphere, load_mesh
+from .mesh import Mesh, Topology, affine, build_topology, icosphere, load_mesh
 from .scene import Scene
 from .stress import evaluate_active_stress
 from .terms import Physics
@@ -42,6 +42,23 @@ def scene_mesh(scene: Scene) -> Mesh:
     if scene["mesh.file"]:
         return load_mesh(scene["mesh.file"])
     return icosphere(int(scene["mesh.nodes"]), float(scene["mesh.radius"]))
+
+
+def initial_shape(mesh: Mesh, scene: Scene) -> Mesh:
+    """Apply the scene's initial affine map and shear (``mesh.transform``, ``mesh.shear``)."""
+    matrix = np.eye(3)
+    if scene["mesh.transform"] is not None:
+        matrix = np.asarray(scene["mesh.transform"], dtype=float)
+    gamma = float(scene["mesh.shear"])
+    if gamma:
+        shear = np.eye(3)
+        shear[0, 2] = gamma
+        matrix = shear @ matrix
+    if np.array_equal(matrix, np.eye(3)):
+        return mesh
+    if not np.all(np.isfinite(matrix)) or abs(np.linalg.det(matrix)) < 1e-12:
+        raise CortexError(f"scene '{scene.name}': mesh.transform/mesh.shear give a singular or non-finite map")
+    return affine(mesh, matrix)
 
 
 @dataclass
@@ -77,9 +94,12 @@ class Simulation:
             self.zeta = evaluate_active_stress(self.mesh.points, scene["active_stress"])
         else:
             self.zeta = np.zeros(self.mesh.n_nodes)
+        # the stress is carried by the nodes: assign it first, then deform the initial shape
+        self.mesh = initial_shape(self.mesh, scene)
         self.solver = ConstrainedLeastSquares(scene["solver.backend"], reuse=bool(scene["solver.reuse"]),
                                               rtol=float(scene["solver.rtol"]))
         self.geometry: Geometry | None = None
+        self.seconds: dict[str, float] = {}   # time spent per stage, summed over solves
 
     def solve(self, points: np.ndarray | None = None) -> Solution:
         """Velocity and pressure on the shape ``points`` (default: the initial shape)."""

@@ -1,0 +1,132 @@
+"""Shared fixtures of the numerical-core tests (test_geometry, test_solver, test_cli).
+
+* ``taichi_runtime``: Taichi initialised once per session with two CPU threads
+  (kernels are compiled on first use, or loaded from Taichi's offline cache).
+* ``lab``: cached meshes, topologies, geometries and solves, so that the many
+  assertions on one solution cost one solve.
+
+Meshes used throughout:
+
+``lab.icosphere(N, R)``
+    the regular icosphere of :func:`cortex_ti.mesh.icosphere`;
+``lab.perturbed(N, seed, frac, on_sphere)``
+    the same connectivity, every node moved by ``frac * e * (u0 n + u1 t1 + u2 t2)``
+    with ``u ~ U(-1, 1)`` (fixed seed), ``e`` the mean edge length and ``(t1, t2, n)``
+    an orthonormal frame at the node: an irregular mesh with obtuse triangles. With
+    ``on_sphere=True`` the nodes are put back on the sphere afterwards, so the
+    surface is still exactly the sphere and only the node spacing is irregular.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from cortex_ti import runtime
+
+
+@pytest.fixture(scope="session")
+def taichi_runtime():
+    """Taichi on the CPU with two threads, once per session."""
+    return runtime.init(threads=2)
+
+
+def mean_edge_length(points: np.ndarray, faces: np.ndarray) -> float:
+    e = np.concatenate([points[faces[:, k]] - points[faces[:, (k + 1) % 3]] for k in range(3)])
+    return float(np.linalg.norm(e, axis=1).mean())
+
+
+def tangent_basis(normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Orthonormal tangent vectors (t1, t2) with t1 x t2 = n for unit normals ``(N, 3)``."""
+    ref = np.array([0.3, 0.5, 0.8]) / np.linalg.norm([0.3, 0.5, 0.8])
+    t1 = np.cross(normals, ref)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(normals, t1)
+    return t1, t2
+
+
+@dataclass
+class Solved:
+    """One solve of the force balance and everything needed to check it."""
+
+    velocity: np.ndarray
+    pressure: float
+    info: object
+    geometry: object
+    system: object
+    x: np.ndarray
+
+
+class Lab:
+    """Session cache of meshes, topologies, geometries and solutions."""
+
+    def __init__(self):
+        self._cache: dict = {}
+
+    def memo(self, key, make):
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
+    # ---- meshes ---------------------------------------------------------------------------
+    def icosphere(self, n: int, radius: float = 1.0):
+        from cortex_ti.mesh import icosphere
+
+        return self.memo(("ico", n, radius), lambda: icosphere(n, radius))
+
+    def perturbed(self, n: int, seed: int = 0, frac: float = 0.2, on_sphere: bool = False):
+        def make():
+            from cortex_ti.mesh import validate_mesh
+
+            base = self.icosphere(n)
+            p = base.points.copy()
+            e = mean_edge_length(p, base.faces)
+            normal = p / np.linalg.norm(p, axis=1, keepdims=True)
+            t1, t2 = tangent_basis(normal)
+            u = np.random.default_rng(seed).uniform(-1.0, 1.0, (len(p), 3))
+            p = p + frac * e * (u[:, :1] * normal + u[:, 1:2] * t1 + u[:, 2:3] * t2)
+            if on_sphere:
+                p /= np.linalg.norm(p, axis=1, keepdims=True)
+            mesh = validate_mesh(p, base.faces)
+            assert mesh.n_nodes == n and np.array_equal(mesh.faces, base.faces)
+            return mesh
+
+        return self.memo(("pert", n, seed, frac, on_sphere), make)
+
+    # ---- derived --------------------------------------------------------------------------
+    def topology(self, mesh):
+        from cortex_ti.mesh import build_topology
+
+        return self.memo(("topo", id(mesh)), lambda: build_topology(mesh))
+
+    def geometry(self, mesh, scheme: str, points: np.ndarray | None = None, topo=None):
+        """Geometry of ``mesh`` (or of ``points`` on its connectivity); cached for the mesh itself."""
+        from cortex_ti.geometry import StencilChooser, compute_geometry
+
+        topo = topo if topo is not None else self.topology(mesh)
+
+        def make():
+            return compute_geometry(mesh.points if points is None else points, topo,
+                                    StencilChooser(topo, scheme))
+
+        if points is None and topo is self.topology(mesh):
+            return self.memo(("geom", id(mesh), scheme), make)
+        return make()
+
+    def solve(self, geometry, physics, zeta, backend: str = "superlu") -> Solved:
+        from cortex_ti.assemble import assemble
+        from cortex_ti.linalg import ConstrainedLeastSquares
+
+        system = assemble(geometry, physics, zeta)
+        x, pressure, info = ConstrainedLeastSquares(backend).solve(system, geometry.points)
+        return Solved(system.velocity(x), pressure, info, geometry, system, x)
+
+    def cached_solve(self, key, make_geometry, physics, zeta) -> Solved:
+        return self.memo(("solve",) + tuple(key), lambda: self.solve(make_geometry(), physics, zeta))
+
+
+@pytest.fixture(scope="session")
+def lab(taichi_runtime) -> Lab:
+    return Lab()

@@ -1,0 +1,255 @@
+"""The command line: ``cortex-ti run | check | scenes``.
+
+Mostly in-process through :func:`cortex_ti.cli.main` (capsys), plus one run of the installed
+``cortex-ti`` console script in a subprocess. Every bad input must give exit status 2, one
+stderr line ``cortex-ti: error: ...`` naming the problem, no traceback, and no output file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import subprocess
+
+import meshio
+import numpy as np
+import pytest
+import xarray as xr
+import yaml
+
+from cortex_ti.analytic import error_measures, sphere_full_solution, sphere_tangential_solution
+from cortex_ti.cli import main
+from cortex_ti.io import partial_path
+from cortex_ti.mesh import icosphere
+
+pytestmark = pytest.mark.usefixtures("taichi_runtime")
+
+FULL_EFFECTS = "active_stress,bulk_viscosity,incompressibility,normal_balance,shear_viscosity"
+Y20 = [{"type": "harmonics", "terms": [{"l": 2, "m": 0, "coeff": 1.0}]}]
+Y21 = [{"type": "harmonics", "terms": [{"l": 0, "m": 0, "coeff": math.sqrt(4.0 * math.pi)},
+                                       {"l": 2, "m": 1, "coeff": 1.0}]}]
+
+
+def run(argv, capsys):
+    rc = main(argv)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def open_output(path):
+    return xr.open_dataset(path, engine="h5netcdf")
+
+
+# ---------------------------------------------------------------------------------------------
+# run
+# ---------------------------------------------------------------------------------------------
+def test_run_full_scene(tmp_path, capsys):
+    """sphere_y20_full on 162 nodes (default fit: quartic). Measured eps_rel 0.0203, P ~ 1e-15."""
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--threads", "2",
+                              "-o", str(out)], capsys)
+    assert rc == 0, stderr
+    assert stdout.strip().splitlines()[-1] == str(out)
+    assert "Traceback" not in stderr
+    assert out.is_file() and not partial_path(out).exists()
+    with open_output(out) as ds:
+        assert dict(ds.sizes) == {"time": 1, "node": 162, "xyz": 3, "face": 320, "corner": 3}
+        assert ds.attrs["effects"] == FULL_EFFECTS
+        scene = yaml.safe_load(ds.attrs["scene"])
+        assert scene["name"] == "sphere_y20_full"
+        assert scene["mesh"]["nodes"] == 162                    # the override is recorded
+        assert ds.attrs["fit_scheme"] == "quartic"
+        points = ds["points"].values[0]
+        velocity = ds["velocity"].values[0]
+        pressure = float(ds["pressure"].values[0])
+        triangles = ds["triangles"].values
+        zeta = ds["active_stress"].values[0]
+    assert np.allclose(np.linalg.norm(points, axis=1), 1.0)
+    assert triangles.min() == 0 and triangles.max() == 161
+    v_an, p_an = sphere_full_solution(points, Y20)
+    assert error_measures(velocity, v_an)[1] < 0.03
+    assert np.isfinite(pressure) and abs(pressure - p_an) < 1e-8
+    # the stored tension is zeta = Y20 at the nodes: sqrt(5 / 16 pi) (3 cos^2 theta - 1)
+    cos = points[:, 2]
+    assert np.allclose(zeta, math.sqrt(5 / (16 * math.pi)) * (3 * cos**2 - 1))
+
+
+def test_run_tangential_scene(tmp_path, capsys):
+    """sphere_y21_tangential on 162 nodes: no pressure (NaN), flow vs the analytic one
+    (measured eps_rel 1.27e-3), tangent to the sphere."""
+    out = tmp_path / "tan.h5"
+    rc, _, stderr = run(["run", "sphere_y21_tangential", "--set", "mesh.nodes=162", "--threads", "2",
+                         "-o", str(out)], capsys)
+    assert rc == 0, stderr
+    with open_output(out) as ds:
+        assert ds.attrs["effects"] == "active_stress,fixed_normal_velocity,shear_viscosity"
+        assert yaml.safe_load(ds.attrs["scene"])["name"] == "sphere_y21_tangential"
+        assert np.isnan(ds["pressure"].values).all()
+        points = ds["points"].values[0]
+        velocity = ds["velocity"].values[0]
+    v_an = sphere_tangential_solution(points, Y21)
+    assert error_measures(velocity, v_an)[1] < 1.9e-3
+    assert np.abs(np.einsum("nc,nc->n", velocity, points)).max() < 0.02 * np.abs(velocity).max()
+
+
+# ---------------------------------------------------------------------------------------------
+# bad inputs
+# ---------------------------------------------------------------------------------------------
+def write_obj(path, points, faces):
+    meshio.write(str(path), meshio.Mesh(points, [("triangle", np.asarray(faces))]))
+    return path
+
+
+def open_mesh_file(tmp_path):
+    m = icosphere(162)
+    return write_obj(tmp_path / "open.obj", m.points, m.faces[1:])
+
+
+def nonmanifold_mesh_file(tmp_path):
+    """Two spheres touching at one node: every edge has two faces, but the node has two fans."""
+    m = icosphere(162)
+    v = 0
+    other = 2.0 * m.points[v] - m.points            # point reflection through node v
+    index = np.arange(m.n_nodes) + m.n_nodes
+    index[v] = v
+    keep = np.arange(m.n_nodes) != v
+    points = np.vstack([m.points, other[keep]])
+    index[keep] = m.n_nodes + np.arange(keep.sum())
+    faces = np.vstack([m.faces, index[m.faces][:, ::-1]])   # reflected: reverse to stay outward
+    return write_obj(tmp_path / "pinched.obj", points, faces)
+
+
+def flipped_mesh_file(tmp_path):
+    m = icosphere(162)
+    faces = m.faces.copy()
+    faces[7] = faces[7, ::-1]
+    return write_obj(tmp_path / "flipped.obj", m.points, faces)
+
+
+BAD_SETS = {
+    "unknown key": (["--set", "viscosity.shaer=1"], ["viscosity.shaer", "unknown"]),
+    "wrong type": (["--set", "viscosity.bulk=abc"], ["viscosity.bulk", "number"]),
+    "negative viscosity": (["--set", "viscosity.bulk=-1"], ["viscosity.bulk", "-1"]),
+    "nan viscosity": (["--set", "viscosity.bulk=.nan"], ["viscosity.bulk", "nan"]),
+    "node count": (["--set", "mesh.nodes=100"], ["mesh.nodes", "100"]),
+    "missing mesh": (["--set", "mesh.file=nope.obj"], ["nope.obj", "does not exist"]),
+    "unknown effect": (["--set", "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,"
+                                 "incompressibility,bogus]"], ["bogus", "unknown effect"]),
+}
+BAD_MESHES = {
+    "open mesh": (open_mesh_file, ["open.obj", "not closed"]),
+    "non-manifold mesh": (nonmanifold_mesh_file, ["pinched.obj", "not manifold"]),
+    "flipped face": (flipped_mesh_file, ["flipped.obj", "inconsistently oriented"]),
+}
+
+
+def assert_clean_failure(rc, stdout, stderr, words, out=None):
+    assert rc == 2
+    assert "Traceback" not in stderr and "Traceback" not in stdout
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1, stderr
+    assert lines[0].startswith("cortex-ti: error:")
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    if out is not None:
+        assert not out.exists() and not partial_path(out).exists()
+        assert list(out.parent.iterdir()) == [] or all(p.suffix == ".obj" for p in out.parent.iterdir())
+
+
+@pytest.mark.parametrize("case", list(BAD_SETS))
+def test_run_rejects_bad_value(tmp_path, capsys, monkeypatch, case):
+    monkeypatch.chdir(tmp_path)
+    args, words = BAD_SETS[case]
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", *args, "--threads", "2",
+                              "-o", str(out)], capsys)
+    assert_clean_failure(rc, stdout, stderr, words, out)
+
+
+@pytest.mark.parametrize("case", list(BAD_MESHES))
+def test_run_rejects_bad_mesh_file(tmp_path, capsys, case):
+    make, words = BAD_MESHES[case]
+    path = make(tmp_path)
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", f"mesh.file={path}", "--threads", "2",
+                              "-o", str(out)], capsys)
+    assert_clean_failure(rc, stdout, stderr, words, out)
+    # check reports the same problem
+    rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", f"mesh.file={path}"], capsys)
+    assert_clean_failure(rc, stdout, stderr, words)
+
+
+def test_run_rejects_missing_scene(tmp_path, capsys):
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = run(["run", str(tmp_path / "nope.yaml"), "-o", str(out)], capsys)
+    assert_clean_failure(rc, stdout, stderr, ["nope.yaml", "not found"], out)
+
+
+def test_good_mesh_file_runs(tmp_path, capsys):
+    """The same icosphere written to a file is accepted (the bad-mesh cases differ only by the defect)."""
+    m = icosphere(162)
+    path = write_obj(tmp_path / "good.obj", m.points, m.faces)
+    rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", f"mesh.file={path}"], capsys)
+    assert rc == 0, stderr
+    assert "162 nodes" in stdout
+
+
+def test_run_refuses_bulk_viscosity_only(tmp_path, capsys):
+    out = tmp_path / "bulk.h5"
+    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", "viscosity.shear=0",
+                              "--set", "effects=[active_stress,bulk_viscosity,normal_balance,incompressibility]",
+                              "--threads", "2", "-o", str(out)], capsys)
+    assert rc == 2 and not out.exists(), stderr
+
+
+# ---------------------------------------------------------------------------------------------
+# check, scenes
+# ---------------------------------------------------------------------------------------------
+def test_check_valid_scene(capsys):
+    rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", "mesh.nodes=162"], capsys)
+    assert rc == 0, stderr
+    line = stdout.strip().splitlines()[-1]
+    assert line == ("sphere_y20_full: valid (162 nodes, effects: active_stress, bulk_viscosity, "
+                    "incompressibility, normal_balance, shear_viscosity)")
+
+
+def test_check_rejects_bad_scene(capsys):
+    rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", "viscosity.shaer=1"], capsys)
+    assert_clean_failure(rc, stdout, stderr, ["viscosity.shaer"])
+
+
+def test_scenes_lists_builtin_scenes(capsys):
+    rc, stdout, _ = run(["scenes"], capsys)
+    assert rc == 0
+    names = [line.split()[0] for line in stdout.strip().splitlines() if line and not line.startswith("[")]
+    for name in ("sphere_y20_full", "sphere_y20_tangential", "sphere_y21_full", "sphere_y21_tangential"):
+        assert name in names
+    assert names == sorted(names)
+
+
+# ---------------------------------------------------------------------------------------------
+# the installed console script
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_console_script_runs(tmp_path):
+    """``cortex-ti run sphere_y21_full`` in a fresh process (measured eps_rel 0.0288, P 1.986)."""
+    exe = shutil.which("cortex-ti")
+    assert exe, "the cortex-ti console script is not installed"
+    out = tmp_path / "y21.h5"
+    env = dict(os.environ, CORTEX_TI_THREADS="2")
+    proc = subprocess.run([exe, "run", "sphere_y21_full", "--set", "mesh.nodes=162", "--threads", "2",
+                           "-o", str(out)], capture_output=True, text=True, timeout=600, env=env,
+                          cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip().splitlines()[-1] == str(out)
+    assert "Traceback" not in proc.stderr
+    with open_output(out) as ds:
+        assert ds.attrs["effects"] == FULL_EFFECTS
+        points = ds["points"].values[0]
+        velocity = ds["velocity"].values[0]
+        pressure = float(ds["pressure"].values[0])
+    v_an, p_an = sphere_full_solution(points, Y21)
+    assert p_an == pytest.approx(2.0)
+    assert error_measures(velocity, v_an)[1] < 0.043
+    assert abs(pressure - p_an) < 0.02
