@@ -98,8 +98,9 @@ def _scenes(_args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    level = logging.WARNING - 10 * min(args.verbose + 1, 2)
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    # our own messages: INFO by default, DEBUG with -v; other libraries stay at WARNING
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
         return {"run": _run, "check": _check, "export": _export, "scenes": _scenes}[args.command](args)
     except CortexError as exc:

@@ -141,15 +141,20 @@ class AdaptiveHeun(Heun):
 
 @register_scheme("adaptive_euler")
 class AdaptiveEuler(Euler):
-    """Euler with the step set from the change of the normal rate between steps.
+    """Euler whose step follows the change of the normal rate between steps, and learns
+    the explicit stability limit; one solve per step.
 
-    Euler's local error is ``dt^2 |x''| / 2`` and ``x''`` is estimated, at no extra
-    solve, from the rates of the last two steps: ``|r_k - r_{k-1}| / dt_{k-1}``. The next
-    step is the one that keeps that estimate at ``tol``. Near the explicit stability
-    limit the rates start to oscillate, the estimate grows and the step shrinks, so the
-    step hovers below the limit by itself: one solve per step, like the paper's Euler,
-    at the largest step that stays stable and accurate. Steps are never redone (that
-    would need a second solve); the stability guard still stops a run that diverges.
+    * Accuracy: Euler's local error is ``dt^2 |x''| / 2``; ``x''`` is estimated, at no
+      extra solve, from the rates of the last two steps, ``|r_k - r_{k-1}| / dt_{k-1}``,
+      and the step is the one that keeps the estimate at ``tol``.
+    * Stability: a step beyond the explicit limit shows up as rate changes that flip
+      sign and grow from one step to the next (the amplification factor of the stiffest
+      mode is below -1). Then the step is halved and capped at that value for the rest
+      of the run, so the controller cannot creep back over the limit when the flow
+      slows down and the accuracy estimate alone would let it grow.
+
+    Steps are never redone (that would need a second solve); the stability guard still
+    stops a run that diverges.
     """
 
     adaptive = True
@@ -158,20 +163,32 @@ class AdaptiveEuler(Euler):
     def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-9, **_):
         super().__init__(evaluate)
         self.tol, self.dt_max, self.dt_min = tol, dt_max, dt_min
-        self._prev = None  # (points, rate, dt) of the step before
+        self.dt_cap = dt_max
+        self._prev = None    # (rate, dt) of the step before
+        self._change = None  # the rate change of the step before
 
     def step(self, ev, dt):
         err = float("nan")
-        dt_next = dt
-        if self._prev is not None and self._prev[0].shape == ev.points.shape:
-            _, prev_rate, prev_dt = self._prev
-            curvature = np.max(np.linalg.norm(ev.rate - prev_rate, axis=1)) / prev_dt
-            err = 0.5 * prev_dt ** 2 * curvature        # error estimate of the step just taken
+        dt_next = min(dt, self.dt_cap)
+        rate = ev.rate
+        if self._prev is not None and self._prev[0].shape == rate.shape:
+            prev_rate, prev_dt = self._prev
+            change = rate - prev_rate
+            curvature = float(np.max(np.linalg.norm(change, axis=1))) / prev_dt
+            err = 0.5 * prev_dt ** 2 * curvature
+            if self._change is not None:
+                flip = float(np.sum(change * self._change)) < 0.0
+                grows = np.linalg.norm(change) > 1.2 * np.linalg.norm(self._change)
+                if flip and grows and err > 0.01 * self.tol:
+                    self.dt_cap = max(0.5 * prev_dt, self.dt_min)
+                    log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
+                             prev_dt, self.dt_cap)
+            self._change = change
             ideal = np.sqrt(2.0 * self.tol / curvature) if curvature > 0 else self.dt_max
-            dt_next = min(self.dt_max, dt * self.GROW, max(dt * self.SHRINK, ideal))
+            dt_next = min(self.dt_max, self.dt_cap, dt * self.GROW, max(dt * self.SHRINK, ideal))
             dt = min(dt, dt_next)
-        self._prev = (ev.points, ev.rate, dt)
-        return StepResult(ev.points + dt * ev.rate, dt, err, dt_next=dt_next, solves=0)
+        self._prev = (rate, dt)
+        return StepResult(ev.points + dt * rate, dt, err, dt_next=dt_next, solves=0)
 
 
 @dataclass

@@ -84,7 +84,7 @@ class SuperLUFactor(Factorization):
     """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse)."""
 
     def factorize(self, a):
-        self._lu = spla.splu(sp.csc_matrix(a), permc_spec="MMD_AT_PLUS_A",
+        self._lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
                              diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
     def solve(self, b):
@@ -184,11 +184,15 @@ def _farthest_points(points: np.ndarray, k: int) -> np.ndarray:
     return np.array(sorted(set(chosen)))
 
 
-def pin_rows(points: np.ndarray, basis: np.ndarray, k: int = 12) -> sp.csr_matrix:
-    """Sparse rows (6, unknowns) fixing the rigid/conformal kernel of ``K`` (step 1 above)."""
+def pin_rows(points: np.ndarray, basis: np.ndarray, k: int = 12, nodes: np.ndarray | None = None) -> sp.csr_matrix:
+    """Sparse rows (6, unknowns) fixing the rigid/conformal kernel of ``K`` (step 1 above).
+
+    ``nodes``: the pinned nodes (default: ``k`` well-spread ones chosen afresh).
+    """
     from .terms.constraints import rigid_body_rows
 
-    nodes = _farthest_points(points, min(k, points.shape[0]))
+    if nodes is None:
+        nodes = _farthest_points(points, min(k, points.shape[0]))
     rows = rigid_body_rows(points[nodes], np.ones(len(nodes)))      # (6, k, 3)
     local = np.einsum("mkc,kbc->mkb", rows, basis[nodes])            # (6, k, nb)
     nb = basis.shape[1]
@@ -200,15 +204,27 @@ def pin_rows(points: np.ndarray, basis: np.ndarray, k: int = 12) -> sp.csr_matri
 
 
 class _Bordered:
-    """Exact inverse of the bordered matrix ``[[K_s, U], [U^T, D]]`` from one factorisation."""
+    """Exact inverse of the bordered matrix ``[[K_s, U], [U^T, D]]`` from one factorisation.
 
-    def __init__(self, factor, border: np.ndarray, dblock: np.ndarray):
+    ``first_rhs`` (optional) is solved together with the border columns, in one call.
+    """
+
+    def __init__(self, factor, border: np.ndarray, dblock: np.ndarray, first_rhs: np.ndarray | None = None):
         self.factor = factor
         self.border = border
-        self.z_border = factor.solve(border) if border.shape[1] else np.zeros_like(border)
+        self.n = border.shape[0]
+        cols = border if first_rhs is None else np.column_stack([first_rhs, border])
+        z = factor.solve(cols) if cols.shape[1] else np.zeros_like(cols)
+        z = z.reshape(self.n, -1)
+        self.z_first = None if first_rhs is None else z[:, 0]
+        self.z_border = z if first_rhs is None else z[:, 1:]
         schur = dblock - border.T @ self.z_border
         self.schur = sla.lu_factor(schur)
-        self.n = border.shape[0]
+
+    def solve_first(self, g: np.ndarray) -> np.ndarray:
+        """:meth:`solve` for the right-hand side ``[first_rhs, g]`` given at construction."""
+        y = sla.lu_solve(self.schur, g - self.border.T @ self.z_first)
+        return np.concatenate([self.z_first - self.z_border @ y, y])
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         f, g = rhs[: self.n], rhs[self.n:]
@@ -235,7 +251,7 @@ class ConstrainedLeastSquares:
         self.rtol = rtol
         self.max_iter = max_iter
         self._pre: _Bordered | None = None
-        self._pin_key = None
+        self._pin_nodes = None  # (N, node indices) of the sparse pin, chosen once per mesh
         self.n_factorizations = 0
 
     @property
@@ -258,7 +274,9 @@ class ConstrainedLeastSquares:
             g.append(float(p @ system.rhs))
         gmat = system.constraints
         n_con = gmat.shape[0]
-        pin = pin_rows(points, system.basis)
+        if self._pin_nodes is None or self._pin_nodes[0] != points.shape[0]:
+            self._pin_nodes = (points.shape[0], _farthest_points(points, min(12, points.shape[0])))
+        pin = pin_rows(points, system.basis, nodes=self._pin_nodes[1])
         scale = float(np.mean(kmat.diagonal()))
         pin = pin * np.sqrt(scale)
         gscale = np.linalg.norm(gmat, axis=1, keepdims=True)
@@ -276,7 +294,7 @@ class ConstrainedLeastSquares:
 
         # [[K_s, U], [U^T, D]] with K_s = K + Q^T Q, U = [k, G^T, Q^T], D = diag(kappa, 0, I):
         # the last block row is Q x + w = 0, so K_s x + Q^T w = K x.
-        ks = (kmat + pin.T @ pin).tocsc()
+        ks = (kmat + pin.T @ pin).tocsr()
 
         def bordered_matvec(z):
             x, y = z[: f.size], z[f.size:]
@@ -307,9 +325,9 @@ class ConstrainedLeastSquares:
                     "the force balance has no unique solution (singular matrix): check that the scene has "
                     f"shear viscosity and a closed, well-shaped mesh ({exc})"
                 ) from None
-            self._pre = _Bordered(factor, border, dblock)
+            self._pre = _Bordered(factor, border, dblock, first_rhs=f)
             self.n_factorizations += 1
-            sol = self._pre.solve(rhs)
+            sol = self._pre.solve_first(rhs[f.size:])
             refactored = True
         t3 = time.perf_counter()
         if not np.all(np.isfinite(sol)):
