@@ -160,7 +160,7 @@ class AdaptiveEuler(Euler):
     adaptive = True
     GROW, SHRINK = 1.5, 0.2
 
-    def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-9, **_):
+    def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-6, **_):
         super().__init__(evaluate)
         self.tol, self.dt_max, self.dt_min = tol, dt_max, dt_min
         self.dt_cap = dt_max
@@ -180,7 +180,13 @@ class AdaptiveEuler(Euler):
                 flip = float(np.sum(change * self._change)) < 0.0
                 grows = np.linalg.norm(change) > 1.2 * np.linalg.norm(self._change)
                 if flip and grows and err > 0.01 * self.tol:
-                    self.dt_cap = max(0.5 * prev_dt, self.dt_min)
+                    if 0.5 * prev_dt < self.dt_min:
+                        raise StabilityError(
+                            f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
+                            "time-step instability but an unresolved shape (spurious modes of the discrete force "
+                            "balance); use more mesh nodes (e.g. mesh.nodes=2562), the quartic fit, or a larger "
+                            "bending viscosity")
+                    self.dt_cap = 0.5 * prev_dt
                     log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
                              prev_dt, self.dt_cap)
             self._change = change
@@ -289,6 +295,7 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
         if scheme.adaptive and res.dt_next is not None:
             # keep the controller's proposal, not the step shortened to reach a frame time
             dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
+            dt = min(dt, getattr(scheme, "dt_cap", dt))
         ev = evaluate(x)
         stats.solves += 1
         if t >= next_save - eps or t >= t_end - eps:

@@ -1,0 +1,144 @@
+"""Hard cases stay numerically stable (short runs so CI can afford them).
+
+The resolution is the paper's 2562 nodes: at 642 nodes the furrow rings are not
+resolved (measured: the t = 0 velocity is 2-8x the analytic one and one step of
+2e-3 sends it to 1e2-1e3, with either fit), because the paper's bending viscosity
+is too weak at that mesh size to hold down the spurious normal modes of the
+discrete force balance; :func:`test_unresolved_mesh_is_reported` checks that this
+is reported as a resolution problem, not as garbage.
+
+Each case runs a short piece of a demanding scene and asserts, frame by frame:
+finite values, the enclosed volume kept (the incompressibility constraint makes
+the triangulated volume stationary, so the drift is O(dt^2) per step), mesh
+quality above a floor, constraint residuals near machine precision, and the
+physically expected trend. A step that would go unstable must be stopped by a
+StabilityError naming the step size to try, leaving no output file.
+"""
+
+import numpy as np
+import pytest
+
+from cortex_ti.errors import StabilityError
+from cortex_ti.io import open_trajectory, partial_path
+from cortex_ti.mesh import icosphere
+from cortex_ti.scene import load_scene
+from cortex_ti.simulation import Simulation
+
+pytestmark = pytest.mark.hard
+
+#: Sec. 4.4 of the paper: p = 4, zeta_hat = 3.5, eta_bar = 1e-4, eta_bar_b = 5e-3
+SHEAR = ["active_stress.0.p=4", "active_stress.0.amplitude=3.5", "viscosity.bending=1e-4",
+         "viscosity.bending_bulk=5e-3"]
+#: relative, over a whole short run. The constraint makes dV/dt = 0 at every solve; what is left
+#: is explicit Euler's second-order term d2V/dt2 = integral of v_n^2 C dA > 0, i.e. a drift of
+#: about (dt/2) * integral(v_n^2 C dA) * t / V: 3e-4 for zeta_hat = 3 over 0.15 t_a (measured).
+VOLUME_DRIFT = 2e-3
+MIN_ANGLE_FLOOR = 25.0   # degrees (the icosphere starts at 54; pyvista calls 30-60 good)
+#: direct solves meet the constraints to ~1e-16; solves by GMRES reusing an earlier factorisation
+#: (solver.reuse, solver.rtol = 1e-10) to ~1e-11 (measured up to 6e-11)
+CONSTRAINTS = 1e-9
+
+
+def run(tmp_path, scene, overrides, name="run"):
+    sim = Simulation(load_scene(scene, overrides))
+    out = sim.run(tmp_path / f"{name}.h5", progress=False)
+    ds = open_trajectory(out)
+    return sim, ds
+
+
+def assert_healthy(ds, angle_floor=MIN_ANGLE_FLOOR):
+    for var in ("points", "velocity", "pressure", "volume", "pole_radius", "furrow_radius"):
+        assert np.all(np.isfinite(ds[var].values)), var
+    vol = ds["volume"].values
+    assert np.abs(vol / vol[0] - 1).max() < VOLUME_DRIFT
+    assert ds["min_angle_deg"].values.min() > angle_floor
+    assert ds["constraint_violation"].values.max() < CONSTRAINTS
+    # The least-squares residual measures how far the discrete force balance is from being
+    # consistent: ~1e-10 on a sphere, 3e-5 (zeta_hat = 6) to 1.9e-4 (sheared start) measured here.
+    assert ds["relative_residual"].values.max() < 1e-3
+
+
+@pytest.mark.slow
+def test_strong_ring_zeta_hat_3(tmp_path):
+    """furrow_p4_a3 (the paper's hardest furrow) at 642 nodes: the furrow closes in, the poles extend."""
+    _, ds = run(tmp_path, "furrow_p4_a3", ["time.t_end=0.15"])
+    assert_healthy(ds)
+    pole, furrow = ds["pole_radius"].values, ds["furrow_radius"].values
+    assert pole[-1] > pole[0] + 0.02 and furrow[-1] < furrow[0] - 0.02
+    assert np.all(np.diff(furrow) < 1e-6)
+
+
+@pytest.mark.slow
+def test_amplitude_beyond_the_paper(tmp_path):
+    """zeta_hat = 6, twice the paper's largest, stays stable."""
+    _, ds = run(tmp_path, "furrow_p4_a3", ["time.t_end=0.1", "active_stress.0.amplitude=6"])
+    assert_healthy(ds)
+    assert ds["furrow_radius"].values[-1] < ds["furrow_radius"].values[0] - 0.03
+
+
+@pytest.mark.slow
+def test_strongly_sheared_start_turns_back(tmp_path):
+    """x -> x + 0.75 z at t = 0 (paper Fig. 12): stable, and the long axis turns toward the pattern axis."""
+    _, ds = run(tmp_path, "furrow_p4_a3", ["time.t_end=0.15", "mesh.shear=0.75"] + SHEAR)
+    assert_healthy(ds)
+    angle = ds["orientation_angle"].values
+    assert angle[0] > 40.0 and angle[-1] < angle[0] - 5.0
+
+
+@pytest.mark.slow
+def test_irregular_mesh(tmp_path):
+    """An irregular triangulation of the sphere read from a file: every node moved by up to 20 %
+    of an edge within the surface (min angle 17.7 deg, edge ratio 3.0). Its flow must match the
+    regular mesh's (max |v| 0.264 there) and stay stable.
+
+    (Random jitter *off* the surface is a different matter: node-scale bumps under tension
+    relax with speeds ~1e2 on a time scale ~1e-5, a genuinely stiff start, not a solver fault.)
+    """
+    import meshio
+
+    mesh = icosphere(2562)
+    rng = np.random.default_rng(3)
+    pts = mesh.points + 0.2 * 0.076 * rng.uniform(-1, 1, (2562, 3))
+    pts /= np.linalg.norm(pts, axis=1, keepdims=True)
+    path = tmp_path / "irregular.obj"
+    meshio.write(path, meshio.Mesh(pts, [("triangle", mesh.faces)]))
+    sim, ds = run(tmp_path, "furrow_p4_a1", [f"mesh.file={path}", "time.t_end=0.1"])
+    angle0 = ds["min_angle_deg"].values[0]
+    assert 15.0 < angle0 < 20.0
+    assert_healthy(ds, angle_floor=0.9 * angle0)
+    assert abs(np.abs(ds["velocity"].values[0]).max() - 0.264) < 0.01
+    assert ds["furrow_radius"].values[-1] < ds["furrow_radius"].values[0]
+
+
+@pytest.mark.slow
+def test_step_near_the_limit_runs_and_beyond_it_is_caught(tmp_path):
+    """Fixed-step Euler just below the measured stability limit is fine; far beyond it the
+    guard stops the run with a StabilityError that names a step to try and leaves no output."""
+    _, ds = run(tmp_path, "furrow_p4_a1", ["time.scheme=euler", f"time.dt={DT_STABLE}", "time.t_end=0.1"],
+                name="near")
+    assert_healthy(ds)
+    sim = Simulation(load_scene("furrow_p4_a1", ["time.scheme=euler", f"time.dt={4 * DT_STABLE}", "time.t_end=0.5"]))
+    out = tmp_path / "beyond.h5"
+    with pytest.raises(StabilityError, match=r"try time\.dt=") as err:
+        sim.run(out, progress=False)
+    assert "unstable" in str(err.value)
+    assert not out.exists()
+    # the frames before the blow-up are kept for inspection or --resume with a smaller step
+    if partial_path(out).exists():
+        with open_trajectory(partial_path(out)) as ds:
+            assert np.all(np.isfinite(ds["points"].values))
+
+
+@pytest.mark.slow
+def test_unresolved_mesh_is_reported(tmp_path):
+    """642 nodes do not resolve the zeta_hat = 3 ring: the run must stop with an error that
+    points at the resolution (not at the time step), and leave no output file."""
+    sim = Simulation(load_scene("furrow_p4_a3", ["mesh.nodes=642", "time.t_end=0.3"]))
+    out = tmp_path / "coarse.h5"
+    with pytest.raises(StabilityError, match="mesh nodes|unresolved|unstable"):
+        sim.run(out, progress=False)
+    assert not out.exists()
+
+
+#: measured on furrow_p8_a1 at 2562 nodes: Euler with dt = 3e-3 ran to t = 0.4, 5e-3 blew up at t = 0.07
+DT_STABLE = 2.5e-3
