@@ -149,16 +149,17 @@ class AdaptiveEuler(Euler):
       and the step is the one that keeps the estimate at ``tol``.
     * Stability: a step beyond the explicit limit shows up as rate changes that flip
       sign and grow from one step to the next (the amplification factor of the stiffest
-      mode is below -1). Then the step is halved and capped at that value for the rest
-      of the run, so the controller cannot creep back over the limit when the flow
-      slows down and the accuracy estimate alone would let it grow.
+      mode is below -1). Then the step is cut to 0.7 of it and capped there for the rest
+      of the run (cut again if the oscillation comes back), so the controller cannot
+      creep back over the limit when the flow slows down and the accuracy estimate
+      alone would let it grow.
 
     Steps are never redone (that would need a second solve); the stability guard still
     stops a run that diverges.
     """
 
     adaptive = True
-    GROW, SHRINK = 1.5, 0.2
+    GROW, SHRINK, CAP = 1.5, 0.2, 0.7
 
     def __init__(self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-6, **_):
         super().__init__(evaluate)
@@ -180,13 +181,13 @@ class AdaptiveEuler(Euler):
                 flip = float(np.sum(change * self._change)) < 0.0
                 grows = np.linalg.norm(change) > 1.2 * np.linalg.norm(self._change)
                 if flip and grows and err > 0.01 * self.tol:
-                    if 0.5 * prev_dt < self.dt_min:
+                    if self.CAP * prev_dt < self.dt_min:
                         raise StabilityError(
                             f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
                             "time-step instability but an unresolved shape (spurious modes of the discrete force "
                             "balance); use more mesh nodes (e.g. mesh.nodes=2562), the quartic fit, or a larger "
                             "bending viscosity")
-                    self.dt_cap = 0.5 * prev_dt
+                    self.dt_cap = self.CAP * prev_dt
                     log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
                              prev_dt, self.dt_cap)
             self._change = change
