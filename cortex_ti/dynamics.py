@@ -250,7 +250,8 @@ class RunStats:
     solves: int = 0
     seconds: dict = field(default_factory=lambda: {"geometry": 0.0, "assembly": 0.0, "solve": 0.0})
     wall: float = 0.0
-    stopped: str = "t_end"
+    t: float = 0.0             # the time reached
+    stopped: str = "t_end"     # why the run ended: t_end or steady
 
 
 def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
@@ -303,4 +304,5 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             on_frame(t, ev, dt, final=t >= t_end - eps)
             next_save = t0 + save_every * (math.floor((t - t0) / save_every + 0.5) + 1)
     stats.wall = _time.perf_counter() - start
+    stats.t = t
     return stats

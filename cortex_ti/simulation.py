@@ -181,7 +181,11 @@ class Simulation:
         if resume and partial_path(output).exists():
             last = last_frame(partial_path(output))
             if last["n_frames"]:
-                points, t0, dt = last["points"], float(last["time"]), float(last["extra"]["dt"])
+                points, t0 = last["points"], float(last["time"])
+                if sc["time.scheme"] in ("adaptive", "adaptive_euler"):
+                    # continue with the controller's step (a fixed-step scheme takes the scene's,
+                    # so --resume --set time.dt=... after a stability stop does what it says)
+                    dt = min(float(last["extra"]["dt"]), float(sc["time.dt_max"]))
                 self.zeta = np.asarray(last["active_stress"], dtype=float)
                 log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, last["n_frames"], dt)
             else:
@@ -217,7 +221,7 @@ class Simulation:
         self.stats = stats
         per = {k: v / max(stats.solves, 1) * 1e3 for k, v in self.seconds.items()}
         log.info("%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
-                 sc.name, t_end, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
+                 sc.name, stats.t, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
                  ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()))
         return path
 
