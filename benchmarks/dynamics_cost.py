@@ -11,6 +11,9 @@ Usage::
 
     python benchmarks/dynamics_cost.py                      # the default set below (~1 h on 2 cores)
     python benchmarks/dynamics_cost.py --t-end 1 --configs 2562:quadratic:euler:2.5e-3 2562:quadratic:adaptive_euler:5e-4
+    # a long reference run once, then the table against it:
+    python benchmarks/dynamics_cost.py --one 10242:quadratic:adaptive_euler:5e-4 --file ref.h5 > ref.json
+    python benchmarks/dynamics_cost.py --reference-json ref.json --configs 2562:quadratic:euler:2.5e-3 ...
 
 A configuration is ``NODES:FIT:SCHEME:DT`` (for the adaptive schemes DT is the first step).
 """
@@ -66,6 +69,8 @@ def main(argv=None) -> int:
     p.add_argument("--t-end", type=float, default=3.0)
     p.add_argument("--configs", nargs="+", default=DEFAULT, help="NODES:FIT:SCHEME:DT, the first is the reference")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/dynamics.csv"))
+    p.add_argument("--reference-json", type=Path, default=None,
+                   help="use a finished run as the reference: the JSON line that '--one CONFIG --file F' printed")
     p.add_argument("--one", help=argparse.SUPPRESS)
     p.add_argument("--file", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
@@ -85,6 +90,8 @@ def main(argv=None) -> int:
             continue
         rows.append(json.loads(res.stdout.strip().splitlines()[-1]))
         print(f"# {cfg}: {rows[-1]['wall_s']:.0f} s", file=sys.stderr)
+    if args.reference_json:
+        rows.insert(0, json.loads(args.reference_json.read_text().strip().splitlines()[-1]))
     ok = [r for r in rows if "failed" not in r]
     if not ok:
         return 1

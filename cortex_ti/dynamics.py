@@ -185,8 +185,8 @@ class AdaptiveEuler(Euler):
                         raise StabilityError(
                             f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
                             "time-step instability but an unresolved shape (spurious modes of the discrete force "
-                            "balance); use more mesh nodes (e.g. mesh.nodes=2562), the quartic fit, or a larger "
-                            "bending viscosity")
+                            "balance); use more mesh nodes (e.g. mesh.nodes=2562), a larger bending viscosity, or the "
+                            "other numerics.fit")
                     self.dt_cap = self.CAP * prev_dt
                     log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
                              prev_dt, self.dt_cap)
