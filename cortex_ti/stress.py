@@ -401,6 +401,25 @@ def ring_pattern(points, zeta0, amplitude, sigma, p, axis=(0.0, 0.0, 1.0)) -> np
     return z0 + amp * np.exp(-sig * np.abs(theta - 0.5 * np.pi) ** pp)
 
 
+@register_pattern("fold")
+def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """Fold stripe, paper Sec. 4.3 (conventions.md): the ring of Eq. 59 with its amplitude term
+    modulated in phi, ``zeta0 + amplitude exp(-sigma |theta - pi/2|^p) exp(-sigma_phi d^4)``.
+
+    ``d`` is the azimuthal distance (in radians, about ``axis``) from the nearest of the meridians
+    ``phi = pi/2`` and ``phi = 3 pi/2``: together one great circle through both poles (the
+    y-z plane for the default axis). The paper: sigma = 1.5, p = 4, zeta_hat = 3.5 with
+    sigma_phi = 200, and zeta_hat = 4.5 with sigma_phi = 12.
+    """
+    sphi = _finite_number(sigma_phi, "fold sigma_phi")
+    if sphi < 0.0:
+        raise SceneError(f"fold sigma_phi must be >= 0, got {sigma_phi!r}")
+    base = ring_pattern(points, 0.0, amplitude, sigma, p, axis)        # amplitude term only
+    _, phi = direction_angles(points, axis=_axis_param(axis, "fold axis"))
+    d = np.abs(np.mod(phi - 0.5 * np.pi + 0.5 * np.pi, np.pi) - 0.5 * np.pi)   # distance to pi/2 or 3 pi/2
+    return _finite_number(zeta0, "fold zeta0") + base * np.exp(-sphi * d ** 4)
+
+
 def _split_pattern(i: int, pat) -> tuple[Callable, dict]:
     if not isinstance(pat, dict):
         raise SceneError(f"active_stress[{i}] must be a mapping with a 'type', got {pat!r}")

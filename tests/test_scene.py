@@ -42,7 +42,8 @@ def scene_error(data=None, overrides=(), source=None) -> str:
 
 # ----------------------------------------------------------------------------- shipped scenes
 
-FURROWS = ["furrow_p4_a1", "furrow_p4_a3", "furrow_p8_a1"]
+FURROWS = ["furrow_p4_a1", "furrow_p4_a3", "furrow_p8_a1",
+           "fold_broad", "fold_narrow", "shear_035", "shear_035_tilted", "shear_075"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
