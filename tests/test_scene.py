@@ -287,7 +287,7 @@ def test_unknown_pattern_type_lists_known_types():
     data = base()
     data["active_stress"][0]["type"] = "stripes"
     msg = scene_error(data)
-    assert msg.endswith("active_stress.0.type must be one of: harmonics, ring; got 'stripes'")
+    assert msg.endswith("active_stress.0.type must be one of: harmonics, ring, fold; got 'stripes'")
 
 
 def test_pattern_keys_checked_per_type():
@@ -306,7 +306,7 @@ def test_pattern_keys_checked_per_type():
     assert "active_stress.1.axis must not be all zero" in scene_error(data)
     data = base()
     data["active_stress"].append({"sigma": 1})
-    assert scene_error(data).endswith("active_stress.1.type is required (one of: harmonics, ring)")
+    assert scene_error(data).endswith("active_stress.1.type is required (one of: harmonics, ring, fold)")
 
 
 def test_m_larger_than_l():
