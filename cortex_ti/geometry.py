@@ -253,10 +253,6 @@ class Geometry:
     def gaussian_curvature(self) -> np.ndarray:
         return np.linalg.det(self.curvature) / np.linalg.det(self.metric)
 
-    @property
-    def total_area(self) -> float:
-        return float(self.area.sum())
-
     def fit_scalar(self, values: np.ndarray) -> np.ndarray:
         """Fitted derivatives ``(N, 5)`` of a nodal scalar field (order :data:`FIT_TERMS`)."""
         out = np.zeros((self.n_nodes, 5))
