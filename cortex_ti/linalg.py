@@ -184,15 +184,15 @@ def _farthest_points(points: np.ndarray, k: int) -> np.ndarray:
     return np.array(sorted(set(chosen)))
 
 
-def pin_rows(points: np.ndarray, basis: np.ndarray, k: int = 12, nodes: np.ndarray | None = None) -> sp.csr_matrix:
-    """Sparse rows (6, unknowns) fixing the rigid/conformal kernel of ``K`` (step 1 above).
+#: Number of well-spread nodes the sparse pin acts on
+PIN_NODES = 12
 
-    ``nodes``: the pinned nodes (default: ``k`` well-spread ones chosen afresh).
-    """
+
+def pin_rows(points: np.ndarray, basis: np.ndarray, nodes: np.ndarray) -> sp.csr_matrix:
+    """Sparse rows (6, unknowns) fixing the rigid/conformal kernel of ``K`` (step 1 above),
+    acting on the pinned ``nodes`` only."""
     from .terms.constraints import rigid_body_rows
 
-    if nodes is None:
-        nodes = _farthest_points(points, min(k, points.shape[0]))
     rows = rigid_body_rows(points[nodes], np.ones(len(nodes)))      # (6, k, 3)
     local = np.einsum("mkc,kbc->mkb", rows, basis[nodes])            # (6, k, nb)
     nb = basis.shape[1]
@@ -266,16 +266,16 @@ class ConstrainedLeastSquares:
         kmat = (mt @ m).tocsr()
         f = mt @ system.rhs
         has_p = system.pressure_column is not None
-        cols, drows, g = [], [], []
+        cols, g = [], []
         if has_p:
             p = system.pressure_column
             cols.append((mt @ p)[:, None])
-            drows.append(float(p @ p))
+            kappa = float(p @ p)
             g.append(float(p @ system.rhs))
         gmat = system.constraints
         n_con = gmat.shape[0]
         if self._pin_nodes is None or self._pin_nodes[0] != points.shape[0]:
-            self._pin_nodes = (points.shape[0], _farthest_points(points, min(12, points.shape[0])))
+            self._pin_nodes = (points.shape[0], _farthest_points(points, min(PIN_NODES, points.shape[0])))
         pin = pin_rows(points, system.basis, nodes=self._pin_nodes[1])
         scale = float(np.mean(kmat.diagonal()))
         pin = pin * np.sqrt(scale)
@@ -286,7 +286,7 @@ class ConstrainedLeastSquares:
         q = border.shape[1]
         dblock = np.zeros((q, q))
         if has_p:
-            dblock[0, 0] = drows[0]
+            dblock[0, 0] = kappa
         npin = pin.shape[0]
         dblock[q - npin:, q - npin:] = np.eye(npin)
         rhs = np.concatenate([f, g, np.zeros(n_con + npin)])
