@@ -88,6 +88,7 @@ class Euler:
     """x_{n+1} = x_n + dt v_n(x_n) n(x_n)."""
 
     adaptive = False
+    dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
 
     def __init__(self, evaluate, **_):
         self.evaluate = evaluate
@@ -101,6 +102,7 @@ class Heun:
     """Explicit trapezoid: predictor Euler, corrector with the average rate."""
 
     adaptive = False
+    dt_cap = math.inf
 
     def __init__(self, evaluate, **_):
         self.evaluate = evaluate
@@ -290,14 +292,13 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             stats.rejected += 1
             dt = res.dt_next
             continue
-        if guard is not None:
-            guard.check(t + res.dt, res.dt, x, res.points, ev, ev.edge_length)
+        guard.check(t + res.dt, res.dt, x, res.points, ev, ev.edge_length)
         x, t = res.points, t + res.dt  # the scheme may take a shorter step than offered
         stats.steps += 1
         if scheme.adaptive and res.dt_next is not None:
             # keep the controller's proposal, not the step shortened to reach a frame time
             dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
-            dt = min(dt, getattr(scheme, "dt_cap", dt))
+            dt = min(dt, scheme.dt_cap)
         ev = evaluate(x)
         stats.solves += 1
         if t >= next_save - eps or t >= t_end - eps:
