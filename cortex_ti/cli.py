@@ -32,8 +32,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--threads", type=int, default=None, help="CPU threads for Taichi")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted run from OUTPUT.partial (only the scene's time section may change)")
+    run.add_argument("--summary", type=Path, default=None, metavar="FILE.json",
+                     help="also write what the run took (status, wall time, steps, solves, peak memory) as JSON; "
+                          "written for a failed run too, with the error")
 
-    chk = sub.add_parser("check", help="validate a scene (and its mesh) without solving")
+    chk = sub.add_parser("check", help="validate a scene, its mesh and its active-stress patterns without solving")
     chk.add_argument("scene")
     chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
 
@@ -51,16 +54,35 @@ def _run(args) -> int:
     from .scene import load_scene
     from .simulation import Simulation
 
-    scene = load_scene(args.scene, args.overrides)
-    runtime.init(args.arch, args.threads)
     t0 = time.perf_counter()
-    sim = Simulation(scene)
+    sim = None
+
+    def summary(status: str, error: str | None = None) -> None:
+        if args.summary is None:
+            return
+        import resource
+
+        from .io import write_json
+
+        info = sim.summary() if sim is not None else {}
+        info.update(status=status, error=error, wall_s=time.perf_counter() - t0, output=str(args.output),
+                    peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+        write_json(info, args.summary)
+
     try:
+        scene = load_scene(args.scene, args.overrides)
+        runtime.init(args.arch, args.threads)
+        sim = Simulation(scene)
         out = sim.run(args.output, resume=args.resume)
     except KeyboardInterrupt:
+        summary("interrupted")
         print(f"cortex-ti: interrupted; frames so far are in {args.output}.partial, continue with --resume",
               file=sys.stderr)
         return 130
+    except CortexError as exc:
+        summary("failed", f"{type(exc).__name__}: {exc}")
+        raise
+    summary("ok")
     log.info("wrote %s (%s nodes, %.1f s)", out, sim.mesh.n_nodes, time.perf_counter() - t0)
     print(out)
     return 0
@@ -74,6 +96,12 @@ def _check(args) -> int:
     scene = load_scene(args.scene, args.overrides)
     mesh = scene_mesh(scene)
     build_topology(mesh)
+    if scene.has("active_stress"):
+        # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
+        # checks one finite value per node, imports and calls python patterns
+        from .stress import evaluate_active_stress
+
+        evaluate_active_stress(mesh.points, scene["active_stress"])
     print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {', '.join(sorted(scene.effects))})")
     return 0
 

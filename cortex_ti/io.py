@@ -43,6 +43,9 @@ __all__ = [
     "open_trajectory",
     "last_frame",
     "partial_path",
+    "write_dataset",
+    "write_json",
+    "read_benchmark",
 ]
 
 #: Suffix of the file a run writes to until it finishes.
@@ -541,6 +544,48 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
             return out
     except (OSError, KeyError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+
+
+def read_benchmark(path) -> dict[str, float]:
+    """The first row of a Snakemake ``benchmark:`` TSV (wall ``s``, ``max_rss`` in MB, ``cpu_time``...)."""
+    lines = Path(path).read_text().strip().splitlines()
+    if len(lines) < 2:
+        raise ValueError(f"benchmark file '{path}' has no data row")
+    keys, values = lines[0].split("\t"), lines[1].split("\t")
+    out = {}
+    for k, v in zip(keys, values):
+        try:
+            out[k] = float(v)
+        except ValueError:
+            out[k] = np.nan
+    return out
+
+
+def write_json(obj, path: str | os.PathLike) -> Path:
+    """Write ``obj`` as JSON atomically (temporary name, then rename); NaN becomes null."""
+    import json
+
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, np.generic):
+            return clean(v.item())
+        return v
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + PARTIAL_SUFFIX)
+    try:
+        tmp.write_text(json.dumps(clean(obj), indent=1, allow_nan=False) + "\n")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
 
 
 def write_dataset(ds, path: str | os.PathLike) -> Path:

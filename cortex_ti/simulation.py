@@ -116,6 +116,18 @@ class Simulation:
         return Solution(points=x, velocity=velocity, pressure=pressure, info=info,
                         seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2})
 
+    def summary(self) -> dict:
+        """What the last :meth:`run` took: steps, solves and time per stage (for cost tables)."""
+        st = getattr(self, "stats", None)
+        solves = st.solves if st is not None else 1
+        out = {"scene": self.scene.name, "n_nodes": self.mesh.n_nodes, "fit": self.scene["numerics.fit"],
+               "solver_backend": self.solver.backend, "effects": self.effects_ran(),
+               "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
+               "solves": solves, "t_reached": st.t if st is not None else 0.0,
+               "stopped": st.stopped if st is not None else "static"}
+        out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in self.seconds.items()})
+        return out
+
     def effects_ran(self) -> list[str]:
         return sorted(self.physics.effects)
 
@@ -158,7 +170,9 @@ class Simulation:
         attrs = self.output_attrs()
         with TrajectoryWriter(output, self.mesh.faces, self.mesh.n_nodes, attrs,
                               extra_vars=SOLVE_DIAGNOSTICS) as writer:
+            self.seconds = {}
             sol = self.solve()
+            self._accumulate(sol)
             log.info("solved %d nodes: residual %.2e, constraints %.1e, %s",
                      self.mesh.n_nodes, sol.info.relative_residual, sol.info.constraint_violation,
                      ", ".join(f"{k} {v:.3f} s" for k, v in sol.seconds.items()))
