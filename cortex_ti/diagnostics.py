@@ -70,6 +70,7 @@ __all__ = [
     "furrow_radius_range",
     "orientation_angle",
     "frame_diagnostics",
+    "fold_radii",
 ]
 
 log = logging.getLogger(__name__)
@@ -641,6 +642,23 @@ def furrow_radius_range(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tup
 # ---------------------------------------------------------------------------
 
 _warned: set[str] = set()
+
+
+def fold_radii(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float, float]:
+    """Equatorial radii across and beside the fold stripe of the ``fold`` pattern.
+
+    The stripe runs along the great circle through the pattern's poles at azimuth
+    ``phi = pi/2, 3 pi/2`` (frame of :func:`cortex_ti.stress.pattern_frame`: direction
+    ``e2``). Returns ``(r_stripe, r_off)``: half the width of the surface along ``e2`` and
+    along ``e1`` through ``center`` (exact line-surface crossings, as :func:`pole_radius`).
+    The fold depth is ``r_off - r_stripe``.
+    """
+    from .stress import pattern_frame
+
+    e1, e2, _ = pattern_frame(axis)
+    surf = _Surface(points, faces)
+    c = surf.center(center)
+    return _pole_radius(surf, e2, c), _pole_radius(surf, e1, c)
 
 
 def _guarded(name: str, func, *args) -> float:

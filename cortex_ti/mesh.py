@@ -43,9 +43,11 @@ __all__ = [
     "icosphere_sizes",
     "icosphere",
     "load_mesh",
+    "read_meshio",
     "validate_mesh",
     "build_topology",
     "affine",
+    "vertex_normals",
 ]
 
 logger = logging.getLogger(__name__)
@@ -277,6 +279,33 @@ def icosphere(n_nodes: int, radius: float = 1.0) -> Mesh:
 # ---------------------------------------------------------------------------
 
 
+def read_meshio(path):
+    """Read any file meshio understands and return the ``meshio.Mesh``, quietly.
+
+    meshio prints diagnostics and may call ``sys.exit()`` on a failed read; both are caught
+    here and turned into one :class:`MeshError` naming the file and meshio's reason.
+    (Used by :func:`load_mesh` and by the ``field`` active-stress pattern.)
+    """
+    import meshio  # local import: only needed for files
+
+    name = os.fspath(path)
+    out, err = io.StringIO(), io.StringIO()
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = meshio.read(name)
+    except (Exception, SystemExit) as exc:
+        printed = " ".join((out.getvalue() + " " + err.getvalue()).replace("Error:", " ").split())
+        reason = f"{type(exc).__name__}: {str(exc).strip()}" if isinstance(exc, Exception) else ""
+        reason = "; ".join(r for r in (reason, printed) if r) or "meshio gave no reason"
+        raise MeshError(
+            f"cannot read mesh file '{name}': {reason} (is the file extension right and the file intact?)"
+        ) from None
+    if out.getvalue().strip() or err.getvalue().strip():
+        logger.debug("meshio output while reading %s: %s", name, out.getvalue() + err.getvalue())
+    return m
+
+
 def load_mesh(path) -> Mesh:
     """Read a closed triangle surface from any file format meshio can read.
 
@@ -302,23 +331,7 @@ def load_mesh(path) -> Mesh:
         raise MeshError(f"mesh file '{name}' does not exist")
     if os.path.isdir(name):
         raise MeshError(f"mesh file '{name}' is a directory, not a file")
-    import meshio  # local import: only needed for files
-
-    out, err = io.StringIO(), io.StringIO()
-    try:
-        # meshio prints diagnostics and may call sys.exit() on a failed read
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            m = meshio.read(name)
-    except (Exception, SystemExit) as exc:
-        printed = " ".join((out.getvalue() + " " + err.getvalue()).replace("Error:", " ").split())
-        reason = f"{type(exc).__name__}: {str(exc).strip()}" if isinstance(exc, Exception) else ""
-        reason = "; ".join(r for r in (reason, printed) if r) or "meshio gave no reason"
-        raise MeshError(
-            f"cannot read mesh file '{name}': {reason} (is the file extension right and the file intact?)"
-        ) from None
-    if out.getvalue().strip() or err.getvalue().strip():
-        logger.debug("meshio output while reading %s: %s", name, out.getvalue() + err.getvalue())
+    m = read_meshio(name)
 
     counts: dict[str, int] = {}
     triangles = []
@@ -440,6 +453,23 @@ def _used_nodes(faces: np.ndarray, n: int) -> np.ndarray:
 def _face_areas(pts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
     return 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
+
+
+def vertex_normals(points, faces) -> np.ndarray:
+    """Unit normals at the nodes: the sum of the (area-weighted) normals of the adjacent faces.
+
+    A cheap normal for post-processing (plots, velocity profiles of stored frames); the solver
+    uses the angle-weighted normal and the fitted surface of :mod:`cortex_ti.geometry`. For
+    outward-oriented faces the normals point outward.
+    """
+    pts = np.asarray(points, dtype=float)
+    f = np.asarray(faces)
+    fn = np.cross(pts[f[:, 1]] - pts[f[:, 0]], pts[f[:, 2]] - pts[f[:, 0]])   # 2 * area * unit normal
+    acc = np.zeros_like(pts)
+    for k in range(3):
+        np.add.at(acc, f[:, k], fn)
+    norm = np.linalg.norm(acc, axis=1, keepdims=True)
+    return acc / np.where(norm > 0.0, norm, 1.0)
 
 
 def _signed_volume(pts: np.ndarray, faces: np.ndarray) -> float:

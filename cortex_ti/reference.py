@@ -44,6 +44,48 @@ def load_profile(t: float, path=None) -> dict[str, np.ndarray]:
             "vn": data["vn_over_va"]}
 
 
+#: The parameters of the reference run (its README): the furrow of paper Fig. 5.
+REFERENCE_SCENE = {"active_stress": [{"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8.0,
+                                      "axis": [0.0, 0.0, 1.0]}],
+                   "viscosity.shear": 1.0, "viscosity.bulk": 1.0, "mesh.shear": 0.0, "mesh.radius": 1.0}
+
+
+def matches_reference(scene) -> bool:
+    """Whether ``scene`` (a :class:`cortex_ti.scene.Scene`) is the reference's problem: the ring of
+    Eq. 59 with p = 8, zeta_hat = 1, sigma = 10 on the unit sphere, eta_s = eta_b = 1, no initial
+    deformation, shape evolution on (the bending-viscosity regularisation may differ: README)."""
+    if not scene.has("shape_evolution") or scene["mesh.transform"] is not None or scene["mesh.file"] is not None:
+        return False
+    for key, want in REFERENCE_SCENE.items():
+        try:
+            got = scene[key]
+        except KeyError:
+            return False
+        if key == "active_stress":
+            if len(got) != 1 or got[0].get("type") != "ring":
+                return False
+            g, w = got[0], want[0]
+            if any(not np.allclose(np.asarray(g.get(k, w[k]), dtype=float), np.asarray(w[k], dtype=float),
+                                   rtol=1e-12, atol=1e-12) for k in w if k != "type"):
+                return False
+        elif not np.isclose(float(got), float(want), rtol=1e-12, atol=1e-12):
+            return False
+    return True
+
+
+def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
+    """:func:`radii_deviation` of a trajectory file, or None if its scene is not the reference's."""
+    import yaml
+
+    from .io import open_trajectory
+    from .scene import scene_from_dict
+
+    with open_trajectory(path) as ds:
+        if not matches_reference(scene_from_dict(yaml.safe_load(ds.attrs["scene"]))):
+            return None
+        return radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values, ref_path)
+
+
 def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
     """Largest |3D - reference| of pole and furrow radius at the frame times (R0).
 
