@@ -16,6 +16,18 @@ Pattern types (registry :data:`PATTERNS`, extensible with :func:`register_patter
     ``zeta0, amplitude, sigma, p, axis=(0, 0, 1)``: paper Eq. 59,
     ``zeta = zeta0 + amplitude * exp(-sigma |theta - pi/2|^p)``, theta the polar angle of the
     point (seen from the origin) from ``axis``.
+``"fold"``
+    the ring with its amplitude modulated in phi (paper Sec. 4.3), see :func:`fold_pattern`.
+``"field"``
+    ``file, name=None, scale=1.0``: one value per node read from a file (``.npy``, ``.txt`` /
+    ``.csv`` or any mesh file meshio reads), times ``scale``; see :func:`field_pattern`.
+    It exists only at the mesh nodes (``per_node``): it cannot be integrated over the sphere
+    by quadrature, so the analytic sphere solutions refuse it.
+``"python"``
+    ``function="package.module:func", params={}``: ``zeta = func(points, **params)``, a
+    user's function imported with :mod:`importlib`; see :func:`python_pattern`.  A scene with
+    such a pattern runs the user's code when it is evaluated (``cortex-ti run`` and
+    ``cortex-ti check``).  From Python, ``function`` may also be the callable itself.
 
 Spherical quadrature (:func:`sphere_quadrature`, :func:`integrate_over_sphere`,
 :func:`mean_over_sphere`) is used for the exact mean ``zeta_bar`` of a pattern over the unit
@@ -25,9 +37,12 @@ sphere (it sets the pressure ``P = 2 zeta_bar / R`` and the analytic flow, see
 
 from __future__ import annotations
 
+import importlib
 import inspect
 import math
+import os
 import warnings
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -37,16 +52,21 @@ from .errors import SceneError
 
 __all__ = [
     "PATTERNS",
+    "PER_NODE_PATTERNS",
     "direction_angles",
     "evaluate_active_stress",
+    "field_pattern",
     "harmonic_terms",
     "integrate_over_sphere",
     "integrate_patterns",
     "mean_over_sphere",
     "pattern_frame",
+    "python_pattern",
+    "read_node_field",
     "real_sph_harm",
     "real_sph_harm_surface_gradient",
     "register_pattern",
+    "resolve_function",
     "sphere_quadrature",
 ]
 
@@ -281,14 +301,20 @@ def real_sph_harm_surface_gradient(l: int, m: int, points, center=(0.0, 0.0, 0.0
 PATTERNS: dict[str, Callable[..., np.ndarray]] = {}
 """Registry ``type name -> function(points, **params) -> (N,) zeta``."""
 
+PER_NODE_PATTERNS: set[str] = set()
+"""Pattern types whose values exist only at the mesh nodes (in mesh order), not as a function
+of position: they cannot be evaluated at other points (e.g. quadrature points)."""
 
-def register_pattern(name: str):
+
+def register_pattern(name: str, *, per_node: bool = False):
     """Decorator registering ``func(points, **params) -> (N,) array`` as pattern type ``name``.
 
     The function's keyword parameters are the pattern's parameters (those without a default
     are required); :func:`evaluate_active_stress` checks a scene's dict against them.
     Registering a different function under an existing name raises ``ValueError``
     (re-registering the same function, e.g. on module reload, is allowed).
+    ``per_node=True`` declares that the values exist only at the mesh nodes (one per node,
+    in mesh order, whatever the points are): :func:`integrate_patterns` then refuses it.
     """
     if not isinstance(name, str) or not name:
         raise ValueError("pattern name must be a non-empty string")
@@ -298,6 +324,10 @@ def register_pattern(name: str):
         if old is not None and (old.__module__, old.__qualname__) != (func.__module__, func.__qualname__):
             raise ValueError(f"active-stress pattern type {name!r} is already registered ({old.__module__}.{old.__qualname__})")
         PATTERNS[name] = func
+        if per_node:
+            PER_NODE_PATTERNS.add(name)
+        else:
+            PER_NODE_PATTERNS.discard(name)
         return func
 
     return deco
@@ -418,6 +448,206 @@ def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 
     _, phi = direction_angles(points, axis=_axis_param(axis, "fold axis"))
     d = np.abs(np.mod(phi - 0.5 * np.pi + 0.5 * np.pi, np.pi) - 0.5 * np.pi)   # distance to pi/2 or 3 pi/2
     return _finite_number(zeta0, "fold zeta0") + base * np.exp(-sphi * d ** 4)
+
+
+# --------------------------------------------------------------------------------------------
+# User-supplied patterns: a per-node field from a file, a Python function
+# --------------------------------------------------------------------------------------------
+#: Suffixes read with numpy; any other suffix is read with meshio (``point_data``).
+_TEXT_DELIMITERS = {".txt": None, ".csv": ","}
+
+
+def read_node_field(path, name: str | None = None) -> np.ndarray:
+    """Read one number per node from a file: the values of a ``field`` pattern.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``.npy``: a 1-D array (``numpy.save``); ``.txt`` / ``.csv``: one number per line
+        (``numpy.loadtxt``, ``#`` comments allowed); any other suffix: a mesh file meshio
+        reads (``.vtu``, ``.vtk``, ``.ply``, ...), whose point data holds the values.
+        A relative path is taken relative to the working directory (a scene makes its
+        ``file`` absolute first, relative to the scene file's folder).
+    name : str, optional
+        Mesh files only: the point-data array to use.  Without it the file must hold
+        exactly one point-data array.  An ``(N, 1)`` array counts as ``(N,)``.
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        The values in file order (the count and finiteness are checked by the pattern).
+
+    Raises
+    ------
+    SceneError
+        Missing or unreadable file, a ``name`` for a numpy file, an unknown or ambiguous
+        point-data array, or values that are not one number per node.
+    """
+    from .errors import MeshError
+    from .mesh import read_meshio
+
+    file = Path(os.fspath(path)).expanduser()
+    label = f"field file '{file}'"
+    if not file.is_file():
+        raise SceneError(f"{label} {'is a folder, not a file' if file.is_dir() else 'does not exist'}")
+    suffix = file.suffix.lower()
+    if suffix == ".npy" or suffix in _TEXT_DELIMITERS:
+        if name is not None:
+            raise SceneError(
+                f"{label}: 'name' ({name!r}) selects a point-data array of a mesh file, but a {suffix} "
+                "file holds a single array: remove 'name'"
+            )
+        if suffix == ".npy":
+            try:
+                arr = np.load(file, allow_pickle=False)
+            except (OSError, ValueError, EOFError) as exc:
+                raise SceneError(f"cannot read {label} as a numpy array: {exc}") from None
+            if not isinstance(arr, np.ndarray) or arr.dtype.kind not in "biuf":
+                raise SceneError(f"{label} holds {getattr(arr, 'dtype', type(arr).__name__)} values, not numbers")
+            if arr.ndim != 1:
+                raise SceneError(f"{label} holds an array of shape {arr.shape}; need a 1-D array, one value per node")
+        else:
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")   # numpy warns about an empty file; reported below
+                    arr = np.loadtxt(file, dtype=float, delimiter=_TEXT_DELIMITERS[suffix], ndmin=2)
+            except (OSError, ValueError, UnicodeDecodeError) as exc:
+                raise SceneError(f"cannot read {label} as one number per line: {exc}") from None
+            if arr.size and arr.shape[1] != 1:
+                raise SceneError(f"{label} has {arr.shape[1]} numbers per line; need one number per line")
+            arr = arr.reshape(-1)
+    else:
+        try:
+            mesh = read_meshio(file)
+        except MeshError as exc:
+            raise SceneError(str(exc)) from None
+        data = mesh.point_data
+        names = ", ".join(repr(k) for k in data) or "none"
+        if name is None:
+            if len(data) != 1:
+                raise SceneError(
+                    f"{label} has {len(data)} point-data arrays ({names}): give 'name' to choose one"
+                    if data else f"{label} has no point data (one value per node is needed)"
+                )
+            name = next(iter(data))
+        elif name not in data:
+            raise SceneError(f"{label} has no point-data array {name!r}; it has: {names}")
+        arr = np.asarray(data[name])
+        if arr.ndim == 2 and arr.shape[1] == 1:
+            arr = arr[:, 0]
+        if arr.ndim != 1 or arr.dtype.kind not in "biuf":
+            raise SceneError(
+                f"point-data array {name!r} of {label} has shape {arr.shape} ({arr.dtype}); "
+                "need one number per node"
+            )
+    if arr.size == 0:
+        raise SceneError(f"{label} holds no values")
+    return arr.astype(np.float64)
+
+
+@register_pattern("field", per_node=True)
+def field_pattern(points, file, name=None, scale=1.0) -> np.ndarray:
+    """A user's per-node field: ``zeta = scale * values``, the values read from ``file``
+    (:func:`read_node_field`: ``.npy``, ``.txt``/``.csv`` or a mesh file's point data ``name``).
+
+    The values belong to the nodes in mesh order (the order of the scene's mesh, i.e. of
+    ``points``); the positions themselves are not used, so the pattern is defined only on
+    that mesh (``per_node``: it cannot be integrated by quadrature).  There must be exactly
+    one finite value per node.
+    """
+    values = read_node_field(file, name)
+    n = len(points)
+    if values.shape[0] != n:
+        raise SceneError(
+            f"field file '{file}' has {values.shape[0]} values but the mesh has {n} nodes "
+            "(one value per node, in mesh order)"
+        )
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise SceneError(
+            f"field file '{file}' has {bad.size} non-finite value(s) (NaN or inf), the first at node {bad[0]}"
+        )
+    return _finite_number(scale, "field scale") * values
+
+
+def resolve_function(function) -> tuple[Callable, str]:
+    """The callable of a ``python`` pattern and the name to use in messages.
+
+    ``function`` is a callable (Python API only) or a string ``"package.module:func"``
+    (``func`` may be dotted, ``module:Class.method``), imported with
+    :func:`importlib.import_module`; the module must be importable (installed, or on
+    ``sys.path`` / ``PYTHONPATH``).  Importing it runs the module's code.
+
+    Raises
+    ------
+    SceneError
+        A malformed target, a module that cannot be imported (whatever the reason), a missing
+        attribute, or an attribute that is not callable; the message names the target.
+    """
+    if callable(function):
+        return function, getattr(function, "__qualname__", repr(function))
+    if not isinstance(function, str):
+        raise SceneError(f"python pattern 'function' must be 'package.module:function' or a callable, got {function!r}")
+    module, sep, attr = (part.strip() for part in function.partition(":"))
+    if not sep or not module or not attr:
+        raise SceneError(f"python pattern function {function!r} must look like 'package.module:function'")
+    try:
+        obj = importlib.import_module(module)
+    except Exception as exc:  # ImportError, or anything the module raised while being imported
+        raise SceneError(
+            f"python pattern function '{function}': cannot import module '{module}' ({type(exc).__name__}: {exc})"
+        ) from None
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise SceneError(f"python pattern function '{function}': module '{module}' has no attribute '{attr}'") from None
+    if not callable(obj):
+        raise SceneError(f"python pattern function '{function}' is a {type(obj).__name__}, not a callable")
+    return obj, function
+
+
+@register_pattern("python")
+def python_pattern(points, function, params=None) -> np.ndarray:
+    """A user's function: ``zeta = func(points, **params)``, ``func`` from :func:`resolve_function`.
+
+    ``points`` is an ``(N, 3)`` float64 copy of the positions (the function cannot change the
+    mesh); the result must be ``N`` finite numbers.  Unlike the ``field`` pattern it is a
+    function of position, so the sphere quadrature (mean tension, analytic sphere solutions)
+    can use it.  The keyword names in ``params`` are checked against the function's signature
+    before the call; an exception raised inside the function is the user's and propagates
+    unchanged (with its traceback).
+    """
+    func, target = resolve_function(function)
+    params = {} if params is None else params
+    if not isinstance(params, dict):
+        raise SceneError(f"python pattern '{target}': params must be a mapping of keyword arguments, got {params!r}")
+    pts = np.array(points, dtype=np.float64)   # a copy
+    try:
+        sig = inspect.signature(func)
+    except (TypeError, ValueError):   # no signature available (some builtins): just call it
+        sig = None
+    if sig is not None:
+        try:
+            sig.bind(pts, **params)
+        except TypeError as exc:
+            kw = "".join(f", {k}=..." for k in params)
+            raise SceneError(f"python pattern '{target}' cannot be called as {target}(points{kw}): {exc}") from None
+    out = func(pts, **params)
+    try:
+        val = np.asarray(out, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SceneError(f"python pattern '{target}' returned {type(out).__name__}, not an array of numbers") from None
+    if val.shape != (len(pts),):
+        raise SceneError(
+            f"python pattern '{target}' returned an array of shape {val.shape}; need ({len(pts)},), one value per point"
+        )
+    bad = np.flatnonzero(~np.isfinite(val))
+    if bad.size:
+        raise SceneError(
+            f"python pattern '{target}' returned {bad.size} non-finite value(s) (NaN or inf), the first at point {bad[0]}"
+        )
+    return val
 
 
 def _split_pattern(i: int, pat) -> tuple[Callable, dict]:
@@ -583,12 +813,21 @@ def integrate_patterns(patterns: list[dict], weight=None, order: int | None = No
     By linearity the integral is the sum over patterns, each integrated on a grid aligned with
     its own ``axis`` parameter (default +z), where the pattern is smooth in the grid's theta.
     ``weight(points) -> (N,)`` or ``(N, k)``; ``None`` means 1.
+
+    Raises :class:`~cortex_ti.errors.SceneError` for a per-node pattern (``field``, see
+    :data:`PER_NODE_PATTERNS`): it has no values off the mesh.
     """
     if isinstance(patterns, dict) or not isinstance(patterns, (list, tuple)):
         raise SceneError(f"active_stress must be a list of patterns, got {patterns!r}")
     total = 0.0
     for i, pat in enumerate(patterns):
         func, params = _split_pattern(i, pat)
+        if pat["type"] in PER_NODE_PATTERNS:
+            raise SceneError(
+                f"active_stress[{i}]: the analytic sphere solution needs a pattern defined off the mesh; "
+                f"{pat['type']!r} is per node (its values exist only at the mesh nodes, so the sphere "
+                "quadrature cannot evaluate it)"
+            )
 
         def f(pts, func=func, params=params):
             z = np.asarray(func(pts, **params), dtype=float)
