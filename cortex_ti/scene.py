@@ -295,6 +295,10 @@ def _schema_message(err: jsonschema.ValidationError) -> str:
         return f"{where} must have {n} item{'s' if (lo or hi) != 1 else ''}, got {_fmt(err.instance)}"
     if v == "minLength":
         return f"{where} must not be empty"
+    if v == "pattern":
+        example = (err.schema.get("examples") or [None])[0]
+        like = f"look like {_fmt(example)}" if example else f"match {err.validator_value!r}"
+        return f"{where} must {like}, got {_fmt(err.instance)}"
     return f"{where}: {err.message}"
 
 
@@ -468,21 +472,58 @@ def _check_rules(data: dict) -> None:
                 raise SceneError(f"active_stress.{i}.axis must not be all zero, got {pattern['axis']}")
 
 
-def _resolve_mesh_file(data: dict, base: Path) -> None:
-    """Make mesh.file absolute (relative to ``base``) and check that it exists."""
-    file = data["mesh"].get("file")
-    if file is None:
-        return
+def _is_file_key(parts: Sequence[str]) -> bool:
+    """Whether a dotted key (as parts) holds a file path: ``mesh.file`` or ``active_stress.<i>.file``
+    (only the ``field`` pattern has a ``file``).  The one list of path keys."""
+    parts = tuple(parts)
+    return parts == ("mesh", "file") or (len(parts) == 3 and parts[0] == "active_stress" and parts[2] == "file")
+
+
+def _file_keys(data: dict) -> Iterator[tuple[str, dict, str]]:
+    """``(dotted key, mapping, key)`` of every file path in a scene mapping (see :func:`_is_file_key`)."""
+    if isinstance(data.get("mesh"), dict):
+        yield "mesh.file", data["mesh"], "file"
+    for i, pattern in enumerate(data.get("active_stress") or []):
+        if isinstance(pattern, dict) and "file" in pattern:
+            yield f"active_stress.{i}.file", pattern, "file"
+
+
+def _absolute(file: str, base: Path) -> Path:
+    """The rule for every path in a scene: ``~`` expanded, a relative path taken relative to ``base``
+    (the scene file's folder, or the working directory for a scene without a file and for
+    command-line overrides)."""
     path = Path(file).expanduser()
-    relative = not path.is_absolute()
-    if relative:
+    if not path.is_absolute():
         path = base / path
-    path = Path(os.path.abspath(path))
-    if not path.is_file():
-        what = "is a folder, not a file" if path.is_dir() else "does not exist"
-        hint = f" (the relative path '{file}' resolves against '{base}')" if relative else ""
-        raise SceneError(f"mesh.file: '{path}' {what}{hint}")
-    data["mesh"]["file"] = str(path)
+    return Path(os.path.abspath(path))
+
+
+def _paths_from_cwd(value: Any, parts: Sequence[str]) -> Any:
+    """An override's value with every file path in it (at ``parts`` or nested, e.g.
+    ``active_stress=[{type: field, file: f.npy}]``) made absolute against the working directory."""
+    if isinstance(value, str) and value and _is_file_key(parts):
+        return str(_absolute(value, Path.cwd()))
+    if isinstance(value, dict):
+        return {k: _paths_from_cwd(v, [*parts, str(k)]) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_paths_from_cwd(v, [*parts, str(i)]) for i, v in enumerate(value)]
+    return value
+
+
+def _resolve_files(data: dict, base: Path) -> None:
+    """Make every file path of the scene (mesh.file, the field patterns' file) absolute, relative
+    to ``base``, and check that the files exist."""
+    for key, node, name in _file_keys(data):
+        file = node.get(name)
+        if file is None:
+            continue
+        path = _absolute(file, base)
+        if not path.is_file():
+            what = "is a folder, not a file" if path.is_dir() else "does not exist"
+            relative = not Path(file).expanduser().is_absolute()
+            hint = f" (the relative path '{file}' resolves against '{base}')" if relative else ""
+            raise SceneError(f"{key}: '{path}' {what}{hint}")
+        node[name] = str(path)
 
 
 # --------------------------------------------------------------------------------------
@@ -511,7 +552,9 @@ def apply_override(data: dict, assignment: str) -> None:
       ``time`` section) creates the section.
     * ``mesh.file`` and ``mesh.nodes`` exclude each other: setting one to a
       non-null value removes the other, so switching mesh source is one override.
-    * A relative ``mesh.file`` given in an override resolves against the current
+    * A relative file path given in an override (``mesh.file``, a field pattern's
+      ``active_stress.<i>.file``, also inside a mapping or list value such as
+      ``active_stress=[{type: field, file: f.npy}]``) resolves against the current
       working directory (as any command-line path does), not against the scene
       file's folder; it is made absolute here.
     * Values are not validated here; validation happens afterwards, in
@@ -549,6 +592,7 @@ def apply_override(data: dict, assignment: str) -> None:
 def _assign(data: dict, parts: list[str], value: Any, assignment: str) -> None:
     """Set ``data[parts...] = value``, checking the path against the schema."""
     key = ".".join(parts)
+    value = _paths_from_cwd(value, parts)
     schema: dict = SCHEMA
     node: Any = data
     for depth, part in enumerate(parts):
@@ -585,8 +629,6 @@ def _assign(data: dict, parts: list[str], value: Any, assignment: str) -> None:
                 + _unknown_key(dotted, [_join(here, p) for p in props])
             )
         if last:
-            if tuple(parts) == ("mesh", "file") and isinstance(value, str) and value:
-                value = os.path.abspath(Path(value).expanduser())
             node[part] = value
             other = _EXCLUSIVE.get(tuple(parts))
             if other is not None and value is not None:
@@ -614,8 +656,9 @@ class Scene:
     ----------
     data : dict
         The validated scene with every default filled in, keys in schema order,
-        numbers canonical (floats for ``number`` keys) and ``mesh.file``
-        resolved to an absolute path (or None).  Treat it as read-only.
+        numbers canonical (floats for ``number`` keys) and every file path
+        (``mesh.file``, a field pattern's ``file``) resolved to an absolute path
+        (``mesh.file`` may be None).  Treat it as read-only.
     source : str or None
         Absolute path of the YAML file the scene was read from, if any.  Not
         part of equality: two scenes with the same data are equal.
@@ -710,7 +753,7 @@ def _build(data: Any, overrides: Sequence[str], source: str | None, label: str) 
         _validate_schema(raw)
         canonical = _fill(SCHEMA, raw, "")
         _check_rules(canonical)
-        _resolve_mesh_file(canonical, base)
+        _resolve_files(canonical, base)
     except SceneError as exc:
         raise SceneError(f"{label}: {exc}") from None
     return Scene(data=canonical, source=source)
@@ -727,8 +770,9 @@ def scene_from_dict(data: dict, overrides: Sequence[str] = (), source: str | Non
         ``dotted.key=value`` assignments applied before validation
         (see :func:`apply_override`).
     source : str, optional
-        Path of the file the mapping came from; a relative ``mesh.file``
-        resolves against its folder (against the current directory without one).
+        Path of the file the mapping came from; a relative ``mesh.file`` or field
+        pattern ``file`` resolves against its folder (against the current
+        directory without one).
 
     Returns
     -------
