@@ -219,6 +219,44 @@ def test_check_rejects_bad_scene(capsys):
     assert_clean_failure(rc, stdout, stderr, ["viscosity.shaer"])
 
 
+def test_check_evaluates_field_and_python_patterns(tmp_path, capsys, monkeypatch):
+    """check reads a field file and imports a python pattern, as a run does: a wrong node count, a
+    NaN, a module that does not import or a wrong result are reported (exit 2) before any solve."""
+    monkeypatch.chdir(tmp_path)
+    np.save(tmp_path / "ok.npy", np.ones(162))
+    np.save(tmp_path / "short.npy", np.ones(42))
+    nan = np.ones(162)
+    nan[7] = np.nan
+    np.save(tmp_path / "nan.npy", nan)
+    (tmp_path / "cli_check_patterns.py").write_text(
+        "import numpy as np\n\ndef flat(points, value=1.0):\n    return np.full(len(points), value)\n\n"
+        "def pair(points):\n    return np.ones((len(points), 2))\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def check(pattern):
+        return run(["check", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", f"active_stress=[{pattern}]"],
+                   capsys)
+
+    for pattern in ("{type: field, file: ok.npy}", "{type: python, function: 'cli_check_patterns:flat'}",
+                    "{type: python, function: 'cli_check_patterns:flat', params: {value: 2}}"):
+        rc, stdout, stderr = check(pattern)
+        assert rc == 0, stderr
+        assert "valid (162 nodes" in stdout
+    bad = {
+        "{type: field, file: short.npy}": [f"field file '{tmp_path / 'short.npy'}' has 42 values but the mesh has 162 nodes"],
+        "{type: field, file: nan.npy}": [f"field file '{tmp_path / 'nan.npy'}'", "non-finite", "node 7"],
+        "{type: field, file: none.npy}": ["active_stress.0.file", str(tmp_path / "none.npy"), "does not exist"],
+        "{type: python, function: 'no_such_module_q:f'}": ["'no_such_module_q:f'", "cannot import module"],
+        "{type: python, function: 'cli_check_patterns:nope'}": ["'cli_check_patterns:nope'", "no attribute 'nope'"],
+        "{type: python, function: 'cli_check_patterns:pair'}": ["'cli_check_patterns:pair'", "shape (162, 2)"],
+        "{type: python, function: 'cli_check_patterns:flat', params: {valu: 2}}": ["cli_check_patterns:flat", "valu"],
+        "{type: python, function: 'nocolon'}": ["active_stress.0.function must look like"],
+    }
+    for pattern, words in bad.items():
+        rc, stdout, stderr = check(pattern)
+        assert_clean_failure(rc, stdout, stderr, words)
+
+
 def test_scenes_lists_builtin_scenes(capsys):
     rc, stdout, _ = run(["scenes"], capsys)
     assert rc == 0

@@ -12,6 +12,7 @@ from cortex_ti.stress import (
     direction_angles,
     evaluate_active_stress,
     integrate_over_sphere,
+    integrate_patterns,
     mean_over_sphere,
     pattern_frame,
     real_sph_harm,
@@ -352,3 +353,297 @@ def test_sphere_quadrature_weights_and_exactness():
     np.testing.assert_allclose(np.linalg.norm(pts, axis=1), 1.0, atol=1e-15)
     # int x^2 y^2 z^2 dOmega = 4 pi / 105
     assert integrate_over_sphere(lambda q: (q[:, 0] * q[:, 1] * q[:, 2]) ** 2) == pytest.approx(4 * np.pi / 105, rel=1e-13)
+
+
+# ---------------------------------------------------------------------------------------------
+# user-supplied patterns: 'field' (per node, from a file) and 'python' (a user's function)
+# ---------------------------------------------------------------------------------------------
+RING_PARAMS = {"zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8}
+
+
+def ring_closed_form(points, zeta0=1.0, amplitude=1.0, sigma=10.0, p=8):
+    """Paper Eq. 59 about +z written out here (not through cortex_ti.stress)."""
+    x, y, z = np.asarray(points, dtype=float).T
+    theta = np.arctan2(np.hypot(x, y), z)
+    return zeta0 + amplitude * np.exp(-sigma * np.abs(theta - np.pi / 2) ** p)
+
+
+@pytest.fixture(scope="module")
+def ico162():
+    from cortex_ti.mesh import icosphere
+
+    return icosphere(162)
+
+
+def write_field(path, values, name="zeta", extra=None):
+    """Write ``values`` (one per node of the 162-node icosphere) in the format of the suffix."""
+    import meshio
+
+    from cortex_ti.mesh import icosphere
+
+    values = np.asarray(values, dtype=float)
+    if path.suffix == ".npy":
+        np.save(path, values)
+    elif path.suffix in (".txt", ".csv"):
+        np.savetxt(path, values, fmt="%.17g")
+    else:
+        m = icosphere(len(values)) if len(values) in (42, 162, 642) else icosphere(162)
+        data = {name: values, **(extra or {})}
+        meshio.write(str(path), meshio.Mesh(m.points, [("triangle", m.faces)], point_data=data))
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".txt", ".csv", ".vtu"])
+def test_field_file_equals_the_ring_pattern(tmp_path, ico162, suffix):
+    """The closed form of Eq. 59 written to a file, read back per node, is the built-in ring."""
+    file = write_field(tmp_path / f"ring{suffix}", ring_closed_form(ico162.points))
+    ring = evaluate_active_stress(ico162.points, [{"type": "ring", **RING_PARAMS}])
+    zeta = evaluate_active_stress(ico162.points, [{"type": "field", "file": str(file)}])
+    assert zeta.shape == (162,)
+    np.testing.assert_allclose(zeta, ring, rtol=0, atol=1e-14)
+    # scale multiplies; a field adds to other patterns like any pattern
+    both = evaluate_active_stress(ico162.points, [{"type": "field", "file": str(file), "scale": -2.0},
+                                                  {"type": "ring", **RING_PARAMS}])
+    np.testing.assert_allclose(both, -ring, rtol=0, atol=3e-14)
+
+
+def test_field_values_are_per_node_not_per_position(tmp_path, ico162):
+    """The values go to the nodes in order, whatever the positions (the pattern is evaluated on the
+    initial shape; a deformed copy of the mesh gets the same values)."""
+    values = np.arange(162, dtype=float) / 7.0
+    file = write_field(tmp_path / "idx.npy", values)
+    np.testing.assert_array_equal(evaluate_active_stress(ico162.points, [{"type": "field", "file": str(file)}]), values)
+    np.testing.assert_array_equal(
+        evaluate_active_stress(3.0 * ico162.points[::-1], [{"type": "field", "file": str(file)}]), values)
+
+
+def test_field_mesh_file_point_data_by_name(tmp_path, ico162):
+    ring = ring_closed_form(ico162.points)
+    file = write_field(tmp_path / "two.vtu", ring, name="zeta", extra={"other": np.ones(162)})
+    pat = {"type": "field", "file": str(file), "name": "zeta"}
+    np.testing.assert_allclose(evaluate_active_stress(ico162.points, [pat]), ring, rtol=0, atol=1e-15)
+    with pytest.raises(SceneError, match=r"2 point-data arrays \('zeta', 'other'\).*'name'"):
+        evaluate_active_stress(ico162.points, [{"type": "field", "file": str(file)}])
+    with pytest.raises(SceneError, match=r"no point-data array 'zetaa'; it has: 'zeta', 'other'"):
+        evaluate_active_stress(ico162.points, [dict(pat, name="zetaa")])
+
+
+def test_field_relative_path_is_relative_to_the_working_directory(tmp_path, ico162, monkeypatch):
+    """From the Python API (no scene file) a relative path is taken from the working directory."""
+    write_field(tmp_path / "ring.npy", ring_closed_form(ico162.points))
+    monkeypatch.chdir(tmp_path)
+    zeta = evaluate_active_stress(ico162.points, [{"type": "field", "file": "ring.npy"}])
+    np.testing.assert_allclose(zeta, ring_closed_form(ico162.points), rtol=0, atol=0)
+
+
+def test_field_errors_name_the_file_and_the_problem(tmp_path, ico162):
+    pts = ico162.points
+
+    def error(file, **kw):
+        with pytest.raises(SceneError) as info:
+            evaluate_active_stress(pts, [{"type": "field", "file": str(file), **kw}])
+        return str(info.value)
+
+    short = write_field(tmp_path / "short.npy", np.ones(161))
+    assert error(short) == f"field file '{short}' has 161 values but the mesh has 162 nodes (one value per node, in mesh order)"
+    long_txt = write_field(tmp_path / "long.txt", np.ones(163))
+    assert f"field file '{long_txt}' has 163 values but the mesh has 162 nodes" in error(long_txt)
+    coarse = write_field(tmp_path / "coarse.vtu", np.ones(42))
+    assert f"field file '{coarse}' has 42 values but the mesh has 162 nodes" in error(coarse)
+    for bad, word in ((np.nan, "NaN"), (np.inf, "inf")):
+        v = np.ones(162)
+        v[17] = bad
+        f = write_field(tmp_path / f"bad_{word}.npy", v)
+        assert error(f) == f"field file '{f}' has 1 non-finite value(s) (NaN or inf), the first at node 17"
+    v = np.ones(162)
+    v[[5, 9]] = np.nan
+    f = write_field(tmp_path / "nan.txt", v)
+    assert error(f) == f"field file '{f}' has 2 non-finite value(s) (NaN or inf), the first at node 5"
+    missing = tmp_path / "missing.npy"
+    assert error(missing) == f"field file '{missing}' does not exist"
+    assert error(tmp_path) == f"field file '{tmp_path}' is a folder, not a file"
+    two_d = tmp_path / "two_d.npy"
+    np.save(two_d, np.ones((162, 2)))
+    assert "shape (162, 2); need a 1-D array" in error(two_d)
+    two_cols = tmp_path / "two_cols.csv"
+    two_cols.write_text("1,2\n3,4\n")
+    assert error(two_cols) == f"field file '{two_cols}' has 2 numbers per line; need one number per line"
+    words = tmp_path / "words.txt"
+    words.write_text("one\ntwo\n")
+    assert f"cannot read field file '{words}' as one number per line" in error(words)
+    empty = tmp_path / "empty.txt"
+    empty.write_text("")
+    assert error(empty) == f"field file '{empty}' holds no values"
+    assert "'name' ('zeta') selects a point-data array of a mesh file" in error(short, name="zeta")
+    garbage = tmp_path / "garbage.vtu"
+    garbage.write_text("not a mesh")
+    assert f"cannot read mesh file '{garbage}'" in error(garbage)
+    ok = write_field(tmp_path / "ok.npy", np.ones(162))
+    with pytest.raises(SceneError, match="field scale must be finite"):
+        evaluate_active_stress(pts, [{"type": "field", "file": str(ok), "scale": np.nan}])
+    with pytest.raises(SceneError, match="missing parameter.*file"):
+        evaluate_active_stress(pts, [{"type": "field"}])
+
+
+def test_sphere_quadrature_refuses_a_field_but_not_a_python_pattern(tmp_path, ico162, user_module):
+    """A field exists only at the nodes: the analytic sphere solution (which integrates the pattern
+    by quadrature) must say so; a python pattern is a function of position and integrates."""
+    from cortex_ti.analytic import sphere_full_solution
+
+    file = write_field(tmp_path / "ring.npy", ring_closed_form(ico162.points))
+    field = {"type": "field", "file": str(file)}
+    expected = ("active_stress[0]: the analytic sphere solution needs a pattern defined off the mesh; "
+                "'field' is per node")
+    for call in (lambda: mean_over_sphere([field]),
+                 lambda: integrate_patterns([field], weight=lambda q: q),
+                 lambda: sphere_full_solution(ico162.points, [field])):
+        with pytest.raises(SceneError) as info:
+            call()
+        assert str(info.value).startswith(expected)
+    python = {"type": "python", "function": f"{user_module}:ring", "params": RING_PARAMS}
+    assert mean_over_sphere([python]) == pytest.approx(mean_over_sphere([RING8]), abs=1e-12)
+    v_py, p_py = sphere_full_solution(ico162.points, [python])
+    v_ring, p_ring = sphere_full_solution(ico162.points, [RING8])
+    np.testing.assert_allclose(v_py, v_ring, rtol=0, atol=1e-13)
+    assert p_py == pytest.approx(p_ring, abs=1e-12)
+
+
+USER_MODULE = '''
+import numpy as np
+
+CALLS = []
+
+
+def ring(points, zeta0, amplitude, sigma, p=8):
+    x, y, z = points.T
+    theta = np.arctan2(np.hypot(x, y), z)
+    return zeta0 + amplitude * np.exp(-sigma * np.abs(theta - np.pi / 2) ** p)
+
+
+def height(points):
+    return points[:, 2].copy()
+
+
+def wrong_shape(points):
+    return np.ones((len(points), 2))
+
+
+def scalar(points):
+    return 1.0
+
+
+def nonfinite(points):
+    out = np.zeros(len(points))
+    out[3] = np.inf
+    return out
+
+
+def text(points):
+    return ["a"] * len(points)
+
+
+def mutates(points):
+    points[:] = 0.0
+    return np.ones(len(points))
+
+
+def boom(points):
+    raise RuntimeError("boom from the user's code")
+
+
+class Patterns:
+    @staticmethod
+    def double(points, factor=2.0):
+        return factor * points[:, 0]
+
+
+NOT_CALLABLE = 3
+'''
+
+
+@pytest.fixture
+def user_module(tmp_path, monkeypatch):
+    """A module of pattern functions in tmp_path, importable for this test only."""
+    import sys
+
+    name = "cortex_user_patterns_for_tests"
+    folder = tmp_path / "user_code"
+    folder.mkdir()
+    (folder / f"{name}.py").write_text(USER_MODULE)
+    (folder / "broken_user_module.py").write_text("import numpy as np\ndef broken(:\n")
+    monkeypatch.syspath_prepend(str(folder))
+    monkeypatch.delitem(sys.modules, name, raising=False)
+    yield name
+    sys.modules.pop(name, None)
+    sys.modules.pop("broken_user_module", None)
+
+
+def test_python_pattern_reproduces_the_ring(ico162, user_module):
+    pat = {"type": "python", "function": f"{user_module}:ring", "params": RING_PARAMS}
+    zeta = evaluate_active_stress(ico162.points, [pat])
+    np.testing.assert_allclose(zeta, evaluate_active_stress(ico162.points, [RING8]), rtol=0, atol=1e-14)
+    # default params of the function apply; params may be left out for a function without any
+    pat2 = {"type": "python", "function": f"{user_module}:ring", "params": {"zeta0": 0.5, "amplitude": 2.0, "sigma": 1.5}}
+    np.testing.assert_allclose(evaluate_active_stress(ico162.points, [pat2]),
+                               ring_closed_form(ico162.points, 0.5, 2.0, 1.5, 8), rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(
+        evaluate_active_stress(ico162.points, [{"type": "python", "function": f"{user_module}:height"}]),
+        ico162.points[:, 2])
+    # a dotted attribute: module:Class.method
+    np.testing.assert_array_equal(
+        evaluate_active_stress(ico162.points, [{"type": "python", "function": f"{user_module}:Patterns.double",
+                                                "params": {"factor": 3.0}}]),
+        3.0 * ico162.points[:, 0])
+
+
+def test_python_pattern_accepts_a_callable_from_python(ico162):
+    zeta = evaluate_active_stress(ico162.points, [{"type": "python", "function": lambda q, k: k * q[:, 1],
+                                                   "params": {"k": -2.0}}])
+    np.testing.assert_array_equal(zeta, -2.0 * ico162.points[:, 1])
+    zeta = evaluate_active_stress(ico162.points, [{"type": "python", "function": ring_closed_form}])
+    np.testing.assert_allclose(zeta, evaluate_active_stress(ico162.points, [RING8]), rtol=0, atol=1e-14)
+
+
+def test_python_pattern_cannot_change_the_points(ico162, user_module):
+    pts = ico162.points.copy()
+    zeta = evaluate_active_stress(pts, [{"type": "python", "function": f"{user_module}:mutates"}])
+    np.testing.assert_array_equal(zeta, np.ones(162))
+    np.testing.assert_array_equal(pts, ico162.points)
+
+
+def test_python_pattern_errors_name_the_target(ico162, user_module):
+    pts = ico162.points
+
+    def error(function, **kw):
+        with pytest.raises(SceneError) as info:
+            evaluate_active_stress(pts, [{"type": "python", "function": function, **kw}])
+        return str(info.value)
+
+    msg = error("no_such_module_xyz:f")
+    assert msg.startswith("python pattern function 'no_such_module_xyz:f': cannot import module 'no_such_module_xyz'")
+    assert "ModuleNotFoundError" in msg
+    msg = error("broken_user_module:f")
+    assert "python pattern function 'broken_user_module:f': cannot import module 'broken_user_module' (SyntaxError" in msg
+    assert error(f"{user_module}:nope") == (
+        f"python pattern function '{user_module}:nope': module '{user_module}' has no attribute 'nope'")
+    assert error(f"{user_module}:NOT_CALLABLE") == (
+        f"python pattern function '{user_module}:NOT_CALLABLE' is a int, not a callable")
+    assert "must look like 'package.module:function'" in error("no_colon_here")
+    assert "must look like 'package.module:function'" in error(f"{user_module}:")
+    assert "must be 'package.module:function' or a callable, got 3" in error(3)
+    assert error(f"{user_module}:wrong_shape") == (
+        f"python pattern '{user_module}:wrong_shape' returned an array of shape (162, 2); need (162,), one value per point")
+    assert error(f"{user_module}:scalar") == (
+        f"python pattern '{user_module}:scalar' returned an array of shape (); need (162,), one value per point")
+    assert error(f"{user_module}:nonfinite") == (
+        f"python pattern '{user_module}:nonfinite' returned 1 non-finite value(s) (NaN or inf), the first at point 3")
+    assert error(f"{user_module}:text") == f"python pattern '{user_module}:text' returned list, not an array of numbers"
+    msg = error(f"{user_module}:ring", params={"zeta0": 1.0, "amplitude": 1.0, "sigma": 1.0, "width": 2})
+    assert msg.startswith(f"python pattern '{user_module}:ring' cannot be called as {user_module}:ring(points, "
+                          "zeta0=..., amplitude=..., sigma=..., width=...)")
+    assert "width" in msg.split(":")[-1]
+    assert "missing a required argument: 'sigma'" in error(f"{user_module}:ring", params={"zeta0": 1, "amplitude": 1})
+    assert "params must be a mapping" in error(f"{user_module}:height", params=[1, 2])
+    # an exception inside the user's function is the user's: it propagates unchanged
+    with pytest.raises(RuntimeError, match="boom from the user's code"):
+        evaluate_active_stress(pts, [{"type": "python", "function": f"{user_module}:boom"}])
