@@ -41,6 +41,7 @@ __all__ = [
     "FRAME_VARIABLES",
     "TrajectoryWriter",
     "open_trajectory",
+    "load_trajectory",
     "last_frame",
     "partial_path",
     "write_dataset",
@@ -503,6 +504,50 @@ def open_trajectory(path: str | os.PathLike):
     import xarray as xr  # local import: writing does not need xarray
 
     return xr.open_dataset(_existing(path), engine="h5netcdf")
+
+
+def load_trajectory(path: str | os.PathLike):
+    """Read a whole trajectory into memory and close the file; works while a run is writing it.
+
+    A running simulation holds HDF5's file lock on its ``.partial`` file, so
+    :func:`open_trajectory` cannot open it; this function opens the file without taking the
+    lock (read-only).  The writer flushes after every frame, so the frames read are those
+    complete at that moment; should a frame be caught half-appended (its time not yet set),
+    it and anything after it are dropped: only the leading frames with finite, increasing
+    times are kept.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A final or ``.partial`` trajectory; if ``path`` does not exist but
+        ``<path>.partial`` does, that is read.
+
+    Returns
+    -------
+    xarray.Dataset
+        In memory; no file stays open.
+
+    Raises
+    ------
+    CortexError
+        Neither file exists, or the file is not a readable trajectory.
+    """
+    import xarray as xr  # local import: writing does not need xarray
+
+    file = _existing(path)
+    try:
+        with h5py.File(file, "r", locking=False) as h5, h5netcdf.File(h5, "r") as nc:
+            ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc)).load()
+    except (OSError, KeyError, ValueError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+    if "time" in ds.dims:
+        t = np.asarray(ds["time"].values, dtype=float)
+        ok = np.isfinite(t)
+        ok[1:] &= np.diff(t) > 0.0
+        bad = np.flatnonzero(~ok)
+        if bad.size:
+            ds = ds.isel(time=slice(0, int(bad[0])))
+    return ds
 
 
 def last_frame(path: str | os.PathLike) -> dict[str, Any]:
