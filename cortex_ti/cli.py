@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | scenes | check``.
+"""Command line: ``cortex-ti run | check | export | plot | scenes``.
 
 Every problem with the input (scene, mesh, values) is reported as one line naming
 it, with exit status 2 and no output file; an unexpected internal error keeps its
@@ -44,6 +44,21 @@ def _parser() -> argparse.ArgumentParser:
     exp.add_argument("trajectory", type=Path)
     exp.add_argument("-o", "--output", type=Path, default=None, help="folder (default: next to the file)")
     exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
+
+    plot = sub.add_parser("plot", help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
+                                       "time series; works on the .partial file of a running simulation")
+    plot.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
+    plot.add_argument("-o", "--output", required=True, type=Path, help="figure file: .png, .pdf or .svg")
+    which = plot.add_mutually_exclusive_group()
+    which.add_argument("--frame", type=int, default=None, help="frame index (negative: from the end; default -1, the last)")
+    which.add_argument("--time", type=float, default=None, help="time: the frame nearest to it (the earlier on a tie)")
+    plot.add_argument("--color", default="speed", help="speed (default), active_stress or normal_velocity")
+    plot.add_argument("--no-arrows", action="store_true", help="no velocity arrows")
+    plot.add_argument("--series", default=None, metavar="NAME,NAME,...",
+                      help="per-frame variables to draw against time (default: pole_radius, furrow_radius, "
+                           "orientation_angle, those the file has); '' for none")
+    plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60)")
+    plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
     return p
@@ -115,6 +130,42 @@ def _export(args) -> int:
     return 0
 
 
+def _plot(args) -> int:
+    from .io import load_trajectory
+    from .plotting import COLORS, DEFAULT_SERIES, DEFAULT_VIEW, figure_format, figure_frame_and_series, \
+        save_figure, series_names
+
+    # the arguments first, so that a typo costs no reading
+    figure_format(args.output)
+    if args.color not in COLORS:
+        raise CortexError(f"unknown --color '{args.color}'; choose one of: {', '.join(COLORS)}")
+    view = DEFAULT_VIEW
+    if args.view is not None:
+        try:
+            elev, azim = (float(v) for v in args.view.split(","))
+        except ValueError:
+            raise CortexError(f"--view must be ELEV,AZIM in degrees (e.g. 20,-60), got '{args.view}'") from None
+        view = (elev, azim)
+    if not args.dpi > 0:
+        raise CortexError(f"--dpi must be > 0, got {args.dpi:g}")
+    ds = load_trajectory(args.trajectory)
+    available = series_names(ds)
+    if args.series is None:
+        series = [name for name in DEFAULT_SERIES if name in available]
+    else:
+        series = [name.strip() for name in args.series.split(",") if name.strip()]
+        unknown = [name for name in series if name not in available]
+        if unknown:
+            raise CortexError(
+                f"unknown series {', '.join(repr(n) for n in unknown)}: '{args.trajectory}' has "
+                f"{', '.join(available) or 'no per-frame variables'}"
+            )
+    frame = args.frame if args.frame is not None else args.time if args.time is not None else -1
+    fig = figure_frame_and_series(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi)
+    print(save_figure(fig, args.output))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -130,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        return {"run": _run, "check": _check, "export": _export, "scenes": _scenes}[args.command](args)
+        return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes}[args.command](args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2
