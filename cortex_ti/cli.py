@@ -57,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--series", default=None, metavar="NAME,NAME,...",
                       help="per-frame variables to draw against time (default: pole_radius, furrow_radius, "
                            "orientation_angle, those the file has); '' for none")
-    plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60)")
+    plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60; write --view=-20,30 for a negative elevation)")
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
