@@ -201,7 +201,9 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     arrows : bool
         Draw velocity arrows (``ax.quiver``; its collection has the gid ``"velocity"``).
     ax : mpl_toolkits.mplot3d.Axes3D, optional
-        Axes to draw in (``projection="3d"``); a new figure is made without one.
+        Axes to draw in (``projection="3d"``); a new figure is made without one.  Its
+        ``computed_zorder`` is switched off so that the arrows (all on the visible side) are
+        drawn over the surface.
     view : (elev, azim), optional
         Camera angles in degrees; default: the axes' current view if ``ax`` is given, else
         :data:`DEFAULT_VIEW`.  The arrows are chosen for this view.

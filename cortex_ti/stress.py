@@ -617,6 +617,11 @@ def python_pattern(points, function, params=None) -> np.ndarray:
     can use it.  The keyword names in ``params`` are checked against the function's signature
     before the call; an exception raised inside the function is the user's and propagates
     unchanged (with its traceback).
+
+    A callable as ``function`` works wherever a pattern list is used directly
+    (:func:`evaluate_active_stress`, :func:`integrate_patterns`, :mod:`cortex_ti.analytic`), not
+    in a :class:`~cortex_ti.scene.Scene`: a scene is stored as YAML text with every trajectory,
+    so its ``function`` must be the ``"module:func"`` string.
     """
     func, target = resolve_function(function)
     params = {} if params is None else params
