@@ -46,7 +46,6 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
-from matplotlib import colormaps
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import art3d  # also registers the "3d" projection
