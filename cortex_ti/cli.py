@@ -80,6 +80,13 @@ def _run(args) -> int:
         from .io import write_json
 
         info = sim.summary() if sim is not None else {}
+        if status != "ok" and sim is not None:  # how far it got: the last flushed frame
+            from .io import last_frame, partial_path
+
+            try:
+                info["t_reached"] = last_frame(partial_path(args.output))["time"]
+            except CortexError:
+                pass
         info.update(status=status, error=error, wall_s=time.perf_counter() - t0, output=str(args.output),
                     peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
         write_json(info, args.summary)
