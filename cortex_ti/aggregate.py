@@ -26,7 +26,7 @@ from .diagnostics import DIAGNOSTIC_ATTRS, fold_radii
 from .io import open_trajectory, read_benchmark
 from .scene import scene_from_dict
 
-__all__ = ["STUDY_VARIABLES", "study_dataset", "cost_dataset", "run_label"]
+__all__ = ["STUDY_VARIABLES", "study_dataset", "cost_dataset", "run_label", "short_labels"]
 
 #: Per-frame variables each study keeps (as written by the simulation).
 STUDY_VARIABLES: dict[str, tuple[str, ...]] = {
@@ -60,8 +60,14 @@ def _number(text: str):
 
 
 def run_label(row: Mapping) -> str:
-    """Short human label of a run: its parameters joined, e.g. ``furrow_p8_a1 nodes=2562 dt=0.0005``."""
+    """Human label of a run: its parameters joined, e.g. ``furrow_p8_a1 nodes=2562 dt=0.0005``."""
     return " ".join([str(row.get("scene", ""))] + [f"{k}={v}" for k, v in row.items() if k != "scene"])
+
+
+def short_labels(rows: Sequence[Mapping]) -> list[str]:
+    """Labels that tell the runs apart: the scene and only the parameters that vary between rows."""
+    varying = [k for k in (rows[0] if rows else {}) if k != "scene" and len({str(r[k]) for r in rows}) > 1]
+    return [" ".join([str(r.get("scene", ""))] + [f"{k}={r[k]}" for k in varying]) for r in rows]
 
 
 def _fold_series(ds) -> dict[str, np.ndarray]:

@@ -10,7 +10,7 @@ from pathlib import Path  # noqa: E402
 import xarray as xr  # noqa: E402
 
 from cortex_ti import figures  # noqa: E402
-from cortex_ti.aggregate import run_label  # noqa: E402
+from cortex_ti.aggregate import short_labels  # noqa: E402
 from cortex_ti.plotting import save_figure  # noqa: E402
 
 sm = snakemake  # noqa: F821
@@ -22,7 +22,7 @@ def store():
 
 
 def labelled(rows):
-    return [(run_label(r), path) for r, path in zip(rows, sm.input)]
+    return list(zip(short_labels(rows), sm.input))
 
 
 if name == "cost_table":
