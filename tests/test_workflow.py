@@ -130,6 +130,7 @@ def test_tiny_configuration_end_to_end(tmp_path):
 
     report = snakemake(tmp_path, "--cores", "1", "--configfile", str(TINY), "--report", "report.html", timeout=300)
     assert report.returncode == 0, report.stderr[-2000:]
+    assert "ERROR" not in report.stdout + report.stderr        # captions are valid reStructuredText
     html = (tmp_path / "report.html").read_text(errors="replace")
     for name in FIGURES:
         assert f"{name}.png" in html
