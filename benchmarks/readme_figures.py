@@ -1,0 +1,69 @@
+"""The README's pictures of the non-axisymmetric scenes (paper Figs. 9-12) from finished runs.
+
+Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes, t_end = 3.5)::
+
+    python benchmarks/readme_figures.py --runs RUNS_DIR --out docs/figures
+
+expects ``fold_narrow.h5, fold_broad.h5, shear_035.h5, shear_035_tilted.h5, shear_075.h5`` in
+RUNS_DIR (missing ones are skipped) and writes ``fold.png``, ``shear.png`` (snapshots at the
+paper's times) and ``orientation.png`` (orientation angle and fold depth over time), using the
+workflow's own figure functions. Prints the numbers quoted in the README.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from cortex_ti.aggregate import study_dataset
+from cortex_ti.figures import fold_figure, orientation_figure, snapshots_figure
+from cortex_ti.plotting import save_figure
+from cortex_ti.sweeps import expand_runs
+
+FOLD = ("fold_narrow", "fold_broad")
+SHEAR = ("shear_035", "shear_035_tilted", "shear_075")
+TIMES = (0.0035, 0.035, 0.087, 3.5)   # paper Figs. 10-12 B-E
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--runs", type=Path, required=True)
+    p.add_argument("--out", type=Path, default=Path("docs/figures"))
+    args = p.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for study, names, fig_name in (("fold", FOLD, "fold"), ("reorientation", SHEAR, "shear")):
+        found = [n for n in names if (args.runs / f"{n}.h5").exists()]
+        if not found:
+            continue
+        paths = [args.runs / f"{n}.h5" for n in found]
+        times = (0.1, 0.5, 3.5) if study == "fold" else TIMES
+        save_figure(snapshots_figure(list(zip(found, paths)), times), args.out / f"{fig_name}.png")
+        rows = expand_runs(study, [{"scene": n} for n in found])
+        ds = study_dataset(study, rows, paths)
+        draw = fold_figure if study == "fold" else orientation_figure
+        save_figure(draw(ds), args.out / f"{fig_name}_series.png")
+        for i, name in enumerate(found):
+            t = ds["time"].values
+            if study == "fold":
+                d = ds["fold_depth"].values[i]
+                ok = np.isfinite(d)
+                print(f"{name}: fold depth " + ", ".join(f"{d[np.argmin(abs(t - s))]:.3f} (t = {s})"
+                                                          for s in (0.1, 0.5, 1.0, t[ok][-1])),
+                      f"| across {ds['radius_stripe'].values[i][ok][-1]:.3f}, beside {ds['radius_off_stripe'].values[i][ok][-1]:.3f}"
+                      f", pole {ds['pole_radius'].values[i][ok][-1]:.3f}, volume change {ds['volume_change'].values[i][ok][-1]:.1e}")
+            else:
+                a = ds["orientation_angle"].values[i]
+                ok = np.isfinite(a)
+                print(f"{name}: orientation " + ", ".join(f"{a[np.argmin(abs(t - s))]:.1f} (t = {s})"
+                                                           for s in (0.0, 0.09, 0.5, 1.0, t[ok][-1])),
+                      f"| pole/furrow along long axis {ds['pole_radius_long_axis'].values[i][ok][-1]:.3f}/"
+                      f"{ds['furrow_radius_long_axis'].values[i][ok][-1]:.3f}, volume change "
+                      f"{ds['volume_change'].values[i][ok][-1]:.1e}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
