@@ -86,6 +86,19 @@ def test_strongly_sheared_start_turns_back(tmp_path):
 
 
 @pytest.mark.slow
+def test_sheared_start_reorients_while_the_furrow_forms(tmp_path):
+    """x -> x + 0.35 z (paper Fig. 10): the long axis turns toward the pattern axis and, at the
+    same time, the furrow across the long axis closes (measured to t = 3.5: 50 deg -> 3.5 deg,
+    furrow radius along the long axis 0.918 -> 0.742)."""
+    _, ds = run(tmp_path, "shear_035", ["time.t_end=0.15"])
+    assert_healthy(ds)
+    angle = ds["orientation_angle"].values
+    furrow = ds["furrow_radius_long_axis"].values
+    assert angle[0] == pytest.approx(49.96, abs=0.05) and angle[-1] < angle[0] - 10.0
+    assert furrow[-1] < furrow[0] - 0.01                       # 0.918 -> 0.900 at t = 0.15
+
+
+@pytest.mark.slow
 def test_tilted_sheared_start_keeps_its_orientation(tmp_path):
     """Pattern axis tilted 45 degrees toward the shear (paper Fig. 11): the sheared shape starts
     nearly aligned with it and stays so (measured to t = 3.5: 5.0 deg -> 11.0 deg, while the
