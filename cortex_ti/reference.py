@@ -1,4 +1,4 @@
-"""Comparison with the axisymmetric reference runs (shared/reference/axisym).
+"""Comparison with the axisymmetric reference runs (shipped in cortex_ti/data/axisym).
 
 The reference (its README) gives, for the furrow of paper Fig. 5 (p = 8,
 zeta_hat = 1): pole and furrow radius every 0.01 t_a, and the flow along the
@@ -16,13 +16,13 @@ import numpy as np
 
 from .errors import CortexError
 
-#: Where the reference lives when the repository sits beside ``shared/``
-DEFAULT_DIR = Path(__file__).resolve().parents[2] / "shared" / "reference" / "axisym"
+#: The reference shipped with the package (``cortex_ti/data/axisym``, see its README)
+DEFAULT_DIR = Path(__file__).resolve().parent / "data" / "axisym"
 PROFILE_TIMES = (0.0, 0.1, 1.5, 3.0)
 
 
 def reference_dir(path=None) -> Path:
-    """The reference folder: ``path``, ``$CORTEX_TI_AXISYM`` or ``../shared/reference/axisym``."""
+    """The reference folder: ``path``, ``$CORTEX_TI_AXISYM`` or the one shipped in the package."""
     folder = Path(path or os.environ.get("CORTEX_TI_AXISYM", DEFAULT_DIR))
     if not (folder / "caseA_p8_zh1_radii_vs_time.csv").exists():
         raise CortexError(f"no axisymmetric reference in '{folder}' (set CORTEX_TI_AXISYM)")

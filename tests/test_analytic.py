@@ -8,7 +8,6 @@ so the balance (tangential ``nabla_a t^ab = 0``, normal ``C_ab t^ab = P``) reads
 """
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,8 +27,9 @@ from cortex_ti.stress import (
     real_sph_harm_surface_gradient,
     sphere_quadrature,
 )
+from cortex_ti.reference import DEFAULT_DIR
 
-AXISYM = Path("/work/shared/reference/axisym/caseA_p8_zh1_velocity_t0.0.csv")
+AXISYM = DEFAULT_DIR / "caseA_p8_zh1_velocity_t0.0.csv"   # shipped with the package
 RING8 = {"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8}
 RING4 = {"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 4}
 
