@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
 from . import reference
 from .io import open_trajectory
@@ -42,6 +43,8 @@ def convergence_figure(ds: xr.Dataset) -> Figure:
         for power, style in ((1, ":"), (2, "--")):
             ref = ds["eps_rel"].max().item() * (n / n[0]) ** (-power)
             ax.loglog(n, ref, "k" + style, lw=0.8, label=f"$\\propto N^{{-{power}}}$")
+        ax.set_xticks(n, [str(int(v)) for v in n])
+        ax.xaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("nodes N")
         ax.set_title(title)
         ax.legend(fontsize=7)
@@ -62,10 +65,7 @@ def radii_figure(ds: xr.Dataset) -> Figure:
     groups = _groups(ds, ("p", "zeta_hat"))
     fig = Figure(figsize=(4.2 * len(groups), 3.6), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(groups), squeeze=False)[0])
-    try:
-        ref = reference.load_radii()
-    except Exception:  # noqa: BLE001 - the reference is optional for plotting
-        ref = None
+    ref = reference.load_radii()
     for ax, ((p, zh), idx) in zip(axes, groups.items()):
         for i in idx:
             lab = f"N={ds['nodes'].values[i]}, {ds['scheme'].values[i]}, dt={ds['dt'].values[i]}"
@@ -74,7 +74,7 @@ def radii_figure(ds: xr.Dataset) -> Figure:
             every = max(1, ok.sum() // 40)
             ax.plot(t[ok][::every], ds["pole_radius"].values[i][ok][::every], "o", ms=3, label=f"pole, {lab}")
             ax.plot(t[ok][::every], ds["furrow_radius"].values[i][ok][::every], "s", ms=3, label=f"furrow, {lab}")
-        if ref is not None and float(p) == 8 and float(zh) == 1:
+        if float(p) == 8 and float(zh) == 1:
             tmax = np.nanmax(np.where(np.isfinite(ds["pole_radius"].values[idx]), ds["time"].values, np.nan))
             keep = ref["t"] <= tmax + 1e-9
             ax.plot(ref["t"][keep], ref["pole_radius"][keep], "k-", lw=1, label="axisymmetric reference")
@@ -123,7 +123,7 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float])
     for j, (row, path) in enumerate(runs):
         with open_trajectory(path) as ds:
             t_last = float(ds["time"].values[-1])
-        has_ref = reference.trajectory_deviation(path) is not None if _reference_available() else False
+        has_ref = reference.trajectory_deviation(path) is not None
         for i, t in enumerate(times):
             ax_t, ax_n = axes[i, 2 * j], axes[i, 2 * j + 1]
             if t > t_last + 1e-9:
@@ -150,14 +150,6 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float])
                 ax_t.set_xlabel(r"$z / R_0$")
                 ax_n.set_xlabel(r"$z / R_0$")
     return fig
-
-
-def _reference_available() -> bool:
-    try:
-        reference.reference_dir()
-    except Exception:  # noqa: BLE001
-        return False
-    return True
 
 
 def orientation_figure(ds: xr.Dataset) -> Figure:
@@ -232,10 +224,10 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     if front.size:
         ax.loglog(wall[front], err[front], "k-", lw=1, label="Pareto front")
     top = np.nanmax(err[ok]) * 2 if ok.any() else 1.0
-    for i in np.flatnonzero(~ok):
+    for k, i in enumerate(np.flatnonzero(~ok)):
         ax.loglog(wall[i], top, "rx", ms=8)
         ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]} dt={sel['dt'].values[i]:g}",
-                    (wall[i], top), fontsize=6, color="r", xytext=(4, -8), textcoords="offset points")
+                    (wall[i], top), fontsize=6, color="r", xytext=(4, -8 - 8 * k), textcoords="offset points")
     for s, m in markers.items():
         ax.plot([], [], m, color="0.4", label=s)
     ax.set_xlabel("wall time of the run (s)")
