@@ -5,7 +5,7 @@ Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes,
     python benchmarks/readme_figures.py --runs RUNS_DIR --out docs/figures
 
 expects ``fold_narrow.h5, fold_broad.h5, shear_035.h5, shear_035_tilted.h5, shear_075.h5`` in
-RUNS_DIR (missing ones are skipped) and writes ``fold.png``, ``shear.png`` (snapshots at the
+RUNS_DIR (missing ones are skipped; ``<name>.h5.partial`` of a stopped run is used if that is all there is) and writes ``fold.png``, ``shear.png`` (snapshots at the
 paper's times) and ``orientation.png`` (orientation angle and fold depth over time), using the
 workflow's own figure functions. Prints the numbers quoted in the README.
 """
@@ -35,10 +35,13 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     for study, names, fig_name in (("fold", FOLD, "fold"), ("reorientation", SHEAR, "shear")):
-        found = [n for n in names if (args.runs / f"{n}.h5").exists()]
+        # a finished run, else the frames of an interrupted one (<name>.h5.partial)
+        paths = {n: next((f for f in (args.runs / f"{n}.h5", args.runs / f"{n}.h5.partial") if f.exists()), None)
+                 for n in names}
+        found = [n for n in names if paths[n] is not None]
         if not found:
             continue
-        paths = [args.runs / f"{n}.h5" for n in found]
+        paths = [paths[n] for n in found]
         times = (0.1, 0.5, 3.5) if study == "fold" else TIMES
         save_figure(snapshots_figure(list(zip(found, paths)), times), args.out / f"{fig_name}.png")
         rows = expand_runs(study, [{"scene": n} for n in found])
