@@ -267,20 +267,12 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
 
 
 def cost_table_html(ds: xr.Dataset) -> str:
-    """The cost store as an HTML table (for the report)."""
-    cols = ["study", "status", "nodes", "fit", "scheme", "dt"]
-    vals = ["wall_s", "max_rss_mb", "steps", "solves", "ms_per_step", "ms_geometry_per_solve", "ms_assembly_per_solve",
-            "ms_solve_per_solve", "error"]
-    head = "".join(f"<th>{c}</th>" for c in ["run"] + cols + vals)
-    body = []
-    for i in range(ds.sizes["run"]):
-        cells = [str(ds["run"].values[i])] + [str(ds[c].values[i]) for c in cols]
-        for v in vals:
-            x = float(ds[v].values[i])
-            cells.append("" if not np.isfinite(x) else (f"{x:.3g}" if v != "error" else f"{x:.2e}"))
-        body.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    units = ", ".join(f"{v} [{ds[v].attrs.get('units', '')}]" for v in vals)
+    """The cost store as an HTML table (for the report), through pandas."""
+    cols = ["study", "status", "nodes", "fit", "scheme", "dt", "wall_s", "max_rss_mb", "steps", "solves", "ms_per_step",
+            "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve", "error"]
+    table = ds.reset_coords()[cols].to_dataframe()
+    table.columns = [f"{c} [{ds[c].attrs['units']}]" if ds[c].attrs.get("units") else c for c in cols]
+    body = table.to_html(float_format=lambda x: f"{x:.3g}", na_rep="", border=0)
     return ("<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
-            "border-bottom:1px solid #ddd}</style></head><body>"
-            f"<p>{ds.attrs.get('description', '')}</p><p>Units: {units}.</p>"
-            f"<table><tr>{head}</tr>{''.join(body)}</table></body></html>")
+            f"border-bottom:1px solid #ddd}}</style></head><body><p>{ds.attrs.get('description', '')}</p>"
+            f"{body}</body></html>")
