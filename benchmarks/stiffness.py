@@ -21,24 +21,10 @@ import numpy as np
 import yaml
 
 from cortex_ti import runtime
+from cortex_ti.dynamics import stiffest_normal_mode
 from cortex_ti.io import load_trajectory
 from cortex_ti.scene import scene_from_dict
 from cortex_ti.simulation import Simulation
-
-
-def stiffest_mode(sim: Simulation, x: np.ndarray, iterations: int = 30, eps: float = 1e-7, seed: int = 0):
-    """(lambda, mode s) of the normal-rate Jacobian at shape ``x`` by power iteration."""
-    ev0 = sim.evaluate(x)
-    n, vn0 = ev0.normal, ev0.normal_speed
-    s = np.random.default_rng(seed).standard_normal(len(x))
-    s /= np.linalg.norm(s)
-    lam = 0.0
-    for _ in range(iterations):
-        ev = sim.evaluate(x + eps * s[:, None] * n)
-        js = (ev.normal_speed - vn0) / eps
-        lam = float(s @ js)
-        s = js / np.linalg.norm(js)
-    return lam, s
 
 
 def main(argv=None) -> int:
@@ -56,7 +42,7 @@ def main(argv=None) -> int:
     for want in args.times:
         k = int(np.argmin(np.abs(t - want)))
         x = ds["points"].values[k]
-        lam, s = stiffest_mode(sim, x, args.iterations)
+        lam, s = stiffest_normal_mode(sim.evaluate, x, args.iterations)
         big = np.abs(s) > 0.1 * np.abs(s).max()
         w = s ** 2 / np.sum(s ** 2)
         zc = float(np.sum(w * np.abs(x[:, 2])))
