@@ -114,8 +114,61 @@ def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
     return geometry.tangent_frame()
 
 
-def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray) -> LinearSystem:
-    """Build the least-squares system of the effects in ``physics`` on this shape."""
+#: Default weight of the fit-residual rows (``numerics.fit_residual_weight``) per fit scheme.
+#: Off by default: the rows damp the spurious modes (642-node uniform sphere: lambda +1.2e5 -> -190
+#: at 0.1) but conflict with the force rows on deformed shapes (relative residual 5e-2 on the
+#: shear_075 furrow), which the validated results do not have.
+FIT_RESIDUAL_WEIGHT = {"quadratic": 0.0, "quartic": 0.0}   # off: opt in per scene (experimental)
+
+
+def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_s: float) -> sp.csr_matrix:
+    r"""Rows that ask the velocity to be locally what the fits assume: a Taylor polynomial.
+
+    The force balance sees the velocity only through each node's fitted derivatives; a
+    pattern the local fit does not reproduce (its residual ``(I - D F)(v_a - v_i)`` on the
+    stencil) is invisible to it, and on coarse or sheared meshes such patterns couple to the
+    normal motion as spurious modes that grow (:func:`cortex_ti.dynamics.stiffest_normal_mode`
+    measures them: lambda = +1.2e5 /t_a for a uniform tension on a 642-node sphere). These rows
+    add ``weight * eta_s^2 / h_i^4 * |(I - D F)(v_a - v_i)|^2`` to the least squares, per node and
+    Cartesian component, ``h_i`` the node's mean edge length, i.e. the same scale as the force
+    rows. They vanish for any velocity the fit reproduces exactly, so the discretisation stays
+    consistent (the residual of a smooth field is O(h^3)). Since ``I - D F`` is a projector,
+    the penalty uses an orthonormal basis ``Q`` of its range: ``S - P`` rows per node and
+    component instead of ``S`` (one for a valence-6 node and the quadratic fit).
+    """
+    res = geometry.fit_residual
+    n, smax, _ = res.shape
+    w_eig, vec = np.linalg.eigh(res)                       # ascending; the range has eigenvalue 1
+    k = int((w_eig > 0.5).sum(axis=1).max()) if n else 0
+    if k == 0 or weight <= 0.0:
+        return sp.csr_matrix((0, n * basis.shape[1]))
+    q = vec[:, :, smax - k:] * (w_eig[:, None, smax - k:] > 0.5)   # (N, S, k), zero where absent
+    scale = np.sqrt(weight) * eta_s / geometry.edge_length ** 2   # (N,)
+    q = q * scale[:, None, None]
+    nb = basis.shape[1]
+    st = geometry.stencil
+    valid = st >= 0
+    nodes = np.where(valid, st, 0)
+    # rows (i, k, c); columns: the stencil nodes and the node itself, each with nb unknowns
+    row = (np.arange(n)[:, None, None] * k + np.arange(k)[None, :, None]) * 3 + np.arange(3)[None, None, :]  # (N,k,3)
+    nbr_val = np.einsum("nsk,nsbc->nkcsb", q * valid[:, :, None], basis[nodes])                       # (N,k,3,S,nb)
+    nbr_col = (nodes[:, :, None] * nb + np.arange(nb)[None, None, :])                                    # (N,S,nb)
+    ctr_val = -np.einsum("nk,nbc->nkcb", q.sum(axis=1), basis)                                           # (N,k,3,nb)
+    ctr_col = np.arange(n)[:, None] * nb + np.arange(nb)[None, :]                                        # (N,nb)
+    rows = np.concatenate([np.broadcast_to(row[..., None, None], nbr_val.shape).ravel(),
+                           np.broadcast_to(row[..., None], ctr_val.shape).ravel()])
+    cols = np.concatenate([np.broadcast_to(nbr_col[:, None, None], nbr_val.shape).ravel(),
+                           np.broadcast_to(ctr_col[:, None, None, :], ctr_val.shape).ravel()])
+    vals = np.concatenate([nbr_val.ravel(), ctr_val.ravel()])
+    keep = vals != 0.0
+    return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n * k * 3, n * nb))
+
+
+def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0) -> LinearSystem:
+    """Build the least-squares system of the effects in ``physics`` on this shape.
+
+    ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`.
+    """
     runtime.ensure()
     if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
         raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
@@ -157,6 +210,13 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray) -> LinearSy
     if ctx.pressure:
         pcol = np.zeros(n * nrow)
         pcol[2::nrow] = -1.0 / geometry.edge_length
+    rhs = rhs.ravel()
+    if fit_residual_weight > 0.0:
+        extra = fit_residual_rows(geometry, basis, fit_residual_weight, physics.eta_s)
+        matrix = sp.vstack([matrix, extra], format="csr")
+        rhs = np.concatenate([rhs, np.zeros(extra.shape[0])])
+        if pcol is not None:
+            pcol = np.concatenate([pcol, np.zeros(extra.shape[0])])
     if ctx.constraints:
         dense = np.concatenate([c.rows for c in ctx.constraints], axis=0)
         gmat = np.einsum("mnc,nbc->mnb", dense, basis).reshape(dense.shape[0], -1)
@@ -164,6 +224,6 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray) -> LinearSy
         gmat = np.zeros((0, n * nb))
     names = [f"{c.name}[{k}]" if c.rows.shape[0] > 1 else c.name
              for c in ctx.constraints for k in range(c.rows.shape[0])]
-    return LinearSystem(matrix=matrix, rhs=rhs.ravel(), pressure_column=pcol,
+    return LinearSystem(matrix=matrix, rhs=rhs, pressure_column=pcol,
                         constraints=gmat, constraint_names=names, basis=basis,
                         terms=[t.name for t in terms])

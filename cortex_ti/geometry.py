@@ -204,6 +204,7 @@ class Geometry:
     curvature: np.ndarray     # (N, 2, 2) C_ab (covariant)
     christoffel: np.ndarray   # (N, 2, 2, 2) Gamma^c_ab stored as [c, a, b]
     height_fit: np.ndarray    # (N, 5) fitted derivatives of the height over the tangent plane
+    fit_residual: np.ndarray | None = None  # (N, S, S) I - D F: what the local fit leaves unexplained
     ring: np.ndarray | None = None  # (N, max valence) one-ring, padded with -1
     _edge: np.ndarray | None = None
 
@@ -441,4 +442,17 @@ def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChoose
     )
     _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
     return Geometry(points=x, frame=frame, area=area, volume_gradient=volgrad, stencil=stencil,
-                    stencil_size=ssize, fit=fit, fit_quality=quality, ring=topo.ring, **arrays)
+                    stencil_size=ssize, fit=fit, fit_quality=quality, ring=topo.ring,
+                    fit_residual=_fit_residual(design, fit_full, ssize), **arrays)
+
+
+def _fit_residual(design: np.ndarray, fit_full: np.ndarray, ssize: np.ndarray) -> np.ndarray:
+    """Per node the operator ``I - D F`` on the stencil differences ``f_a - f_i``: the part of
+    the nodal values the local Taylor polynomial does not reproduce (zero for any polynomial
+    of the scheme's degree; padded slots are zero)."""
+    n, smax, _ = design.shape
+    res = np.einsum("ij,n->nij", np.eye(smax), np.ones(n)) - np.einsum("nsk,nkt->nst", design, fit_full)
+    pad = np.arange(smax)[None, :] >= ssize[:, None]
+    res[pad] = 0.0
+    res.transpose(0, 2, 1)[pad] = 0.0
+    return res

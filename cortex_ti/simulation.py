@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__, runtime
-from .assemble import assemble
+from .assemble import FIT_RESIDUAL_WEIGHT, assemble
 from .errors import CortexError
 from .geometry import Geometry, StencilChooser, compute_geometry
 from .io import TrajectoryWriter, last_frame, partial_path
@@ -98,6 +98,8 @@ class Simulation:
         self.mesh = initial_shape(self.mesh, scene)
         self.solver = ConstrainedLeastSquares(scene["solver.backend"], reuse=bool(scene["solver.reuse"]),
                                               rtol=float(scene["solver.rtol"]))
+        weight = scene["numerics.fit_residual_weight"]
+        self.fit_residual_weight = FIT_RESIDUAL_WEIGHT[scene["numerics.fit"]] if weight is None else float(weight)
         self.geometry: Geometry | None = None
         self.seconds: dict[str, float] = {}   # time spent per stage, summed over solves
 
@@ -108,7 +110,7 @@ class Simulation:
         t0 = time.perf_counter()
         self.geometry = compute_geometry(x, self.topology, self.stencils)
         t1 = time.perf_counter()
-        system = assemble(self.geometry, self.physics, self.zeta)
+        system = assemble(self.geometry, self.physics, self.zeta, self.fit_residual_weight)
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()

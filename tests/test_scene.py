@@ -91,7 +91,7 @@ def test_shipped_scene_values(name):
     assert scene["solver"] == {"backend": "auto", "reuse": True, "rtol": 1e-10}
     assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler", "save_every": 0.01,
                              "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05}
-    assert scene["numerics"] == {"fit": "quartic"}
+    assert scene["numerics"] == {"fit": "quartic", "fit_residual_weight": None}
 
 
 @pytest.mark.parametrize("name", SHIPPED)
