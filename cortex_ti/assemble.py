@@ -137,6 +137,8 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     component instead of ``S`` (one for a valence-6 node and the quadratic fit).
     """
     res = geometry.fit_residual
+    if res is None:
+        raise SolverError("fit-residual rows need the geometry computed with residual=True")
     n, smax, _ = res.shape
     w_eig, vec = np.linalg.eigh(res)                       # ascending; the range has eigenvalue 1
     k = int((w_eig > 0.5).sum(axis=1).max()) if n else 0

@@ -403,8 +403,10 @@ def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.n
     return fit, quality
 
 
-def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChooser | None = None) -> Geometry:
-    """Frames, areas, fit operators and the fitted surface patch of every node."""
+def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChooser | None = None,
+                     residual: bool = False) -> Geometry:
+    """Frames, areas, fit operators and the fitted surface patch of every node
+    (and, with ``residual``, the fit-residual operators ``I - D F``)."""
     runtime.ensure()
     x = np.ascontiguousarray(points, dtype=np.float64)
     n = x.shape[0]
@@ -443,7 +445,7 @@ def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChoose
     _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
     return Geometry(points=x, frame=frame, area=area, volume_gradient=volgrad, stencil=stencil,
                     stencil_size=ssize, fit=fit, fit_quality=quality, ring=topo.ring,
-                    fit_residual=_fit_residual(design, fit_full, ssize), **arrays)
+                    fit_residual=_fit_residual(design, fit_full, ssize) if residual else None, **arrays)
 
 
 def _fit_residual(design: np.ndarray, fit_full: np.ndarray, ssize: np.ndarray) -> np.ndarray:

@@ -108,7 +108,7 @@ class Simulation:
         runtime.ensure()
         x = self.mesh.points if points is None else points
         t0 = time.perf_counter()
-        self.geometry = compute_geometry(x, self.topology, self.stencils)
+        self.geometry = compute_geometry(x, self.topology, self.stencils, residual=self.fit_residual_weight > 0)
         t1 = time.perf_counter()
         system = assemble(self.geometry, self.physics, self.zeta, self.fit_residual_weight)
         t2 = time.perf_counter()
