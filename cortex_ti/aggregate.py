@@ -25,6 +25,7 @@ import yaml
 from .diagnostics import DIAGNOSTIC_ATTRS, fold_radii
 from .io import open_trajectory, read_benchmark
 from .scene import scene_from_dict
+from .stress import scene_pattern_axis
 
 __all__ = ["STUDY_VARIABLES", "study_dataset", "cost_dataset", "run_label", "short_labels"]
 
@@ -71,8 +72,7 @@ def short_labels(rows: Sequence[Mapping]) -> list[str]:
 
 
 def _fold_series(ds) -> dict[str, np.ndarray]:
-    scene = scene_from_dict(yaml.safe_load(ds.attrs["scene"]))
-    axis = scene["active_stress.0.axis"] if scene["active_stress"] else [0.0, 0.0, 1.0]
+    axis = scene_pattern_axis(scene_from_dict(yaml.safe_load(ds.attrs["scene"])))
     faces = ds["triangles"].values
     on, off = [], []
     for pts in ds["points"].values:

@@ -16,6 +16,7 @@ import numpy as np
 
 from .errors import CortexError
 from .io import open_trajectory
+from .mesh import vertex_normals
 
 
 def export_vtu_series(path, out_dir=None, every: int = 1) -> Path:
@@ -36,7 +37,7 @@ def export_vtu_series(path, out_dir=None, every: int = 1) -> Path:
         for k in range(0, len(times), every):
             pts = ds["points"].isel(time=k).values
             vel = ds["velocity"].isel(time=k).values
-            normals = _vertex_normals(pts, tri)
+            normals = vertex_normals(pts, tri)
             data = {
                 "velocity": vel,
                 "speed": np.linalg.norm(vel, axis=1),
@@ -56,12 +57,3 @@ def export_vtu_series(path, out_dir=None, every: int = 1) -> Path:
     tmp.write_text("\n".join(lines))
     os.replace(tmp, pvd)
     return pvd
-
-
-def _vertex_normals(points: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Area-weighted vertex normals of a triangle mesh (for display only)."""
-    fn = np.cross(points[tri[:, 1]] - points[tri[:, 0]], points[tri[:, 2]] - points[tri[:, 0]])
-    vn = np.zeros_like(points)
-    for c in range(3):
-        np.add.at(vn, tri[:, c], fn)
-    return vn / np.linalg.norm(vn, axis=1, keepdims=True)

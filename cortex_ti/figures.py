@@ -21,10 +21,6 @@ __all__ = ["convergence_figure", "radii_figure", "profiles_figure", "orientation
            "accuracy_cost_figure", "pareto_front", "snapshots_figure", "cost_table_html"]
 
 
-def _group_title(ds: xr.Dataset, i: int, keys: Sequence[str]) -> str:
-    return ", ".join(f"{k} = {ds[k].values[i]}" for k in keys if k in ds.coords)
-
-
 def convergence_figure(ds: xr.Dataset) -> Figure:
     """Relative velocity error against N for the sphere scenes (paper Figs. 2F,G and 3F,G)."""
     fig = Figure(figsize=(9, 3.8), layout="constrained")
@@ -86,31 +82,40 @@ def radii_figure(ds: xr.Dataset) -> Figure:
     return fig
 
 
-def fitted_normals(points, faces, fit: str = "quadratic") -> np.ndarray:
-    """The solver's normals of a stored frame (normal of the fitted surface, :mod:`cortex_ti.geometry`).
+def _profiles(path, times: Sequence[float]) -> tuple[float, bool, dict]:
+    """One pass over a trajectory: its last time, whether it is the reference's problem, and per
+    requested time up to its end ``(z, |v_t|, v_n, frame time)`` at the nearest frame, with the
+    solver's normals (normal of the fitted surface, :mod:`cortex_ti.geometry`). Area-weighted
+    vertex normals (:func:`cortex_ti.mesh.vertex_normals`) are off by O(h), which at 2562 nodes
+    mixes ~1 % of v_n into v_t: visible where v_t is small (t = 0)."""
+    import yaml
 
-    Area-weighted vertex normals (:func:`cortex_ti.mesh.vertex_normals`) are off by O(h), which
-    at 2562 nodes mixes ~1 % of v_n into v_t: visible where v_t is small (t = 0)."""
     from . import runtime
     from .geometry import StencilChooser, compute_geometry
     from .mesh import Mesh, build_topology
+    from .scene import scene_from_dict
 
     runtime.ensure()
-    topo = build_topology(Mesh(np.asarray(points, float), np.asarray(faces)))
-    return compute_geometry(np.asarray(points, float), topo, StencilChooser(topo, fit)).normal.copy()
-
-
-def _profile(path, t: float):
-    """z, |v_t|, v_n at the frame nearest to ``t`` (and that frame's time)."""
+    out = {}
     with open_trajectory(path) as ds:
-        k = int(np.argmin(np.abs(ds["time"].values - t)))
-        pts = ds["points"].values[k]
-        vel = ds["velocity"].values[k]
-        tk = float(ds["time"].values[k])
-        normals = fitted_normals(pts, ds["triangles"].values, ds.attrs.get("fit_scheme", "quadratic"))
-    vn = np.einsum("nc,nc->n", vel, normals)
-    vt = np.linalg.norm(vel - vn[:, None] * normals, axis=1)
-    return pts[:, 2], vt, vn, tk
+        tt = ds["time"].values
+        has_ref = reference.matches_reference(scene_from_dict(yaml.safe_load(ds.attrs["scene"])))
+        faces = ds["triangles"].values
+        stencils = None
+        for t in times:
+            if t > tt[-1] + 1e-9:
+                continue
+            k = int(np.argmin(np.abs(tt - t)))
+            pts = ds["points"].values[k]
+            vel = ds["velocity"].values[k]
+            if stencils is None:    # the topology is fixed over a run
+                topo = build_topology(Mesh(np.asarray(pts, float), np.asarray(faces)))
+                stencils = StencilChooser(topo, ds.attrs.get("fit_scheme", "quadratic"))
+            normals = compute_geometry(np.asarray(pts, float), topo, stencils).normal
+            vn = np.einsum("nc,nc->n", vel, normals)
+            vt = np.linalg.norm(vel - vn[:, None] * normals, axis=1)
+            out[t] = (pts[:, 2], vt, vn, float(tt[k]))
+    return float(tt[-1]), has_ref, out
 
 
 def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float]) -> Figure:
@@ -121,19 +126,17 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float])
     fig = Figure(figsize=(4.0 * len(runs), 2.2 * len(times) + 0.6), layout="constrained")
     axes = fig.subplots(len(times), 2 * len(runs), squeeze=False)
     for j, (row, path) in enumerate(runs):
-        with open_trajectory(path) as ds:
-            t_last = float(ds["time"].values[-1])
-        has_ref = reference.trajectory_deviation(path) is not None
+        t_last, has_ref, profiles = _profiles(path, times)
         for i, t in enumerate(times):
             ax_t, ax_n = axes[i, 2 * j], axes[i, 2 * j + 1]
-            if t > t_last + 1e-9:
+            if t not in profiles:
                 for ax in (ax_t, ax_n):
                     ax.text(0.5, 0.5, f"run ends at t = {t_last:g}", ha="center", va="center", transform=ax.transAxes,
                             fontsize=8, color="0.4")
                     ax.set_xticks([])
                     ax.set_yticks([])
                 continue
-            z, vt, vn, tk = _profile(path, t)
+            z, vt, vn, tk = profiles[t]
             ax_t.plot(z, vt, ".", ms=2, label="3D nodes")
             ax_n.plot(z, vn, ".", ms=2, label="3D nodes")
             if has_ref and any(abs(t - tp) < 1e-9 for tp in reference.PROFILE_TIMES):

@@ -23,7 +23,7 @@ from .io import TrajectoryWriter, last_frame, partial_path
 from .linalg import ConstrainedLeastSquares, SolveInfo
 from .mesh import Mesh, Topology, affine, build_topology, icosphere, load_mesh
 from .scene import Scene
-from .stress import evaluate_active_stress
+from .stress import evaluate_active_stress, scene_pattern_axis
 from .terms import Physics
 
 log = logging.getLogger(__name__)
@@ -158,12 +158,8 @@ class Simulation:
 
     @property
     def pattern_axis(self) -> np.ndarray:
-        """The axis of the active-stress pattern (the first ring's axis; +z otherwise)."""
-        for pat in self.scene["active_stress"] if self.scene.has("active_stress") else []:
-            if "axis" in pat:
-                a = np.asarray(pat["axis"], dtype=float)
-                return a / np.linalg.norm(a)
-        return np.array([0.0, 0.0, 1.0])
+        """The axis of the active-stress pattern (:func:`cortex_ti.stress.scene_pattern_axis`)."""
+        return scene_pattern_axis(self.scene)
 
     def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable)."""

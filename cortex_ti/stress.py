@@ -51,6 +51,7 @@ from scipy import special
 from .errors import SceneError
 
 __all__ = [
+    "scene_pattern_axis",
     "PATTERNS",
     "PER_NODE_PATTERNS",
     "direction_angles",
@@ -113,6 +114,17 @@ def pattern_frame(axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray, np.ndar
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a, e1)
     return e1, e2, a
+
+
+def scene_pattern_axis(scene) -> np.ndarray:
+    """The unit axis of a scene's active-stress pattern: that of the first pattern with an
+    ``axis`` (ring, fold), +z if none has one or the scene has no active stress."""
+    patterns = scene["active_stress"] if scene.has("active_stress") else []
+    for pat in patterns:
+        if "axis" in pat:
+            a = np.asarray(pat["axis"], dtype=float)
+            return a / np.linalg.norm(a)
+    return np.array([0.0, 0.0, 1.0])
 
 
 def direction_angles(points, axis=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
