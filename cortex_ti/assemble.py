@@ -166,10 +166,13 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n * k * 3, n * nb))
 
 
-def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0) -> LinearSystem:
+def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0,
+             implicit_dt: float = 0.0) -> LinearSystem:
     """Build the least-squares system of the effects in ``physics`` on this shape.
 
-    ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`.
+    ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`;
+    ``implicit_dt > 0`` evaluates the active tension's curvature at the end of a step of
+    that length (:mod:`cortex_ti.terms.implicit_tension`).
     """
     runtime.ensure()
     if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
@@ -180,8 +183,10 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
         bad = np.flatnonzero(~np.isfinite(zeta))
         raise SolverError(f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, "
                           f"value {zeta[bad[0]]})")
-    ctx = AssemblyContext(geometry, physics, zeta)
-    terms = active_terms(physics)
+    if not (np.isfinite(implicit_dt) and implicit_dt >= 0.0):
+        raise SolverError(f"implicit_dt must be a finite step >= 0, got {implicit_dt}")
+    ctx = AssemblyContext(geometry, physics, zeta, implicit_dt=float(implicit_dt))
+    terms = [t for t in active_terms(physics) if t.applies(ctx)]
     for term in terms:
         term.apply(ctx)
     n, nrow = geometry.n_nodes, physics.rows_per_node

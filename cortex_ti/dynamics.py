@@ -5,7 +5,7 @@ tension stays attached to the node (it was evaluated once, on the initial shape)
 Each right-hand-side evaluation recomputes the geometry, the fits and the
 constrained solve on the current shape.
 
-Schemes (``time.scheme``), all explicit:
+Schemes (``time.scheme``), all explicit in the shape:
 
 ``euler``     the paper's scheme, fixed step ``time.dt``, first order.
 ``heun``      explicit trapezoid (RK2), fixed step, second order, two solves per step.
@@ -15,6 +15,13 @@ Schemes (``time.scheme``), all explicit:
               does not. The explicit stability limit shows up as a growing error
               estimate, so the controller settles below it by itself. ``time.dt`` is
               the first step, ``time.dt_max`` the largest.
+
+With ``time.implicit_tension`` (default for the first-order schemes) each solve is for the
+step about to be taken: the active tension's curvature is evaluated at the end of the step
+(:mod:`cortex_ti.terms.implicit_tension`), which holds down the stiff high-frequency normal
+modes, so the step is set by accuracy rather than by the explicit stability limit (a
+sheared cortex whose explicit limit falls to 1e-5 runs at 1e-3). The velocity written with
+a frame is then the one the shape moves with over the next step.
 
 A fixed-step scheme whose step is too large for the problem blows up: high-frequency
 normal modes grow by a factor each step. :class:`StabilityGuard` watches the normal
@@ -88,6 +95,7 @@ class Euler:
     """x_{n+1} = x_n + dt v_n(x_n) n(x_n)."""
 
     adaptive = False
+    first_order = True   # the semi-implicit tension keeps its order
     dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
 
     def __init__(self, evaluate, **_):
@@ -102,6 +110,7 @@ class Heun:
     """Explicit trapezoid: predictor Euler, corrector with the average rate."""
 
     adaptive = False
+    first_order = False
     dt_cap = math.inf
 
     def __init__(self, evaluate, **_):
@@ -279,12 +288,20 @@ class RunStats:
     stopped: str = "t_end"     # why the run ended: t_end or steady
 
 
+def implicit_tension_on(setting, scheme) -> bool:
+    """Resolve ``time.implicit_tension`` ('auto', true, false) for a scheme (the scene checks
+    refuse ``true`` with a second-order scheme)."""
+    return bool(scheme.first_order) if setting == "auto" else bool(setting)
+
+
 def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
               save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
-              guard: StabilityGuard | None = None, write_first: bool = True) -> RunStats:
+              guard: StabilityGuard | None = None, write_first: bool = True,
+              implicit: bool = False) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
-    ``evaluate(points) -> Evaluation`` solves the force balance on a shape;
+    ``evaluate(points, dt) -> Evaluation`` solves the force balance on a shape (for a step
+    ``dt`` with the semi-implicit tension when ``implicit``, else always with ``dt = 0``);
     ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
     resumed run has that frame already) and at every multiple of ``save_every``.
     """
@@ -293,12 +310,19 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
     guard = guard if guard is not None else StabilityGuard()
     t, dt = t0, dt0
     x = points0
-    ev = evaluate(x)
+    next_save = t0 + save_every
+    eps = 1e-9 * max(save_every, 1e-12)
+
+    def planned(dt):
+        """The step the implicit solve is for: the scheme's step, not the one shortened to land on
+        a frame (a shorter step than solved for is still damped, and the rate then depends only
+        on the controller's step, which varies smoothly, not on where the frames fall)."""
+        return dt if implicit else 0.0
+
+    ev = evaluate(x, planned(dt))
     stats.solves += 1
     if write_first:
         on_frame(t, ev, dt, final=False)
-    next_save = t0 + save_every
-    eps = 1e-9 * max(save_every, 1e-12)
     while True:
         if progress is not None:
             progress(t, ev, dt, stats)
@@ -322,7 +346,7 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             # keep the controller's proposal, not the step shortened to reach a frame time
             dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
             dt = min(dt, scheme.dt_cap)
-        ev = evaluate(x)
+        ev = evaluate(x, planned(dt))
         stats.solves += 1
         if t >= next_save - eps or t >= t_end - eps:
             on_frame(t, ev, dt, final=t >= t_end - eps)

@@ -447,6 +447,13 @@ def _check_rules(data: dict) -> None:
             "the effect 'bending_viscosity' is on but viscosity.bending = 0 and "
             "viscosity.bending_bulk = 0: set one of them > 0 or remove 'bending_viscosity' from effects"
         )
+    time = data.get("time") or {}
+    if time.get("implicit_tension") is True and time.get("scheme") in ("heun", "adaptive"):
+        raise SceneError(
+            f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
+            f"second-order scheme time.scheme = {time['scheme']}: use euler or adaptive_euler, or set "
+            "time.implicit_tension: auto"
+        )
     patterns = data["active_stress"]
     if patterns and "active_stress" not in seen:
         raise SceneError(

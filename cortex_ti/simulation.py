@@ -103,14 +103,17 @@ class Simulation:
         self.geometry: Geometry | None = None
         self.seconds: dict[str, float] = {}   # time spent per stage, summed over solves
 
-    def solve(self, points: np.ndarray | None = None) -> Solution:
-        """Velocity and pressure on the shape ``points`` (default: the initial shape)."""
+    def solve(self, points: np.ndarray | None = None, dt: float = 0.0) -> Solution:
+        """Velocity and pressure on the shape ``points`` (default: the initial shape).
+
+        ``dt > 0``: the velocity of a step of that length with the semi-implicit tension
+        (:mod:`cortex_ti.terms.implicit_tension`); 0 is the instantaneous velocity."""
         runtime.ensure()
         x = self.mesh.points if points is None else points
         t0 = time.perf_counter()
         self.geometry = compute_geometry(x, self.topology, self.stencils, residual=self.fit_residual_weight > 0)
         t1 = time.perf_counter()
-        system = assemble(self.geometry, self.physics, self.zeta, self.fit_residual_weight)
+        system = assemble(self.geometry, self.physics, self.zeta, self.fit_residual_weight, implicit_dt=dt)
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()
@@ -143,11 +146,12 @@ class Simulation:
             "cortex_ti_version": __version__,
         }
 
-    def evaluate(self, points: np.ndarray):
-        """Solve on ``points`` and package what the time integration needs."""
+    def evaluate(self, points: np.ndarray, dt: float = 0.0):
+        """Solve on ``points`` (for a step ``dt``, see :meth:`solve`) and package what the
+        time integration needs."""
         from .dynamics import Evaluation
 
-        sol = self.solve(points)
+        sol = self.solve(points, dt)
         self._accumulate(sol)
         return Evaluation(points=points, velocity=sol.velocity, normal=self.geometry.normal.copy(),
                           pressure=sol.pressure, solution=sol, edge_length=self.geometry.edge_length.copy())
@@ -182,7 +186,7 @@ class Simulation:
 
     def _run_dynamics(self, output: Path, resume: bool, progress: bool) -> Path:
         from .diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-        from .dynamics import integrate, make_scheme
+        from .dynamics import implicit_tension_on, integrate, make_scheme
 
         sc = self.scene
         t_end, dt, save_every = float(sc["time.t_end"]), float(sc["time.dt"]), float(sc["time.save_every"])
@@ -219,10 +223,12 @@ class Simulation:
 
         scheme = make_scheme(sc["time.scheme"], self.evaluate, tol=float(sc["time.tol"]),
                              dt_max=float(sc["time.dt_max"]))
+        implicit = implicit_tension_on(sc["time.implicit_tension"], scheme) and self.physics.normal_balance
         bar = _progress_bar(t0, t_end) if progress else None
         try:
             stats = integrate(self.evaluate, points, t0, t_end, dt, scheme, save_every, on_frame,
-                              steady_tol=float(sc["time.steady_tol"]), progress=bar, write_first=not resume)
+                              steady_tol=float(sc["time.steady_tol"]), progress=bar, write_first=not resume,
+                              implicit=implicit)
         except BaseException:
             writer.close_partial()
             raise

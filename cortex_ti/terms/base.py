@@ -81,6 +81,7 @@ class AssemblyContext:
     Wn: np.ndarray = field(init=False)
     Wn0: np.ndarray = field(init=False)
     rhs: np.ndarray = field(init=False)
+    implicit_dt: float = 0.0   # time step of the semi-implicit tension (0: explicit)
     pressure: bool = False
     constraints: list = field(default_factory=list)
     ran: list = field(default_factory=list)
@@ -107,6 +108,10 @@ class Term:
 
     effect: str | None = None
     name: str = "term"
+
+    def applies(self, ctx: AssemblyContext) -> bool:
+        """Whether the term has anything to add on this solve (beyond its effect being on)."""
+        return True
 
     def apply(self, ctx: AssemblyContext) -> None:  # pragma: no cover - interface
         raise NotImplementedError

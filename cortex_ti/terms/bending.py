@@ -34,22 +34,35 @@ import numpy as np
 from .base import ROW_NORMAL, AssemblyContext, Term, register
 
 
-def bending_weights(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
-    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n itself."""
-    gi, cab, gam = geometry.metric_inv, geometry.curvature, geometry.christoffel
+def curvature_invariants(geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``C^a_b``, ``C^ab``, ``C``, ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a`` per node."""
+    gi, cab = geometry.metric_inv, geometry.curvature
     cmix = np.einsum("nac,ncb->nab", gi, cab)            # C^a_b
     cup = np.einsum("nab,nbd->nad", cmix, gi)           # C^ad
     ctr = np.trace(cmix, axis1=1, axis2=2)
     c2 = np.einsum("nab,nba->n", cmix, cmix)
     c3 = np.einsum("nab,nbc,nca->n", cmix, cmix, cmix)
-    beta = -2.0 * eta_bar * cup - (eta_bar_b - eta_bar) * ctr[:, None, None] * gi
+    return cmix, cup, ctr, c2, c3
+
+
+def hessian_weights(geometry, beta: np.ndarray) -> np.ndarray:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n that give ``beta^cd nabla_c nabla_d v_n``,
+    with ``nabla_c nabla_d v_n = d_c d_d v_n - Gamma^m_cd d_m v_n``."""
     w = np.zeros((geometry.n_nodes, 5))
-    w[:, 0:2] = -np.einsum("ncd,nmcd->nm", beta, gam)
+    w[:, 0:2] = -np.einsum("ncd,nmcd->nm", beta, geometry.christoffel)
     w[:, 2] = beta[:, 0, 0]
     w[:, 3] = beta[:, 1, 1]
     w[:, 4] = beta[:, 0, 1] + beta[:, 1, 0]
+    return w
+
+
+def bending_weights(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n itself."""
+    gi = geometry.metric_inv
+    _, cup, ctr, c2, c3 = curvature_invariants(geometry)
+    beta = -2.0 * eta_bar * cup - (eta_bar_b - eta_bar) * ctr[:, None, None] * gi
     w0 = 2.0 * eta_bar * (ctr * c2 - c3) - (eta_bar_b - eta_bar) * ctr * c2
-    return w, w0
+    return hessian_weights(geometry, beta), w0
 
 
 @register
