@@ -209,20 +209,24 @@ def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     """Error of the radii against the axisymmetric reference versus wall time, one point per
-    (N, fit, scheme, dt), the Pareto front joined; runs that failed (unstable) are marked at the top."""
+    (N, fit, scheme, implicit tension, dt; colour: N, marker: scheme, filled: semi-implicit tension),
+    the Pareto front joined; runs that failed (unstable) are marked at the top."""
     sel = ds.where(ds["study"] == "accuracy", drop=True) if "accuracy" in set(ds["study"].values) else ds
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.subplots()
     wall, err = sel["wall_s"].values, sel["error"].values
     ok = np.asarray(sel["status"].values == "ok") & np.isfinite(err)
     markers = {"euler": "o", "heun": "s", "adaptive": "D", "adaptive_euler": "^"}
+    implicit = (sel["implicit_tension"].values.astype(bool) if "implicit_tension" in sel.coords
+                else np.zeros(sel.sizes["run"], dtype=bool))
+    node_counts = sorted({int(v) for v in sel["nodes"].values})
     for i in np.flatnonzero(ok):
-        ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7,
-                  color=f"C{[642, 2562, 10242, 40962].index(int(sel['nodes'].values[i])) % 10}"
-                  if int(sel["nodes"].values[i]) in (642, 2562, 10242, 40962) else "k")
-        ax.annotate(f"N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]} {sel['fit'].values[i][:4]} "
-                    f"dt={sel['dt'].values[i]:g}", (wall[i], err[i]), fontsize=6, xytext=(4, 2),
-                    textcoords="offset points")
+        color = f"C{node_counts.index(int(sel['nodes'].values[i])) % 10}"
+        ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=color,
+                  mfc=color if implicit[i] else "none")
+        ax.annotate(f"N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{' impl.' if implicit[i] else ''} "
+                    f"{sel['fit'].values[i][:4]} dt={sel['dt'].values[i]:g}", (wall[i], err[i]), fontsize=6,
+                    xytext=(4, 2), textcoords="offset points")
     front = pareto_front(np.where(ok, wall, np.nan), np.where(ok, err, np.nan))
     if front.size:
         ax.loglog(wall[front], err[front], "k-", lw=1, label="Pareto front")
@@ -233,6 +237,8 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
                     (wall[i], top), fontsize=6, color="r", xytext=(4, -8 - 8 * k), textcoords="offset points")
     for s, m in markers.items():
         ax.plot([], [], m, color="0.4", label=s)
+    ax.plot([], [], "o", color="0.4", label="filled: semi-implicit tension")
+    ax.plot([], [], "o", color="0.4", mfc="none", label="open: explicit")
     ax.set_xlabel("wall time of the run (s)")
     ax.set_ylabel(r"max |radius - reference| / $R_0$")
     ax.set_title("furrow p = 8, $\\hat\\zeta$ = 1 against the axisymmetric reference", fontsize=9)

@@ -129,7 +129,8 @@ class Simulation:
                "solver_backend": self.solver.backend, "effects": self.effects_ran(),
                "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
                "solves": solves, "t_reached": st.t if st is not None else 0.0,
-               "stopped": st.stopped if st is not None else "static"}
+               "stopped": st.stopped if st is not None else "static",
+               "implicit_tension": bool(getattr(self, "implicit_tension", False))}
         out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in self.seconds.items()})
         return out
 
@@ -224,6 +225,7 @@ class Simulation:
         scheme = make_scheme(sc["time.scheme"], self.evaluate, tol=float(sc["time.tol"]),
                              dt_max=float(sc["time.dt_max"]))
         implicit = implicit_tension_on(sc["time.implicit_tension"], scheme) and self.physics.normal_balance
+        self.implicit_tension = implicit
         bar = _progress_bar(t0, t_end) if progress else None
         try:
             stats = integrate(self.evaluate, points, t0, t_end, dt, scheme, save_every, on_frame,

@@ -18,6 +18,8 @@ scene      (the base scene)                   built-in scene name or YAML file
 nodes      ``mesh.nodes``                     icosphere node count N
 fit        ``numerics.fit``                   quadratic (one ring) or quartic
 scheme     ``time.scheme``                    euler, heun, adaptive, adaptive_euler
+implicit   ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
+                                              is resolved for the row's scheme)
 dt         ``time.dt``                        (first) time step, t_a
 t_end      ``time.t_end``                     end time, t_a
 zeta_hat   ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
@@ -36,6 +38,7 @@ import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from .dynamics import SCHEMES, implicit_tension_on
 from .errors import SceneError
 from .scene import load_scene
 
@@ -47,6 +50,7 @@ PARAMETERS: dict[str, str] = {
     "nodes": "mesh.nodes",
     "fit": "numerics.fit",
     "scheme": "time.scheme",
+    "implicit": "time.implicit_tension",
     "dt": "time.dt",
     "t_end": "time.t_end",
     "zeta_hat": "active_stress.0.amplitude",
@@ -60,7 +64,7 @@ STUDY_COLUMNS: dict[str, tuple[str, ...]] = {
     "furrow": ("scene", "zeta_hat", "p", "nodes", "fit", "scheme", "dt", "t_end"),
     "fold": ("scene", "zeta_hat", "nodes", "fit", "scheme", "dt", "t_end"),
     "reorientation": ("scene", "gamma", "tilt", "nodes", "fit", "scheme", "dt", "t_end"),
-    "accuracy": ("scene", "nodes", "fit", "scheme", "dt", "t_end"),
+    "accuracy": ("scene", "nodes", "fit", "scheme", "implicit", "dt", "t_end"),
 }
 
 
@@ -69,7 +73,7 @@ def format_value(value) -> str:
     reads back to the same number (``5e-04`` -> ``0.0005``, ``2562.0`` -> ``2562``), the
     string itself otherwise."""
     if isinstance(value, bool):
-        raise SceneError(f"a sweep value must be a number or a name, got {value!r}")
+        return "true" if value else "false"
     if isinstance(value, (int, float)):
         if not math.isfinite(value):
             raise SceneError(f"a sweep value must be finite, got {value!r}")
@@ -140,6 +144,12 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
             for col in columns:
                 value = given[col] if col in given else _scene_value(scene, col)
                 row[col] = format_value(value)
+            if row.get("implicit") == "auto":   # say what runs: on for the first-order schemes
+                row["implicit"] = format_value(implicit_tension_on("auto", SCHEMES[row["scheme"]]))
+            try:    # a combination the scene rules refuse fails here, not in a job
+                load_scene(str(given["scene"]), scene_overrides(row))
+            except SceneError as exc:
+                raise SceneError(f"{study} runs[{i}] {row}: {exc}") from None
             if row not in rows:
                 rows.append(row)
     return rows

@@ -90,7 +90,7 @@ def test_shipped_scene_values(name):
     # defaults filled from the schema
     assert scene["solver"] == {"backend": "auto", "reuse": True, "rtol": 1e-10}
     assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler", "save_every": 0.01,
-                             "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05}
+                             "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05, "implicit_tension": "auto"}
     assert scene["numerics"] == {"fit": "quartic", "fit_residual_weight": None}
 
 

@@ -93,3 +93,16 @@ def test_pareto_front():
     err = np.array([1.0, 0.5, 0.7, 0.1, 0.01, 0.5])
     # 3 (cost 3, err .7) and 5 (cost 2.5, err .5 tie) are dominated; NaN ignored
     assert pareto_front(cost, err).tolist() == [0, 1, 3]
+
+
+def test_the_implicit_tension_column_says_what_runs():
+    """'auto' (the scene default) is resolved per scheme; a refused combination fails when the
+    table is built, not in a job."""
+    rows = expand_runs("accuracy", [{"scene": "furrow_p8_a1", "scheme": ["euler", "adaptive_euler", "heun"]},
+                                    {"scene": "furrow_p8_a1", "scheme": "euler", "implicit": False}])
+    assert [(r["scheme"], r["implicit"]) for r in rows] == [
+        ("euler", "true"), ("adaptive_euler", "true"), ("heun", "false"), ("euler", "false")]
+    for r in rows:
+        assert load_scene(r["scene"], scene_overrides(r))["time.implicit_tension"] is (r["implicit"] == "true")
+    with pytest.raises(SceneError, match=r"accuracy runs\[0\].*first-order"):
+        expand_runs("accuracy", [{"scene": "furrow_p8_a1", "scheme": "heun", "implicit": True}])
