@@ -233,7 +233,8 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     top = np.nanmax(err[ok]) * 2 if ok.any() else 1.0
     for k, i in enumerate(np.flatnonzero(~ok)):
         ax.loglog(wall[i], top, "rx", ms=8)
-        ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]} dt={sel['dt'].values[i]:g}",
+        ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}"
+                    f"{' impl.' if implicit[i] else ''} dt={sel['dt'].values[i]:g}",
                     (wall[i], top), fontsize=6, color="r", xytext=(4, -8 - 8 * k), textcoords="offset points")
     for s, m in markers.items():
         ax.plot([], [], m, color="0.4", label=s)
