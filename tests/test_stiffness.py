@@ -54,8 +54,9 @@ def test_power_iteration_matches_a_fixed_step_experiment():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="known defect: at 642 nodes the discrete force balance has a growing "
-                                        "spurious normal mode (lambda ~ +1.2e5 for a uniform tension) that the "
-                                        "paper's bending viscosity cannot hold down; see the README")
+                                        "spurious normal mode (lambda ~ +1.2e5 for a uniform tension) that neither the "
+                                        "paper's bending viscosity nor the semi-implicit tension holds down; "
+                                        "see the README")
 def test_uniform_sphere_at_642_nodes_is_stable():
     sim = uniform_sphere(642)
     lam, _ = stiffest_normal_mode(sim.evaluate, sim.mesh.points, iterations=30)
