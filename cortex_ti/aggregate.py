@@ -162,7 +162,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     ``summary`` (path or None) and optionally ``params`` (the sweep row) and ``error`` (float)."""
     n = len(entries)
     data = {k: np.full(n, np.nan) for k in _COST_ATTRS}
-    status, studies, labels, nodes, scheme, fit, dt, implicit = [], [], [], [], [], [], [], []
+    status, studies, labels, nodes, scheme, fit, dt, implicit, residual = [], [], [], [], [], [], [], [], []
     for i, e in enumerate(entries):
         b = read_benchmark(e["benchmark"])
         data["wall_s"][i] = b.get("s", np.nan)
@@ -184,6 +184,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         fit.append(str(p.get("fit", s.get("fit", ""))))
         dt.append(float(p.get("dt", np.nan)))
         implicit.append(bool(s.get("implicit_tension", str(p.get("implicit", "false")) == "true")))
+        residual.append(float(s.get("fit_residual_weight", p.get("residual", 0.0)) or 0.0))
     variables = {k: (("run",), v, {"units": u, "long_name": ln, "description": d})
                  for k, v in data.items() for u, ln, d in [_COST_ATTRS[k]]}
     obj = lambda xs: np.asarray(xs, dtype=object)  # noqa: E731
@@ -192,7 +193,9 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
               "nodes": ("run", np.asarray(nodes)), "scheme": ("run", obj(scheme)), "fit": ("run", obj(fit)),
               "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
               "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
-                                   {"long_name": "semi-implicit active tension (time.implicit_tension)"})}
+                                   {"long_name": "semi-implicit active tension (time.implicit_tension)"}),
+              "fit_residual_weight": ("run", np.asarray(residual),
+                                      {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"})}
     return xr.Dataset(variables, coords=coords,
                       attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
                                             "Snakemake's benchmark files, steps and time per stage from cortex-ti's "

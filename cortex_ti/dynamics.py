@@ -196,8 +196,8 @@ class AdaptiveEuler(Euler):
                         raise StabilityError(
                             f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
                             "time-step instability but an unresolved shape (spurious modes of the discrete force "
-                            "balance); use more mesh nodes (e.g. mesh.nodes=2562), a larger bending viscosity, or the "
-                            "other numerics.fit")
+                            "balance); use more mesh nodes (e.g. mesh.nodes=2562) or the stabilising rows "
+                            "numerics.fit_residual_weight=1e-3")
                     self.dt_cap = self.CAP * prev_dt
                     log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
                              prev_dt, self.dt_cap)
@@ -226,7 +226,8 @@ class StabilityGuard:
     _history: list = field(default_factory=list)
 
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
-        suggestion = f"try time.dt={dt / 4:.3g} or time.scheme=adaptive"
+        suggestion = (f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the mesh "
+                      "is too coarse for the force balance: use more nodes or numerics.fit_residual_weight=1e-3")
         if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
             raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
         move = np.linalg.norm(new_points - old_points, axis=1)

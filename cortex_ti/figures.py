@@ -220,11 +220,15 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     implicit = (sel["implicit_tension"].values.astype(bool) if "implicit_tension" in sel.coords
                 else np.zeros(sel.sizes["run"], dtype=bool))
     node_counts = sorted({int(v) for v in sel["nodes"].values})
+    rows = (sel["fit_residual_weight"].values if "fit_residual_weight" in sel.coords
+            else np.zeros(sel.sizes["run"]))
+    extra = [(" impl." if implicit[i] else "") + (f" rows {rows[i]:g}" if rows[i] > 0 else "")
+             for i in range(sel.sizes["run"])]
     for i in np.flatnonzero(ok):
         color = f"C{node_counts.index(int(sel['nodes'].values[i])) % 10}"
         ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=color,
                   mfc=color if implicit[i] else "none")
-        ax.annotate(f"N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{' impl.' if implicit[i] else ''} "
+        ax.annotate(f"N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{extra[i]} "
                     f"{sel['fit'].values[i][:4]} dt={sel['dt'].values[i]:g}", (wall[i], err[i]), fontsize=6,
                     xytext=(4, 2), textcoords="offset points")
     front = pareto_front(np.where(ok, wall, np.nan), np.where(ok, err, np.nan))
@@ -233,8 +237,8 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     top = np.nanmax(err[ok]) * 2 if ok.any() else 1.0
     for k, i in enumerate(np.flatnonzero(~ok)):
         ax.loglog(wall[i], top, "rx", ms=8)
-        ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}"
-                    f"{' impl.' if implicit[i] else ''} dt={sel['dt'].values[i]:g}",
+        ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{extra[i]} "
+                    f"dt={sel['dt'].values[i]:g}",
                     (wall[i], top), fontsize=6, color="r", xytext=(4, -8 - 8 * k), textcoords="offset points")
     for s, m in markers.items():
         ax.plot([], [], m, color="0.4", label=s)

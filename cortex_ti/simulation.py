@@ -130,7 +130,8 @@ class Simulation:
                "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
                "solves": solves, "t_reached": st.t if st is not None else 0.0,
                "stopped": st.stopped if st is not None else "static",
-               "implicit_tension": bool(getattr(self, "implicit_tension", False))}
+               "implicit_tension": bool(getattr(self, "implicit_tension", False)),
+               "fit_residual_weight": self.fit_residual_weight}
         out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in self.seconds.items()})
         return out
 

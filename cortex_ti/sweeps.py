@@ -20,6 +20,7 @@ fit        ``numerics.fit``                   quadratic (one ring) or quartic
 scheme     ``time.scheme``                    euler, heun, adaptive, adaptive_euler
 implicit   ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
                                               is resolved for the row's scheme)
+residual   ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)
 dt         ``time.dt``                        (first) time step, t_a
 t_end      ``time.t_end``                     end time, t_a
 zeta_hat   ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
@@ -38,6 +39,7 @@ import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+from .assemble import FIT_RESIDUAL_WEIGHT
 from .dynamics import SCHEMES, implicit_tension_on
 from .errors import SceneError
 from .scene import load_scene
@@ -51,6 +53,7 @@ PARAMETERS: dict[str, str] = {
     "fit": "numerics.fit",
     "scheme": "time.scheme",
     "implicit": "time.implicit_tension",
+    "residual": "numerics.fit_residual_weight",
     "dt": "time.dt",
     "t_end": "time.t_end",
     "zeta_hat": "active_stress.0.amplitude",
@@ -64,7 +67,7 @@ STUDY_COLUMNS: dict[str, tuple[str, ...]] = {
     "furrow": ("scene", "zeta_hat", "p", "nodes", "fit", "scheme", "dt", "t_end"),
     "fold": ("scene", "zeta_hat", "nodes", "fit", "scheme", "dt", "t_end"),
     "reorientation": ("scene", "gamma", "tilt", "nodes", "fit", "scheme", "dt", "t_end"),
-    "accuracy": ("scene", "nodes", "fit", "scheme", "implicit", "dt", "t_end"),
+    "accuracy": ("scene", "nodes", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
 }
 
 
@@ -144,6 +147,8 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
             for col in columns:
                 value = given[col] if col in given else _scene_value(scene, col)
                 row[col] = format_value(value)
+            if row.get("residual") == "None":   # say what runs: the fit's default weight
+                row["residual"] = format_value(FIT_RESIDUAL_WEIGHT[row["fit"]])
             if row.get("implicit") == "auto":   # say what runs: on for the first-order schemes
                 row["implicit"] = format_value(implicit_tension_on("auto", SCHEMES[row["scheme"]]))
             try:    # a combination the scene rules refuse fails here, not in a job

@@ -46,7 +46,7 @@ def run(tmp_path, scene, overrides, name="run"):
     return sim, ds
 
 
-def assert_healthy(ds, angle_floor=MIN_ANGLE_FLOOR):
+def assert_healthy(ds, angle_floor=MIN_ANGLE_FLOOR, residual=1e-3):
     for var in ("points", "velocity", "pressure", "volume", "pole_radius", "furrow_radius"):
         assert np.all(np.isfinite(ds[var].values)), var
     vol = ds["volume"].values
@@ -55,7 +55,7 @@ def assert_healthy(ds, angle_floor=MIN_ANGLE_FLOOR):
     assert ds["constraint_violation"].values.max() < CONSTRAINTS
     # The least-squares residual measures how far the discrete force balance is from being
     # consistent: ~1e-10 on a sphere, 3e-5 (zeta_hat = 6) to 1.9e-4 (sheared start) measured here.
-    assert ds["relative_residual"].values.max() < 1e-3
+    assert ds["relative_residual"].values.max() < residual
 
 
 @pytest.mark.slow
@@ -176,13 +176,33 @@ def test_the_semi_implicit_step_runs_far_beyond_the_explicit_limit(tmp_path):
 
 @pytest.mark.slow
 def test_unresolved_mesh_is_reported(tmp_path):
-    """642 nodes do not resolve the zeta_hat = 3 ring: the run must stop with an error that
-    points at the resolution (not at the time step), and leave no output file."""
+    """642 nodes with the paper's method (no fit-residual rows): the zeta_hat = 3 ring's run must
+    stop with an error that points at the mesh and the rows (not only at the time step), and
+    leave no output file."""
     sim = Simulation(load_scene("furrow_p4_a3", ["mesh.nodes=642", "time.t_end=0.3"]))
     out = tmp_path / "coarse.h5"
-    with pytest.raises(StabilityError, match="mesh nodes|unresolved|unstable"):
+    with pytest.raises(StabilityError, match="fit_residual_weight=1e-3") as err:
         sim.run(out, progress=False)
+    assert "nodes" in str(err.value)
     assert not out.exists()
+
+
+#: furrow_p4_a3 at t = 0.3 on 2562 nodes (quick workflow run, semi-implicit adaptive Euler)
+P4A3_2562_AT_03 = {"pole_radius": 1.14344, "furrow_radius": 0.88800}
+
+
+@pytest.mark.slow
+def test_coarse_mesh_with_fit_residual_rows_runs_and_approaches_the_fine_one(tmp_path):
+    """The same coarse run with numerics.fit_residual_weight = 1e-3 is healthy and lands within
+    1e-2 R0 of the 2562-node run (measured 4.5e-3 and 6.6e-3: the O(h^2) error of 642 nodes, 4x
+    the 1.1e-3 of 2562 nodes against 10242)."""
+    _, ds = run(tmp_path, "furrow_p4_a3", ["mesh.nodes=642", "time.t_end=0.3", "numerics.fit_residual_weight=1e-3"])
+    assert ds["time"].values[-1] == pytest.approx(0.3)
+    # the rows ask for what the force rows cannot quite give on a coarse mesh: the least squares is
+    # inconsistent at the fits' truncation level (measured 1.9e-3 at t = 0, 1.3e-4 later)
+    assert_healthy(ds, residual=5e-3)
+    for var, fine in P4A3_2562_AT_03.items():
+        assert abs(float(ds[var].values[-1]) - fine) < 1e-2, var
 
 
 #: measured on furrow_p8_a1 at 2562 nodes: Euler with dt = 3e-3 ran to t = 0.4, 5e-3 blew up at t = 0.07

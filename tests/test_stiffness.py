@@ -3,7 +3,7 @@
 A sphere under a uniform active tension is the state the tension relaxes to: every normal
 perturbation must decay (lambda < 0), and the explicit step must be limited by it. The power
 iteration is checked against the step the adaptive controller finds by itself, and the
-known defect of coarse meshes is pinned down.
+known defect of coarse meshes, and the rows that remove it, are pinned down.
 """
 
 import numpy as np
@@ -53,33 +53,33 @@ def test_power_iteration_matches_a_fixed_step_experiment():
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="known defect: at 642 nodes the discrete force balance has a growing "
-                                        "spurious normal mode (lambda ~ +1.2e5 for a uniform tension) that neither the "
-                                        "paper's bending viscosity nor the semi-implicit tension holds down; "
-                                        "see the README")
-def test_uniform_sphere_at_642_nodes_is_stable():
+def test_the_papers_method_has_a_growing_mode_at_642_nodes():
+    """The known defect the fit-residual rows exist for: at 642 nodes the discrete force balance
+    of the paper's method (rows off) has a growing spurious normal mode even for a uniform tension
+    (measured lambda = +1.2e5), which no time step removes."""
     sim = uniform_sphere(642)
+    assert sim.fit_residual_weight == 0.0
     lam, _ = stiffest_normal_mode(sim.evaluate, sim.mesh.points, iterations=30)
-    assert lam < 0.0
+    assert lam > 1e4
 
 
 @pytest.mark.slow
 def test_fit_residual_rows_remove_the_growing_mode_and_keep_the_static_accuracy():
-    """The experimental numerics.fit_residual_weight: at 0.1 the 642-node uniform sphere's
-    growing mode (+1.2e5) becomes a decaying one (measured -190), while the Y20 sphere error
-    (eps_rel 5.15e-2 at 642 nodes, quadratic fit) changes by under 2 %; the rows vanish for
-    fields the fit reproduces, so the analytic flow's error stays of the same order."""
+    """numerics.fit_residual_weight = 1e-3: the 642-node uniform sphere's growing mode (+1.2e5)
+    becomes a decaying one (measured -191), while the Y20 sphere error (eps_rel 5.15e-2 at 642
+    nodes, quadratic fit) changes by under 1 % (measured 5.14e-2); the rows vanish for fields
+    the fit reproduces, so the analytic flow's error stays of the same order."""
     from cortex_ti import analytic
 
-    sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=642", "numerics.fit_residual_weight=0.1"]))
+    sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=642", "numerics.fit_residual_weight=1e-3"]))
     sim.zeta = np.ones(sim.mesh.n_nodes)
     lam, _ = stiffest_normal_mode(sim.evaluate, sim.mesh.points, iterations=30)
     assert -1000.0 < lam < 0.0
     errs = []
-    for weight in (0, 0.1):
+    for weight in (0, 1e-3):
         scene = load_scene("sphere_y20_full", ["mesh.nodes=642", "numerics.fit=quadratic",
                                                f"numerics.fit_residual_weight={weight}"])
         s = Simulation(scene)
         sol = s.solve()
         errs.append(analytic.error_measures(sol.velocity, analytic.scene_solution(scene, s.mesh.points))[1])
-    assert errs[1] == pytest.approx(errs[0], rel=0.02)
+    assert errs[1] == pytest.approx(errs[0], rel=0.01)
