@@ -46,6 +46,10 @@ from .errors import StabilityError
 
 log = logging.getLogger(__name__)
 
+#: how to get out of a resolution problem (the rows may already be on: then only more nodes help)
+RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562), or on a coarse mesh the stabilising rows "
+                   "numerics.fit_residual_weight=1e-3 if they are not on already")
+
 
 @dataclass
 class Evaluation:
@@ -196,8 +200,7 @@ class AdaptiveEuler(Euler):
                         raise StabilityError(
                             f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
                             "time-step instability but an unresolved shape (spurious modes of the discrete force "
-                            "balance); use more mesh nodes (e.g. mesh.nodes=2562) or the stabilising rows "
-                            "numerics.fit_residual_weight=1e-3")
+                            f"balance); {RESOLUTION_HINT}")
                     self.dt_cap = self.CAP * prev_dt
                     log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
                              prev_dt, self.dt_cap)
@@ -211,23 +214,38 @@ class AdaptiveEuler(Euler):
 
 @dataclass
 class StabilityGuard:
-    """Stops a fixed-step run that is going unstable, naming the step to try.
+    """Stops a run that is going unstable or has stopped meaning anything, naming what to try.
 
-    Signs of an explicit instability, checked after every step: non-finite positions;
-    a node displaced by more than ``max_fraction`` of its shortest edge in one step; or
-    the largest normal speed growing by more than ``growth`` per step for
-    ``patience`` consecutive steps while exceeding its running minimum by ``jump``.
+    Checked after every step:
+
+    * signs of an explicit instability: non-finite positions; a node displaced by more than
+      ``max_fraction`` of its shortest edge in one step; or the largest normal speed growing by
+      more than ``growth`` per step for ``patience`` consecutive steps while exceeding its
+      running minimum by ``jump``;
+    * signs of an unresolved shape, which a damped (semi-implicit) step can otherwise carry on
+      through: the force balance no longer satisfied (relative least-squares residual above
+      ``max_residual``; resolved runs stay below 3e-3), or the mesh collapsing (the smallest
+      triangle angle below ``angle_fraction`` of its value at the start of the run).
     """
 
     growth: float = 1.5
     patience: int = 3
     jump: float = 10.0
     max_fraction: float = 0.5
+    max_residual: float = 0.05
+    angle_fraction: float = 0.2
+    faces: np.ndarray | None = None
     _history: list = field(default_factory=list)
+    _angle0: float | None = None
+
+    def _min_angle(self, points) -> float:
+        from .diagnostics import mesh_quality
+
+        return mesh_quality(points, self.faces)["min_angle_deg"]
 
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
         suggestion = (f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the mesh "
-                      "is too coarse for the force balance: use more nodes or numerics.fit_residual_weight=1e-3")
+                      f"is too coarse for the force balance: {RESOLUTION_HINT}")
         if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
             raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
         move = np.linalg.norm(new_points - old_points, axis=1)
@@ -245,6 +263,21 @@ class StabilityGuard:
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
                     f"(t={t:.4g}): the explicit scheme is unstable at this step; {suggestion}")
+        residual = getattr(getattr(ev.solution, "info", None), "relative_residual", 0.0)
+        if residual > self.max_residual:
+            raise StabilityError(
+                f"the force balance is no longer satisfied at t={t - dt:.4g}: relative least-squares residual "
+                f"{residual:.2g} > {self.max_residual:g} (resolved runs stay below 3e-3); the shape is not resolved: "
+                f"{RESOLUTION_HINT}")
+        if self.faces is not None:
+            if self._angle0 is None:
+                self._angle0 = self._min_angle(old_points)
+            angle = self._min_angle(new_points)
+            if angle < self.angle_fraction * self._angle0:
+                raise StabilityError(
+                    f"the mesh is collapsing at t={t:.4g}: smallest triangle angle {angle:.2g} deg, from "
+                    f"{self._angle0:.3g} at the start; either the step is unstable ({suggestion}) or the shape is "
+                    "not resolved")
 
 
 def stiffest_normal_mode(evaluate, points: np.ndarray, iterations: int = 30, eps: float = 1e-7,

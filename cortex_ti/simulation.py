@@ -188,7 +188,7 @@ class Simulation:
 
     def _run_dynamics(self, output: Path, resume: bool, progress: bool) -> Path:
         from .diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-        from .dynamics import implicit_tension_on, integrate, make_scheme
+        from .dynamics import StabilityGuard, implicit_tension_on, integrate, make_scheme
 
         sc = self.scene
         t_end, dt, save_every = float(sc["time.t_end"]), float(sc["time.dt"]), float(sc["time.save_every"])
@@ -231,7 +231,7 @@ class Simulation:
         try:
             stats = integrate(self.evaluate, points, t0, t_end, dt, scheme, save_every, on_frame,
                               steady_tol=float(sc["time.steady_tol"]), progress=bar, write_first=not resume,
-                              implicit=implicit)
+                              implicit=implicit, guard=StabilityGuard(faces=faces))
         except BaseException:
             writer.close_partial()
             raise

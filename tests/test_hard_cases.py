@@ -187,6 +187,19 @@ def test_unresolved_mesh_is_reported(tmp_path):
     assert not out.exists()
 
 
+@pytest.mark.slow
+def test_an_unresolved_ring_is_stopped_even_when_the_step_is_damped(tmp_path):
+    """p = 8 at 642 nodes is beyond what the rows can rescue (the ring is about two mesh spacings
+    wide). Without the guard's residual check this run went on to t = 0.3 with speeds 100x the
+    physical ones and a mesh collapsed to 0.1 deg angles; it must stop early, naming the mesh."""
+    sim = Simulation(load_scene("furrow_p8_a1", ["mesh.nodes=642", "numerics.fit_residual_weight=1e-3",
+                                                 "time.scheme=euler", "time.t_end=0.3"]))
+    out = tmp_path / "p8.h5"
+    with pytest.raises(StabilityError, match="no longer satisfied.*mesh nodes"):
+        sim.run(out, progress=False)
+    assert not out.exists()
+
+
 #: furrow_p4_a3 at t = 0.3 on 2562 nodes (quick workflow run, semi-implicit adaptive Euler)
 P4A3_2562_AT_03 = {"pole_radius": 1.14344, "furrow_radius": 0.88800}
 

@@ -1,0 +1,32 @@
+"""StabilityGuard: the checks that stop a run going unstable or losing its meaning."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cortex_ti.dynamics import Evaluation, StabilityGuard
+from cortex_ti.errors import StabilityError
+from cortex_ti.mesh import icosphere
+
+
+def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
+    """StabilityGuard's resolution checks, on hand-made steps: a triangle squashed below 0.2 of the
+    starting smallest angle, and a solve whose relative residual exceeds 0.05."""
+    mesh = icosphere(42)
+    x0 = mesh.points
+    edge = np.full(len(x0), 10.0)   # large: only the resolution checks can fire
+
+    def ev(points, residual):
+        return Evaluation(points=points, velocity=np.zeros_like(points), normal=points, pressure=0.0,
+                          solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)))
+
+    guard = StabilityGuard(faces=mesh.faces)
+    guard.check(0.01, 0.01, x0, x0.copy(), ev(x0, 1e-3), edge)          # a healthy step passes
+    a, b, c = mesh.faces[0]
+    squashed = x0.copy()
+    squashed[a] = 0.5 * (x0[b] + x0[c]) + 0.01 * (x0[a] - 0.5 * (x0[b] + x0[c]))   # corner a onto edge bc
+    with pytest.raises(StabilityError, match="mesh is collapsing"):
+        guard.check(0.02, 0.01, x0, squashed, ev(x0, 1e-3), edge)
+    with pytest.raises(StabilityError, match="no longer satisfied"):
+        StabilityGuard(faces=mesh.faces).check(0.01, 0.01, x0, x0.copy(), ev(x0, 0.2), edge)
