@@ -123,6 +123,13 @@ def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
 FIT_RESIDUAL_WEIGHT = {"quadratic": 0.0, "quartic": 0.0}
 
 
+def scene_fit_residual_weight(scene) -> float:
+    """The fit-residual weight a scene runs with: its ``numerics.fit_residual_weight``, or the
+    default of its fit scheme where that is null."""
+    weight = scene["numerics.fit_residual_weight"]
+    return FIT_RESIDUAL_WEIGHT[scene["numerics.fit"]] if weight is None else float(weight)
+
+
 def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_s: float) -> sp.csr_matrix:
     r"""Rows that ask the velocity to be locally what the fits assume: a Taylor polynomial.
 

@@ -125,6 +125,15 @@ def _check(args) -> int:
 
         evaluate_active_stress(mesh.points, scene["active_stress"])
     print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {', '.join(sorted(scene.effects))})")
+    if scene.has("shape_evolution"):
+        from .assemble import scene_fit_residual_weight
+        from .dynamics import scene_implicit_tension
+
+        implicit = scene_implicit_tension(scene)
+        rows = scene_fit_residual_weight(scene)
+        print(f"  time: {scene['time.scheme']} from dt = {scene['time.dt']:g} to t = {scene['time.t_end']:g}, "
+              f"{'semi-implicit' if implicit else 'explicit'} tension; fit-residual rows "
+              f"{'off' if not rows else f'at {rows:g}'}")
     return 0
 
 

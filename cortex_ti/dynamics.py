@@ -328,6 +328,13 @@ def implicit_tension_on(setting, scheme) -> bool:
     return bool(scheme.first_order) if setting == "auto" else bool(setting)
 
 
+def scene_implicit_tension(scene) -> bool:
+    """Whether a scene's time steps use the semi-implicit tension: its setting, resolved for its
+    scheme, and only where there is a normal balance to put it in."""
+    return implicit_tension_on(scene["time.implicit_tension"], SCHEMES[scene["time.scheme"]]) \
+        and scene.has("normal_balance")
+
+
 def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
               save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
               guard: StabilityGuard | None = None, write_first: bool = True,

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__, runtime
-from .assemble import FIT_RESIDUAL_WEIGHT, assemble
+from .assemble import assemble, scene_fit_residual_weight
 from .errors import CortexError
 from .geometry import Geometry, StencilChooser, compute_geometry
 from .io import TrajectoryWriter, last_frame, partial_path
@@ -98,8 +98,7 @@ class Simulation:
         self.mesh = initial_shape(self.mesh, scene)
         self.solver = ConstrainedLeastSquares(scene["solver.backend"], reuse=bool(scene["solver.reuse"]),
                                               rtol=float(scene["solver.rtol"]))
-        weight = scene["numerics.fit_residual_weight"]
-        self.fit_residual_weight = FIT_RESIDUAL_WEIGHT[scene["numerics.fit"]] if weight is None else float(weight)
+        self.fit_residual_weight = scene_fit_residual_weight(scene)
         self.geometry: Geometry | None = None
         self.seconds: dict[str, float] = {}   # time spent per stage, summed over solves
 
@@ -188,7 +187,7 @@ class Simulation:
 
     def _run_dynamics(self, output: Path, resume: bool, progress: bool) -> Path:
         from .diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-        from .dynamics import StabilityGuard, implicit_tension_on, integrate, make_scheme
+        from .dynamics import StabilityGuard, integrate, make_scheme, scene_implicit_tension
 
         sc = self.scene
         t_end, dt, save_every = float(sc["time.t_end"]), float(sc["time.dt"]), float(sc["time.save_every"])
@@ -225,7 +224,7 @@ class Simulation:
 
         scheme = make_scheme(sc["time.scheme"], self.evaluate, tol=float(sc["time.tol"]),
                              dt_max=float(sc["time.dt_max"]))
-        implicit = implicit_tension_on(sc["time.implicit_tension"], scheme) and self.physics.normal_balance
+        implicit = scene_implicit_tension(sc)
         self.implicit_tension = implicit
         bar = _progress_bar(t0, t_end) if progress else None
         try:

@@ -39,8 +39,8 @@ import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from .assemble import FIT_RESIDUAL_WEIGHT
-from .dynamics import SCHEMES, implicit_tension_on
+from .assemble import scene_fit_residual_weight
+from .dynamics import scene_implicit_tension
 from .errors import SceneError
 from .scene import load_scene
 
@@ -147,14 +147,16 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
             for col in columns:
                 value = given[col] if col in given else _scene_value(scene, col)
                 row[col] = format_value(value)
-            if row.get("residual") == "None":   # say what runs: the fit's default weight
-                row["residual"] = format_value(FIT_RESIDUAL_WEIGHT[row["fit"]])
-            if row.get("implicit") == "auto":   # say what runs: on for the first-order schemes
-                row["implicit"] = format_value(implicit_tension_on("auto", SCHEMES[row["scheme"]]))
+            # the scene's own null weight is not an override: leave it out, then say what runs
+            given_row = {k: v for k, v in row.items() if not (k == "residual" and v == "None")}
             try:    # a combination the scene rules refuse fails here, not in a job
-                load_scene(str(given["scene"]), scene_overrides(row))
+                run_scene = load_scene(str(given["scene"]), scene_overrides(given_row))
             except SceneError as exc:
                 raise SceneError(f"{study} runs[{i}] {row}: {exc}") from None
+            if row.get("residual") == "None":   # the fit's default weight
+                row["residual"] = format_value(scene_fit_residual_weight(run_scene))
+            if row.get("implicit") == "auto":   # on for the first-order schemes
+                row["implicit"] = format_value(scene_implicit_tension(run_scene))
             if row not in rows:
                 rows.append(row)
     return rows

@@ -214,6 +214,16 @@ def test_check_valid_scene(capsys):
                     "incompressibility, normal_balance, shear_viscosity)")
 
 
+def test_check_says_how_a_dynamic_scene_steps(capsys):
+    rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162"], capsys)
+    assert rc == 0
+    assert stdout.strip().splitlines()[-1] == ("  time: adaptive_euler from dt = 0.0005 to t = 3.5, semi-implicit "
+                                               "tension; fit-residual rows off")
+    rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162", "--set", "time.scheme=heun",
+                         "--set", "numerics.fit_residual_weight=1e-3"], capsys)
+    assert stdout.strip().splitlines()[-1].endswith("explicit tension; fit-residual rows at 0.001")
+
+
 def test_check_rejects_bad_scene(capsys):
     rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", "viscosity.shaer=1"], capsys)
     assert_clean_failure(rc, stdout, stderr, ["viscosity.shaer"])
