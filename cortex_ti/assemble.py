@@ -117,7 +117,8 @@ def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
 #: Default weight of the fit-residual rows (``numerics.fit_residual_weight``) per fit scheme.
 #: Off by default (the paper's method, and the fastest): at 2562 nodes and more the rows change
 #: nothing that matters (shear_075 to t = 3.5: 5e-5 deg, 3e-7 R0; furrow p8 against the reference:
-#: identical) but cost 2.2x per solve (quadratic, 73 -> 159 ms at 2562 nodes). Recommended value
+#: identical) but cost 1.8x per solve (quadratic, 67 -> 120 ms at 2562 nodes; quartic 2.2x;
+#: benchmarks/stabilisation.py). Recommended value
 #: where they are needed, coarse meshes and the quartic fit in dynamics: 1e-3 (the 642-node uniform
 #: sphere's growing mode +1.2e5 -> -191; 0.1 over-constrains deformed shapes, relative residual 5e-2).
 FIT_RESIDUAL_WEIGHT = {"quadratic": 0.0, "quartic": 0.0}
