@@ -263,7 +263,7 @@ class StabilityGuard:
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
                     f"(t={t:.4g}): the explicit scheme is unstable at this step; {suggestion}")
-        residual = getattr(getattr(ev.solution, "info", None), "relative_residual", 0.0)
+        residual = ev.solution.info.relative_residual
         if residual > self.max_residual:
             raise StabilityError(
                 f"the force balance is no longer satisfied at t={t - dt:.4g}: relative least-squares residual "

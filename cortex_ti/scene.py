@@ -37,6 +37,7 @@ from typing import Any, Iterable, Iterator, Sequence
 import jsonschema
 import yaml
 
+from .dynamics import SCHEMES
 from .errors import SceneError
 
 __all__ = [
@@ -448,7 +449,8 @@ def _check_rules(data: dict) -> None:
             "viscosity.bending_bulk = 0: set one of them > 0 or remove 'bending_viscosity' from effects"
         )
     time = data.get("time") or {}
-    if time.get("implicit_tension") is True and time.get("scheme") in ("heun", "adaptive"):
+    scheme = SCHEMES.get(time.get("scheme", "euler"))
+    if time.get("implicit_tension") is True and scheme is not None and not scheme.first_order:
         raise SceneError(
             f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
             f"second-order scheme time.scheme = {time['scheme']}: use euler or adaptive_euler, or set "

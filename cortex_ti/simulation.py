@@ -17,6 +17,7 @@ import numpy as np
 
 from . import __version__, runtime
 from .assemble import assemble, scene_fit_residual_weight
+from .dynamics import scene_implicit_tension
 from .errors import CortexError
 from .geometry import Geometry, StencilChooser, compute_geometry
 from .io import TrajectoryWriter, last_frame, partial_path
@@ -129,7 +130,7 @@ class Simulation:
                "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
                "solves": solves, "t_reached": st.t if st is not None else 0.0,
                "stopped": st.stopped if st is not None else "static",
-               "implicit_tension": bool(getattr(self, "implicit_tension", False)),
+               "implicit_tension": self.scene.has("shape_evolution") and scene_implicit_tension(self.scene),
                "fit_residual_weight": self.fit_residual_weight}
         out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in self.seconds.items()})
         return out
@@ -187,7 +188,7 @@ class Simulation:
 
     def _run_dynamics(self, output: Path, resume: bool, progress: bool) -> Path:
         from .diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-        from .dynamics import StabilityGuard, integrate, make_scheme, scene_implicit_tension
+        from .dynamics import StabilityGuard, integrate, make_scheme
 
         sc = self.scene
         t_end, dt, save_every = float(sc["time.t_end"]), float(sc["time.dt"]), float(sc["time.save_every"])
@@ -224,13 +225,11 @@ class Simulation:
 
         scheme = make_scheme(sc["time.scheme"], self.evaluate, tol=float(sc["time.tol"]),
                              dt_max=float(sc["time.dt_max"]))
-        implicit = scene_implicit_tension(sc)
-        self.implicit_tension = implicit
         bar = _progress_bar(t0, t_end) if progress else None
         try:
             stats = integrate(self.evaluate, points, t0, t_end, dt, scheme, save_every, on_frame,
                               steady_tol=float(sc["time.steady_tol"]), progress=bar, write_first=not resume,
-                              implicit=implicit, guard=StabilityGuard(faces=faces))
+                              implicit=scene_implicit_tension(sc), guard=StabilityGuard(faces=faces))
         except BaseException:
             writer.close_partial()
             raise
