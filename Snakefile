@@ -1,6 +1,7 @@
-# cortex-ti workflow. `snakemake --cores 2` runs the quick default configuration (config/config.yaml);
-# `snakemake --cores N --configfile config/paper.yaml` the paper's resolutions and times.
-# Rules live in workflow/rules, thin scripts in workflow/scripts; the physics is in the cortex_ti package.
+# cortex-ti workflow. `snakemake --cores 2` runs the default configuration (config/config.yaml);
+# `snakemake --cores N --configfile config/paper.yaml` the extended study.
+# Rules live in workflow/rules, thin scripts in workflow/scripts; the studies, stores and figures
+# are registered in cortex_ti/studies/registry.py and computed by the cortex_ti package.
 import os
 
 from snakemake.utils import min_version, validate
@@ -8,7 +9,7 @@ from snakemake.utils import min_version, validate
 min_version("8.0")
 
 
-# the quick default; --configfile FILE overrides it (paths relative to this file, so --directory works)
+# the default; --configfile FILE overrides it (paths relative to this file, so --directory works)
 configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 
 
@@ -30,20 +31,13 @@ localrules:
     convergence,
     study_store,
     cost,
-    cost_table,
-    figure_convergence,
-    figure_furrow_radii,
-    figure_velocity_profiles,
-    figure_fold_depth,
-    figure_snapshots_fold,
-    figure_orientation,
-    figure_snapshots_reorientation,
-    figure_accuracy_cost,
+    figure,
+    table,
 
 
 rule all:
     default_target: True
     input:
-        STORES,
-        FIGURES,
-        "results/figures/cost_table.html",
+        STORE_FILES,
+        FIGURE_FILES,
+        TABLE_FILES,

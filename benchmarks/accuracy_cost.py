@@ -41,7 +41,8 @@ def one(nodes: int, scheme: str, backend: str) -> list[dict]:
     """Run the four scenes at one resolution; return one record per scene."""
     import numpy as np
 
-    from cortex_ti import analytic, runtime
+    from cortex_ti import runtime
+    from cortex_ti.analysis import analytic
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
 
@@ -55,7 +56,7 @@ def one(nodes: int, scheme: str, backend: str) -> list[dict]:
         jitter = 1e-4 * np.random.default_rng(0).standard_normal(sim.mesh.points.shape)
         warm = sim.solve(sim.mesh.points + jitter)
         sol = sim.solve()  # the accuracy is measured on the exact sphere
-        eps, eps_rel = analytic.error_measures(sol.velocity, analytic.scene_solution(scene, sim.mesh.points))
+        eps, eps_rel = analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))
         out.append(dict(
             scene=name, nodes=nodes, scheme=scheme, backend=sim.solver.backend, eps=eps, eps_rel=eps_rel,
             **{f"cold_{k}": v for k, v in cold.seconds.items()},

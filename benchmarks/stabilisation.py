@@ -19,7 +19,8 @@ import sys
 
 import numpy as np
 
-from cortex_ti import analytic, runtime
+from cortex_ti import runtime
+from cortex_ti.analysis import analytic
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 
@@ -39,7 +40,7 @@ def sphere_error(scene_name: str, nodes: int, fit: str, weight: float) -> float:
                                     f"numerics.fit_residual_weight={weight}"])
     sim = Simulation(scene)
     sol = sim.solve()
-    return analytic.error_measures(sol.velocity, analytic.scene_solution(scene, sim.mesh.points))[1]
+    return analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))[1]
 
 
 def main(argv=None) -> int:

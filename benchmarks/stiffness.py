@@ -22,12 +22,10 @@ import argparse
 import sys
 
 import numpy as np
-import yaml
 
 from cortex_ti import runtime
-from cortex_ti.dynamics import stiffest_normal_mode
-from cortex_ti.io import load_trajectory
-from cortex_ti.scene import scene_from_dict
+from cortex_ti.dynamics.spectrum import stiffest_normal_mode
+from cortex_ti.io import Trajectory
 from cortex_ti.simulation import Simulation
 
 
@@ -41,8 +39,9 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     dt = args.implicit_dt
     runtime.init()
-    ds = load_trajectory(args.trajectory)
-    sim = Simulation(scene_from_dict(yaml.safe_load(ds.attrs["scene"])))
+    tr = Trajectory(args.trajectory)
+    ds = tr.ds
+    sim = Simulation(tr.scene)
     t = ds["time"].values
     third = f"step factor at dt = {dt:g}" if dt > 0 else "Euler limit 2/|lambda|"
     print(f"| t | lambda (1/t_a) | {third} | step taken | mode: nodes above 10 % | mode centre z, r |")

@@ -17,11 +17,12 @@ import sys
 
 import numpy as np
 
-from cortex_ti import runtime
-from cortex_ti.geometry import StencilChooser, compute_geometry
-from cortex_ti.io import open_trajectory
-from cortex_ti.mesh import Mesh, build_topology
-from cortex_ti.reference import PROFILE_TIMES, profile_deviation, radii_deviation
+from cortex_ti.analysis.reference import (
+    PROFILE_TIMES,
+    profile_deviation,
+    radii_deviation,
+)
+from cortex_ti.io import Trajectory
 
 
 def main(argv=None) -> int:
@@ -29,8 +30,8 @@ def main(argv=None) -> int:
     p.add_argument("trajectory")
     p.add_argument("--reference", default=None, help="folder of the axisymmetric reference CSV files")
     args = p.parse_args(argv)
-    runtime.init()
-    with open_trajectory(args.trajectory) as ds:
+    with Trajectory(args.trajectory, lazy=True) as tr:
+        ds = tr.ds
         t = ds["time"].values
         dev = radii_deviation(t, ds["pole_radius"].values, ds["furrow_radius"].values, args.reference)
         vol = ds["volume"].values
@@ -38,8 +39,6 @@ def main(argv=None) -> int:
         print(f"radii: largest deviation from the reference over {dev['frames']} frames: "
               f"pole {dev['pole']:.2e} R0 (t = {dev['t_pole']:.2f}), furrow {dev['furrow']:.2e} R0 (t = {dev['t_furrow']:.2f})")
         print(f"volume drift: {np.abs(vol / vol[0] - 1).max():.2e} (relative, largest over frames)")
-        tri = ds["triangles"].values
-        topo = None
         print("| t | max dev v_n | rms dev v_n | max dev abs v_t | rms dev abs v_t | (scale v_n, abs v_t) |")
         print("|---|---|---|---|---|---|")
         for tp in PROFILE_TIMES:
@@ -48,8 +47,7 @@ def main(argv=None) -> int:
                 continue
             pts = ds["points"].isel(time=k).values
             vel = ds["velocity"].isel(time=k).values
-            topo = topo or build_topology(Mesh(pts, tri))
-            normals = compute_geometry(pts, topo, StencilChooser(topo, "quartic")).normal
+            normals = tr.normals(k)   # the solver's
             d = profile_deviation(pts, vel, normals, tp, args.reference)
             print(f"| {tp:.1f} | {d['vn_max']:.2e} | {d['vn_rms']:.2e} | {d['vt_max']:.2e} | {d['vt_rms']:.2e} | "
                   f"{d['vn_scale']:.3f}, {d['vt_scale']:.3f} |")

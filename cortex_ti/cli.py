@@ -61,13 +61,13 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
+    sub.add_parser("schema", help="print the scene schema (JSON schema, with every registered fit, scheme, "
+                                  "solver backend and pattern type)")
     return p
 
 
 def _run(args) -> int:
-    from . import runtime
     from .scene import load_scene
-    from .simulation import Simulation
 
     t0 = time.perf_counter()
     sim = None
@@ -77,22 +77,26 @@ def _run(args) -> int:
             return
         import resource
 
-        from .io import write_json
+        from .io import ResumeState, write_json
 
         info = sim.summary() if sim is not None else {}
         if status != "ok" and sim is not None:  # how far it got: the last flushed frame
-            from .io import last_frame, partial_path
-
             try:
-                info["t_reached"] = last_frame(partial_path(args.output))["time"]
+                state = ResumeState.read(args.output)
             except CortexError:
-                pass
+                state = None
+            if state is not None:
+                info["t_reached"] = state.time
         info.update(status=status, error=error, wall_s=time.perf_counter() - t0, output=str(args.output),
                     peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
         write_json(info, args.summary)
 
     try:
-        scene = load_scene(args.scene, args.overrides)
+        scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
+        settings = scene.settings
+        from . import runtime
+        from .simulation import Simulation
+
         runtime.init(args.arch, args.threads)
         sim = Simulation(scene)
         out = sim.run(args.output, resume=args.resume)
@@ -105,40 +109,33 @@ def _run(args) -> int:
         summary("failed", f"{type(exc).__name__}: {exc}")
         raise
     summary("ok")
-    log.info("wrote %s (%s nodes, %.1f s)", out, sim.mesh.n_nodes, time.perf_counter() - t0)
+    log.info("wrote %s (%s nodes, %s, %.1f s)", out, sim.mesh.n_nodes, settings.describe_numerics(),
+             time.perf_counter() - t0)
     print(out)
     return 0
 
 
 def _check(args) -> int:
-    from .mesh import build_topology
     from .scene import load_scene
-    from .simulation import scene_mesh
+    from .simulation.setup import active_tension, initial_mesh
+    from .surface.topology import build_topology
 
     scene = load_scene(args.scene, args.overrides)
-    mesh = scene_mesh(scene)
+    settings = scene.settings
+    mesh = initial_mesh(settings)
     build_topology(mesh)
-    if scene.has("active_stress"):
-        # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
-        # checks one finite value per node, imports and calls python patterns
-        from .stress import evaluate_active_stress
-
-        evaluate_active_stress(mesh.points, scene["active_stress"])
+    # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
+    # checks one finite value per node, imports and calls python patterns
+    active_tension(mesh, settings)
     print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {', '.join(sorted(scene.effects))})")
-    if scene.has("shape_evolution"):
-        from .assemble import scene_fit_residual_weight
-        from .dynamics import scene_implicit_tension
-
-        implicit = scene_implicit_tension(scene)
-        rows = scene_fit_residual_weight(scene)
-        print(f"  time: {scene['time.scheme']} from dt = {scene['time.dt']:g} to t = {scene['time.t_end']:g}, "
-              f"{'semi-implicit' if implicit else 'explicit'} tension; fit-residual rows "
-              f"{'off' if not rows else f'at {rows:g}'}")
+    if settings.dynamic:
+        w = settings.numerics.fit_residual_weight
+        print(f"  time: {settings.time.describe()}; fit-residual rows {'off' if not w else f'at {w:g}'}")
     return 0
 
 
 def _export(args) -> int:
-    from .export import export_vtu_series
+    from .io.export import export_vtu_series
 
     if not args.trajectory.exists():
         raise CortexError(f"trajectory file '{args.trajectory}' does not exist")
@@ -148,8 +145,15 @@ def _export(args) -> int:
 
 def _plot(args) -> int:
     from .io import load_trajectory
-    from .plotting import COLORS, DEFAULT_SERIES, DEFAULT_VIEW, figure_format, figure_frame_and_series, \
-        save_figure, series_names
+    from .plotting import (
+        COLORS,
+        DEFAULT_SERIES,
+        DEFAULT_VIEW,
+        figure_format,
+        figure_frame_and_series,
+        save_figure,
+        series_names,
+    )
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
@@ -191,13 +195,23 @@ def _scenes(_args) -> int:
     return 0
 
 
+def _schema(_args) -> int:
+    import json
+
+    from .scene import full_schema
+
+    print(json.dumps(full_schema(), indent=2))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     # our own messages: INFO by default, DEBUG with -v; other libraries stay at WARNING
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes}[args.command](args)
+        return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
+                "schema": _schema}[args.command](args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2

@@ -26,9 +26,12 @@ Definitions
 Per-face colour
     the mean of the face's three node values (``speed = |v|``, ``active_stress = zeta``, or
     ``normal_velocity = v . n``).
-Normal at a node (``normal_velocity``, and which nodes face the viewer)
-    the area-weighted mean of the adjacent face normals (:func:`cortex_ti.mesh.vertex_normals`):
-    good enough for display; the solver itself uses angle-weighted normals of the fitted surface.
+Normal at a node (``normal_velocity``)
+    the solver's normal stored with the frame (``normal``: the normal of the fitted surface); in
+    files without it, the area-weighted mean of the adjacent face normals
+    (:func:`cortex_ti.surface.mesh.vertex_normals`), good enough for display.
+Which nodes face the viewer
+    by the area-weighted normals.
 Arrows
     at the nodes on the visible side (node normal pointing towards the viewer, ``n . e > 0``
     with ``e`` the unit vector from the centre towards the eye for the view ``(elev, azim)``)
@@ -51,7 +54,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import art3d  # also registers the "3d" projection
 
 from .errors import CortexError
-from .mesh import vertex_normals
+from .surface.mesh import vertex_normals
 
 __all__ = [
     "COLORS",
@@ -156,8 +159,11 @@ def node_values(ds, k: int, color: str) -> np.ndarray:
     vel = np.asarray(ds["velocity"][k].values, dtype=float)
     if color == "speed":
         return np.linalg.norm(vel, axis=1)
-    pts = np.asarray(ds["points"][k].values, dtype=float)
-    normals = vertex_normals(pts, np.asarray(ds["triangles"].values, dtype=np.int64))
+    if "normal" in ds:     # the solver's normals, stored with each frame
+        normals = np.asarray(ds["normal"][k].values, dtype=float)
+    else:
+        pts = np.asarray(ds["points"][k].values, dtype=float)
+        normals = vertex_normals(pts, np.asarray(ds["triangles"].values, dtype=np.int64))
     return np.einsum("nc,nc->n", vel, normals)
 
 
@@ -225,12 +231,23 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     if color not in COLORS:
         raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
     k = frame_index(ds, frame)
-    n = ds.sizes["time"]
-    t = float(ds["time"].values[k])
     pts = np.asarray(ds["points"][k].values, dtype=float)
     tri = np.asarray(ds["triangles"].values, dtype=np.int64)
     face_values = node_values(ds, k, color)[tri].mean(axis=1)
+    ax = _axes_3d(ax, view)
+    surface = _surface(ax, pts, tri, face_values, color, cmap, clim)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
+    if arrows:
+        _velocity_arrows(ax, pts, tri, np.asarray(ds["velocity"][k].values, dtype=float), half, max_arrows)
+    _frame_axes(ax, centre, half * (1.0 + 2.0 * _ARROW_FRACTION if arrows else 1.02))
+    ax.set_title(f"t = {float(ds['time'].values[k]):.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})",
+                 fontsize=9)
+    return ax, surface
 
+
+def _axes_3d(ax, view):
+    """The 3D axes to draw in (a new figure's without one), turned to ``view``."""
     if ax is None:
         fig = Figure(figsize=(6.0, 5.5))
         ax = fig.add_subplot(projection="3d")
@@ -243,7 +260,12 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
         except (TypeError, ValueError):
             raise CortexError(f"view must be (elevation, azimuth) in degrees, got {view!r}") from None
         ax.view_init(elev=elev, azim=azim)
+    return ax
 
+
+def _surface(ax, pts, tri, face_values, color, cmap, clim):
+    """The triangles coloured per face (colour limits: ``clim``, or the values' range, symmetric
+    about 0 for ``normal_velocity``)."""
     if clim is not None:
         vmin, vmax = (float(c) for c in clim)
     elif color == "normal_velocity":
@@ -256,22 +278,26 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     surface.set_array(face_values)
     ax.computed_zorder = False    # arrows (visible side only) are drawn over the surface
     ax.add_collection3d(surface)
+    return surface
 
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
-    if arrows:
-        vel = np.asarray(ds["velocity"][k].values, dtype=float)
-        speed = np.linalg.norm(vel, axis=1)
-        facing = vertex_normals(pts, tri) @ view_direction(ax.elev, ax.azim)
-        candidates = np.flatnonzero((facing > 0.0) & (speed > 0.0))
-        if candidates.size:
-            start = int(candidates[np.argmax(facing[candidates])])
-            chosen = _spread(pts, candidates, int(max_arrows), start)
-            length = _ARROW_FRACTION * 2.0 * half / float(speed.max())
-            q = ax.quiver(*pts[chosen].T, *vel[chosen].T, length=length, normalize=False,
-                          arrow_length_ratio=0.3, color="k", linewidths=0.6, zorder=2)
-            q.set_gid("velocity")
-    half *= 1.0 + 2.0 * _ARROW_FRACTION if arrows else 1.02
+
+def _velocity_arrows(ax, pts, tri, vel, half, max_arrows) -> None:
+    """Arrows at an evenly spread subset of the moving nodes on the visible side (module docstring)."""
+    speed = np.linalg.norm(vel, axis=1)
+    facing = vertex_normals(pts, tri) @ view_direction(ax.elev, ax.azim)
+    candidates = np.flatnonzero((facing > 0.0) & (speed > 0.0))
+    if not candidates.size:
+        return
+    start = int(candidates[np.argmax(facing[candidates])])
+    chosen = _spread(pts, candidates, int(max_arrows), start)
+    length = _ARROW_FRACTION * 2.0 * half / float(speed.max())
+    q = ax.quiver(*pts[chosen].T, *vel[chosen].T, length=length, normalize=False,
+                  arrow_length_ratio=0.3, color="k", linewidths=0.6, zorder=2)
+    q.set_gid("velocity")
+
+
+def _frame_axes(ax, centre, half) -> None:
+    """Equal-aspect limits of half-width ``half`` about ``centre``, labelled in R0."""
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
@@ -279,8 +305,6 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     for axis in "xyz":
         getattr(ax, f"set_{axis}label")(f"{axis} [R0]", fontsize=8, labelpad=2)
     ax.tick_params(labelsize=7, pad=1)
-    ax.set_title(f"t = {t:.4g} t_a  (frame {k}; frames 0..{n - 1})", fontsize=9)
-    return ax, surface
 
 
 def series_names(ds) -> list[str]:

@@ -1,24 +1,48 @@
 """Taichi start-up: float64 everywhere, CPU by default, the architecture selectable.
 
-Taichi is initialised once per process, lazily, by the first kernel call. Settings
-come from (in order) the arguments of :func:`init`, then the environment:
+Every Taichi kernel of the package is declared with :func:`kernel` instead of ``ti.kernel``:
+the first call of any of them initialises Taichi with the defaults (:func:`ensure`), so no
+other module has to. Settings come from (in order) the arguments of :func:`init`, then the
+environment:
 
 ``CORTEX_TI_ARCH``     ``cpu`` (default), ``gpu``, ``cuda``, ``vulkan``, ``metal``
 ``CORTEX_TI_THREADS``  CPU threads for Taichi (default: all cores; Snakemake jobs set it)
 
 ``default_fp=ti.f64`` matters: with Taichi's default f32, float *literals* inside
 kernels stay single precision even when every field is f64.
+
+Importing this module imports Taichi (without its banner and version check); modules that
+need no kernels (scene loading, sweeps, stores) do not import it, so that input errors are
+reported before Taichi starts.
 """
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 
+os.environ.setdefault("TI_SKIP_VERSION_CHECK", "ON")
+os.environ.setdefault("TI_ENABLE_TORCH", "0")
+os.environ.setdefault("ENABLE_TAICHI_HEADER_PRINT", "False")
+
+import taichi as ti  # noqa: E402  (after the environment it reads at import)
+
 log = logging.getLogger(__name__)
 
-_ARCHES = ("cpu", "gpu", "cuda", "vulkan", "metal")
+__all__ = ["ARCHES", "init", "ensure", "kernel", "ti", "f64_1", "f64_2", "f64_3", "f64_4", "i32_1", "i32_2"]
+
+#: The Taichi architectures ``--arch`` / ``CORTEX_TI_ARCH`` accept.
+ARCHES = ("cpu", "gpu", "cuda", "vulkan", "metal")
 _state: dict | None = None
+
+#: Array types of the kernels' arguments (numpy arrays passed as Taichi ndarrays).
+f64_1 = ti.types.ndarray(dtype=ti.f64, ndim=1)
+f64_2 = ti.types.ndarray(dtype=ti.f64, ndim=2)
+f64_3 = ti.types.ndarray(dtype=ti.f64, ndim=3)
+f64_4 = ti.types.ndarray(dtype=ti.f64, ndim=4)
+i32_1 = ti.types.ndarray(dtype=ti.i32, ndim=1)
+i32_2 = ti.types.ndarray(dtype=ti.i32, ndim=2)
 
 
 def init(arch: str | None = None, threads: int | None = None) -> dict:
@@ -29,19 +53,15 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
     """
     global _state
     arch = (arch or os.environ.get("CORTEX_TI_ARCH", "cpu")).lower()
-    if arch not in _ARCHES:
+    if arch not in ARCHES:
         from .errors import CortexError
 
-        raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(_ARCHES)}")
+        raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(ARCHES)}")
     if threads is None:
         threads = int(os.environ.get("CORTEX_TI_THREADS", "0")) or os.cpu_count() or 1
     wanted = {"arch": arch, "threads": int(threads)}
     if _state == wanted:
         return _state
-    os.environ.setdefault("TI_SKIP_VERSION_CHECK", "ON")
-    os.environ.setdefault("TI_ENABLE_TORCH", "0")
-    import taichi as ti
-
     if _state is not None:
         ti.reset()
     ti.init(
@@ -61,3 +81,15 @@ def ensure() -> None:
     """Initialise Taichi with the defaults if nothing has yet."""
     if _state is None:
         init()
+
+
+def kernel(func):
+    """``ti.kernel`` that initialises Taichi on its first call (see the module docstring)."""
+    compiled = ti.kernel(func)
+
+    @functools.wraps(func)
+    def call(*args):
+        ensure()
+        return compiled(*args)
+
+    return call

@@ -72,13 +72,13 @@ class Lab:
 
     # ---- meshes ---------------------------------------------------------------------------
     def icosphere(self, n: int, radius: float = 1.0):
-        from cortex_ti.mesh import icosphere
+        from cortex_ti.surface.mesh import icosphere
 
         return self.memo(("ico", n, radius), lambda: icosphere(n, radius))
 
     def perturbed(self, n: int, seed: int = 0, frac: float = 0.2, on_sphere: bool = False):
         def make():
-            from cortex_ti.mesh import validate_mesh
+            from cortex_ti.surface.validation import validate_mesh
 
             base = self.icosphere(n)
             p = base.points.copy()
@@ -97,13 +97,14 @@ class Lab:
 
     # ---- derived --------------------------------------------------------------------------
     def topology(self, mesh):
-        from cortex_ti.mesh import build_topology
+        from cortex_ti.surface.topology import build_topology
 
         return self.memo(("topo", id(mesh)), lambda: build_topology(mesh))
 
     def geometry(self, mesh, scheme: str, points: np.ndarray | None = None, topo=None):
         """Geometry of ``mesh`` (or of ``points`` on its connectivity); cached for the mesh itself."""
-        from cortex_ti.geometry import StencilChooser, compute_geometry
+        from cortex_ti.surface.fits import StencilChooser
+        from cortex_ti.surface.geometry import compute_geometry
 
         topo = topo if topo is not None else self.topology(mesh)
 
@@ -116,8 +117,8 @@ class Lab:
         return make()
 
     def solve(self, geometry, physics, zeta, backend: str = "superlu") -> Solved:
-        from cortex_ti.assemble import assemble
-        from cortex_ti.linalg import ConstrainedLeastSquares
+        from cortex_ti.physics.assembly import assemble
+        from cortex_ti.solve.constrained import ConstrainedLeastSquares
 
         system = assemble(geometry, physics, zeta)
         x, pressure, info = ConstrainedLeastSquares(backend).solve(system, geometry.points)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from cortex_ti.analytic import (
+from cortex_ti.analysis.analytic import (
     bending_coefficients,
     error_measures,
     l1_moments,
@@ -20,14 +20,13 @@ from cortex_ti.analytic import (
     sphere_full_solution,
     sphere_tangential_solution,
 )
-from cortex_ti.stress import (
-    evaluate_active_stress,
-    mean_over_sphere,
+from cortex_ti.analysis.reference import DEFAULT_DIR
+from cortex_ti.physics.patterns import evaluate_active_stress, mean_over_sphere
+from cortex_ti.physics.spherical import (
     real_sph_harm,
     real_sph_harm_surface_gradient,
     sphere_quadrature,
 )
-from cortex_ti.reference import DEFAULT_DIR
 
 AXISYM = DEFAULT_DIR / "caseA_p8_zh1_velocity_t0.0.csv"   # shipped with the package
 RING8 = {"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8}

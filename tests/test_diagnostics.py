@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from cortex_ti import diagnostics as D
-from cortex_ti.diagnostics import (
+from cortex_ti.analysis import diagnostics as D
+from cortex_ti.analysis.diagnostics import (
     DIAGNOSTIC_ATTRS,
     area_centroid,
     axis_crossings,
@@ -29,7 +29,7 @@ from cortex_ti.diagnostics import (
     principal_axes,
     surface_area,
 )
-from cortex_ti.mesh import affine, icosphere
+from cortex_ti.surface.mesh import affine, icosphere
 
 EZ = np.array([0.0, 0.0, 1.0])
 

@@ -17,14 +17,15 @@ Measured numbers quoted in comments are from this code at the time of writing (b
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
 from cortex_ti.errors import MeshError
-from cortex_ti.geometry import FIT_SCHEMES, StencilChooser, compute_geometry
-from cortex_ti.mesh import affine, build_topology, validate_mesh
+from cortex_ti.surface.fits import FIT_SCHEMES, StencilChooser
+from cortex_ti.surface.geometry import compute_geometry
+from cortex_ti.surface.mesh import affine
+from cortex_ti.surface.topology import build_topology
+from cortex_ti.surface.validation import validate_mesh
 
 pytestmark = pytest.mark.usefixtures("taichi_runtime")
 

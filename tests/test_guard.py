@@ -5,9 +5,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from cortex_ti.dynamics import Evaluation, StabilityGuard
+from cortex_ti.dynamics.guard import StabilityGuard
+from cortex_ti.dynamics.schemes import Evaluation
 from cortex_ti.errors import StabilityError
-from cortex_ti.mesh import icosphere
+from cortex_ti.surface.mesh import icosphere
 
 
 def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():

@@ -20,9 +20,9 @@ import pytest
 
 from cortex_ti.errors import StabilityError
 from cortex_ti.io import open_trajectory, partial_path
-from cortex_ti.mesh import icosphere
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
+from cortex_ti.surface.mesh import icosphere
 
 pytestmark = pytest.mark.hard
 

@@ -12,16 +12,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cortex_ti.assemble import assemble
-from cortex_ti.dynamics import SCHEMES, implicit_tension_on, stiffest_normal_mode
+from cortex_ti.dynamics.schemes import SCHEMES
+from cortex_ti.dynamics.spectrum import stiffest_normal_mode
 from cortex_ti.errors import SceneError, SolverError
-from cortex_ti.geometry import StencilChooser, compute_geometry
 from cortex_ti.io import load_trajectory
-from cortex_ti.mesh import build_topology, icosphere
+from cortex_ti.physics.assembly import assemble
+from cortex_ti.physics.model import Physics
+from cortex_ti.physics.patterns import harmonics_pattern
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.stress import harmonics_pattern
-from cortex_ti.terms import Physics
+from cortex_ti.surface.fits import StencilChooser
+from cortex_ti.surface.geometry import compute_geometry
+from cortex_ti.surface.mesh import icosphere
+from cortex_ti.surface.topology import build_topology
 
 DATA = Path(__file__).parent / "data"
 TERM = "semi-implicit active tension"
@@ -37,7 +40,7 @@ def _term_error(nodes, radius, l, m, dt=1e-2):
     """Largest error of the term's normal rows on v = Y_lm n, relative to the exact
     zeta dt (l(l+1) - 2) Y_lm / R^2 (the -zeta dt d_t C of a sphere)."""
     mesh, g = _sphere(nodes, radius)
-    physics = Physics.from_scene(load_scene("furrow_p8_a1"))
+    physics = load_scene("furrow_p8_a1").settings.physics
     zeta = 1.0 + 0.5 * mesh.points[:, 2] / radius          # the term is local in zeta
     diff = assemble(g, physics, zeta, implicit_dt=dt).matrix - assemble(g, physics, zeta).matrix
     y = harmonics_pattern(mesh.points / radius, [{"l": l, "m": m, "coeff": 1.0}])
@@ -60,10 +63,10 @@ def test_term_is_the_curvature_rate_of_a_harmonic(l, m, radius):
 def test_term_is_assembled_only_for_a_step_of_the_normal_balance():
     mesh, g = _sphere(162)
     zeta = np.ones(mesh.n_nodes)
-    full = Physics.from_scene(load_scene("furrow_p8_a1"))
+    full = load_scene("furrow_p8_a1").settings.physics
     assert TERM not in assemble(g, full, zeta).terms
     assert TERM in assemble(g, full, zeta, implicit_dt=1e-3).terms
-    tangential = Physics.from_scene(load_scene("sphere_y20_tangential"))
+    tangential = load_scene("sphere_y20_tangential").settings.physics
     assert TERM not in assemble(g, tangential, zeta, implicit_dt=1e-3).terms
     no_activity = Physics(effects=frozenset({"shear_viscosity", "normal_balance"}))
     assert TERM not in assemble(g, no_activity, zeta, implicit_dt=1e-3).terms
@@ -73,13 +76,13 @@ def test_term_is_assembled_only_for_a_step_of_the_normal_balance():
 def test_a_bad_step_is_refused(bad):
     mesh, g = _sphere(162)
     with pytest.raises(SolverError, match="implicit_dt"):
-        assemble(g, Physics.from_scene(load_scene("furrow_p8_a1")), np.ones(mesh.n_nodes), implicit_dt=bad)
+        assemble(g, load_scene("furrow_p8_a1").settings.physics, np.ones(mesh.n_nodes), implicit_dt=bad)
 
 
 def test_setting_resolves_per_scheme_and_refuses_second_order_schemes():
-    assert [implicit_tension_on("auto", SCHEMES[s]) for s in ("euler", "adaptive_euler", "heun", "adaptive")] \
+    assert [SCHEMES[s].implicit_tension("auto") for s in ("euler", "adaptive_euler", "heun", "adaptive")] \
         == [True, True, False, False]
-    assert implicit_tension_on(False, SCHEMES["euler"]) is False
+    assert SCHEMES["euler"].implicit_tension(False) is False
     for scheme in ("heun", "adaptive"):
         with pytest.raises(SceneError, match="first-order"):
             load_scene("shear_075", [f"time.scheme={scheme}", "time.implicit_tension=true"])

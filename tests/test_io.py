@@ -122,8 +122,9 @@ def test_three_frames_layout_values_attrs(tmp_path):
         assert "_NCProperties" in h5.attrs
 
     # the stored scene loads back to an equal scene
-    from cortex_ti.scene import scene_from_dict
     import yaml
+
+    from cortex_ti.scene import scene_from_dict
 
     with open_trajectory(path) as ds:
         assert scene_from_dict(yaml.safe_load(ds.attrs["scene"])) == scene

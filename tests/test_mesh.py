@@ -11,16 +11,10 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from cortex_ti.errors import MeshError
-from cortex_ti.mesh import (
-    Mesh,
-    Topology,
-    affine,
-    build_topology,
-    icosphere,
-    icosphere_sizes,
-    load_mesh,
-    validate_mesh,
-)
+from cortex_ti.surface.mesh import Mesh, affine, icosphere, icosphere_sizes
+from cortex_ti.surface.reading import load_mesh
+from cortex_ti.surface.topology import Topology, build_topology
+from cortex_ti.surface.validation import validate_mesh
 
 # ---------------------------------------------------------------------------
 # helpers (independent of the module under test)
@@ -306,7 +300,7 @@ def test_reversed_faces_come_back_outward(caplog):
     m = icosphere(162)
     rev = m.faces[:, ::-1]
     assert signed_volume(m.points, rev) < 0
-    with caplog.at_level(logging.INFO, logger="cortex_ti.mesh"):
+    with caplog.at_level(logging.INFO, logger="cortex_ti.surface"):
         v = validate_mesh(m.points, rev)
     assert signed_volume(v.points, v.faces) == pytest.approx(signed_volume(m.points, m.faces), rel=1e-14)
     assert signed_volume(v.points, v.faces) > 0
@@ -316,7 +310,7 @@ def test_reversed_faces_come_back_outward(caplog):
 def test_unreferenced_points_dropped_with_warning(caplog):
     m = icosphere(42)
     pts = np.vstack([[[5.0, 5.0, 5.0]], m.points, [[7.0, 0.0, 0.0]]])
-    with caplog.at_level(logging.WARNING, logger="cortex_ti.mesh"):
+    with caplog.at_level(logging.WARNING, logger="cortex_ti.surface"):
         v = validate_mesh(pts, m.faces + 1)
     assert v.n_nodes == 42
     assert np.array_equal(v.points, m.points) and np.array_equal(v.faces, m.faces)

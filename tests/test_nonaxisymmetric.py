@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from cortex_ti.diagnostics import orientation_angle
+from cortex_ti.analysis.diagnostics import orientation_angle
 from cortex_ti.errors import SceneError
+from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.stress import evaluate_active_stress
 
 FOLD = {"type": "fold", "zeta0": 1.0, "amplitude": 3.5, "sigma": 1.5, "p": 4, "sigma_phi": 200.0}
 MIRRORS = [np.diag([-1.0, 1, 1]), np.diag([1.0, -1, 1]), np.diag([1.0, 1, -1])]

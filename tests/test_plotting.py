@@ -22,11 +22,15 @@ from matplotlib import colormaps
 from matplotlib.colors import Normalize
 from matplotlib.image import imread
 
+from cortex_ti.analysis.diagnostics import DIAGNOSTIC_ATTRS
 from cortex_ti.cli import main
-from cortex_ti.diagnostics import DIAGNOSTIC_ATTRS
 from cortex_ti.errors import CortexError
-from cortex_ti.io import TrajectoryWriter, load_trajectory, open_trajectory, partial_path
-from cortex_ti.mesh import icosphere
+from cortex_ti.io import (
+    TrajectoryWriter,
+    load_trajectory,
+    open_trajectory,
+    partial_path,
+)
 from cortex_ti.plotting import (
     figure_frame_and_series,
     frame_index,
@@ -35,6 +39,7 @@ from cortex_ti.plotting import (
     save_figure,
     view_direction,
 )
+from cortex_ti.surface.mesh import icosphere
 
 TIMES = (0.0, 0.5, 1.25)
 OMEGA = (np.array([0.3, -0.2, 1.0]), np.array([-1.0, 0.5, 0.25]))

@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 from pathlib import Path
 
 import pytest
 import yaml
 
 from cortex_ti.errors import CortexError, SceneError
+from cortex_ti.physics.model import EFFECTS
 from cortex_ti.scene import (
-    EFFECTS,
     VALID_NODE_COUNTS,
-    Scene,
     apply_override,
     builtin_scene_names,
     builtin_scene_path,
@@ -51,13 +49,16 @@ def test_builtin_names_are_exactly_the_shipped_scenes():
     for name in SHIPPED + FURROWS:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
-        assert path.parent.parent.name == "config"
+        assert path.parent.parent.name == "scene"      # package data of cortex_ti.scene
 
 
-def test_no_scene_copies_inside_the_package():
+def test_no_scene_copies_outside_the_package():
     import cortex_ti
 
-    assert not list((Path(cortex_ti.__file__).parent / "scenes").glob("*.yaml"))
+    repo = Path(cortex_ti.__file__).parent.parent
+    copies = [p for p in repo.rglob("*.yaml") if p.stem in builtin_scene_names()
+              and "scene" not in p.parent.parent.name and ".git" not in p.parts]
+    assert not copies
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -91,7 +92,7 @@ def test_shipped_scene_values(name):
     assert scene["solver"] == {"backend": "auto", "reuse": True, "rtol": 1e-10}
     assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler", "save_every": 0.01,
                              "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05, "implicit_tension": "auto"}
-    assert scene["numerics"] == {"fit": "quartic", "fit_residual_weight": None}
+    assert scene["numerics"] == {"fit": "quartic", "fit_residual_weight": 0.0}   # a real value, not null
 
 
 @pytest.mark.parametrize("name", SHIPPED)
@@ -254,7 +255,7 @@ def test_error_names_the_scene_file(tmp_path):
     ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler; got 'rk4'"),
 ])
 def test_schema_errors_name_the_key(override, expected):
-    assert scene_error(overrides=[override]) == f"scene 'sphere_y20_full': " + (
+    assert scene_error(overrides=[override]) == "scene 'sphere_y20_full': " + (
         f"override '{override}': " if "unknown key" in expected else "") + expected
 
 
@@ -505,7 +506,7 @@ def test_override_switches_mesh_source(tmp_path, monkeypatch):
     (tmp_path / "cell.obj").write_text("v 0 0 0\n")
     monkeypatch.chdir(tmp_path)
     scene = scene_from_dict(base(), ["mesh.file=cell.obj"], source=str(builtin_scene_path("sphere_y20_full")))
-    # relative to the working directory, not to config/scenes/
+    # relative to the working directory, not to the scene file's folder
     assert scene["mesh.file"] == str(tmp_path / "cell.obj")
     assert scene["mesh.nodes"] is None
     # and back again
@@ -557,7 +558,7 @@ def ring_closed_form(points):
 def write_ring_field(path, n=162):
     import numpy as np
 
-    from cortex_ti.mesh import icosphere
+    from cortex_ti.surface.mesh import icosphere
 
     path.parent.mkdir(parents=True, exist_ok=True)
     np.save(path, ring_closed_form(icosphere(n).points))

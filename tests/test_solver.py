@@ -20,17 +20,18 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from cortex_ti.analytic import (
+from cortex_ti.analysis.analytic import (
     error_measures,
     sphere_bending_solution,
     sphere_full_solution,
     sphere_tangential_solution,
 )
-from cortex_ti.assemble import assemble
 from cortex_ti.errors import CortexError, SolverError
-from cortex_ti.linalg import FACTORIZATIONS, ConstrainedLeastSquares
-from cortex_ti.stress import evaluate_active_stress
-from cortex_ti.terms import Physics
+from cortex_ti.physics.assembly import assemble
+from cortex_ti.physics.model import Physics
+from cortex_ti.physics.patterns import evaluate_active_stress
+from cortex_ti.solve.constrained import ConstrainedLeastSquares
+from cortex_ti.solve.factorizations import FACTORIZATIONS
 
 pytestmark = pytest.mark.usefixtures("taichi_runtime")
 

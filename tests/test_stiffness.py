@@ -9,7 +9,7 @@ known defect of coarse meshes, and the rows that remove it, are pinned down.
 import numpy as np
 import pytest
 
-from cortex_ti.dynamics import stiffest_normal_mode
+from cortex_ti.dynamics.spectrum import stiffest_normal_mode
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 
@@ -69,7 +69,7 @@ def test_fit_residual_rows_remove_the_growing_mode_and_keep_the_static_accuracy(
     becomes a decaying one (measured -191), while the Y20 sphere error (eps_rel 5.15e-2 at 642
     nodes, quadratic fit) changes by under 1 % (measured 5.14e-2); the rows vanish for fields
     the fit reproduces, so the analytic flow's error stays of the same order."""
-    from cortex_ti import analytic
+    from cortex_ti.analysis import analytic
 
     sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=642", "numerics.fit_residual_weight=1e-3"]))
     sim.zeta = np.ones(sim.mesh.n_nodes)
@@ -81,5 +81,5 @@ def test_fit_residual_rows_remove_the_growing_mode_and_keep_the_static_accuracy(
                                                f"numerics.fit_residual_weight={weight}"])
         s = Simulation(scene)
         sol = s.solve()
-        errs.append(analytic.error_measures(sol.velocity, analytic.scene_solution(scene, s.mesh.points))[1])
+        errs.append(analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, s.mesh.points))[1])
     assert errs[1] == pytest.approx(errs[0], rel=0.01)

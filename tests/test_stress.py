@@ -7,17 +7,19 @@ import pytest
 from scipy import integrate, special
 
 from cortex_ti.errors import SceneError
-from cortex_ti.stress import (
+from cortex_ti.physics.patterns import (
     PATTERNS,
-    direction_angles,
     evaluate_active_stress,
-    integrate_over_sphere,
     integrate_patterns,
     mean_over_sphere,
+    register_pattern,
+)
+from cortex_ti.physics.spherical import (
+    direction_angles,
+    integrate_over_sphere,
     pattern_frame,
     real_sph_harm,
     real_sph_harm_surface_gradient,
-    register_pattern,
     sphere_quadrature,
 )
 
@@ -370,7 +372,7 @@ def ring_closed_form(points, zeta0=1.0, amplitude=1.0, sigma=10.0, p=8):
 
 @pytest.fixture(scope="module")
 def ico162():
-    from cortex_ti.mesh import icosphere
+    from cortex_ti.surface.mesh import icosphere
 
     return icosphere(162)
 
@@ -379,7 +381,7 @@ def write_field(path, values, name="zeta", extra=None):
     """Write ``values`` (one per node of the 162-node icosphere) in the format of the suffix."""
     import meshio
 
-    from cortex_ti.mesh import icosphere
+    from cortex_ti.surface.mesh import icosphere
 
     values = np.asarray(values, dtype=float)
     if path.suffix == ".npy":
@@ -488,7 +490,7 @@ def test_field_errors_name_the_file_and_the_problem(tmp_path, ico162):
 def test_sphere_quadrature_refuses_a_field_but_not_a_python_pattern(tmp_path, ico162, user_module):
     """A field exists only at the nodes: the analytic sphere solution (which integrates the pattern
     by quadrature) must say so; a python pattern is a function of position and integrates."""
-    from cortex_ti.analytic import sphere_full_solution
+    from cortex_ti.analysis.analytic import sphere_full_solution
 
     file = write_field(tmp_path / "ring.npy", ring_closed_form(ico162.points))
     field = {"type": "field", "file": str(file)}

@@ -7,9 +7,16 @@ import numpy as np
 import pytest
 
 from cortex_ti.errors import SceneError
-from cortex_ti.figures import pareto_front
 from cortex_ti.scene import load_scene
-from cortex_ti.sweeps import STUDY_COLUMNS, expand_runs, format_value, job_resources, scene_overrides, tilt_axis
+from cortex_ti.studies.figures import pareto_front
+from cortex_ti.studies.registry import STUDIES
+from cortex_ti.studies.sweeps import (
+    expand_runs,
+    format_value,
+    job_resources,
+    scene_overrides,
+    tilt_axis,
+)
 
 
 def test_lists_expand_to_the_cartesian_product_and_missing_values_come_from_the_scene():
@@ -18,7 +25,7 @@ def test_lists_expand_to_the_cartesian_product_and_missing_values_come_from_the_
     assert [(r["zeta_hat"], r["dt"]) for r in rows] == [("1", "0.0005"), ("1", "0.001"), ("3", "0.0005"), ("3", "0.001")]
     scene = load_scene("furrow_p4_a1")
     for r in rows:
-        assert list(r) == list(STUDY_COLUMNS["furrow"])
+        assert list(r) == list(STUDIES["furrow"].columns)
         assert r["p"] == format_value(scene["active_stress.0.p"]) == "4"
         assert r["nodes"] == str(scene["mesh.nodes"])
         assert r["scheme"] == scene["time.scheme"]

@@ -16,10 +16,7 @@ SNAKEMAKE = shutil.which("snakemake")
 
 pytestmark = pytest.mark.skipif(SNAKEMAKE is None, reason="snakemake is installed with the test extra")
 
-#: What the issue asks the workflow to produce.
-STORES = ["convergence", "furrow", "fold", "reorientation", "cost"]
-FIGURES = ["convergence", "furrow_radii", "velocity_profiles", "fold_depth", "snapshots_fold", "orientation",
-           "snapshots_reorientation", "accuracy_cost"]
+from cortex_ti.studies.registry import FIGURES, STORES, TABLES  # noqa: E402  (what the workflow produces)
 
 
 def snakemake(workdir, *args, timeout=900):
@@ -31,7 +28,7 @@ def expected_outputs(config):
     formats = config["figures"].get("formats", ["png", "pdf"])
     out = [f"results/aggregate/{s}.nc" for s in STORES]
     out += [f"results/figures/{f}.{fmt}" for f in FIGURES for fmt in formats]
-    return out + ["results/figures/cost_table.html"]
+    return out + [f"results/figures/{t}.html" for t in TABLES]
 
 
 @pytest.mark.parametrize("configfile", ["config/config.yaml", "config/paper.yaml"])
@@ -42,7 +39,7 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     for path in expected_outputs(config):
         assert path in res.stdout, f"{path} is not in the DAG of {configfile}"
     # one simulation job per configured run: the static product and every study's rows
-    from cortex_ti.sweeps import expand_runs
+    from cortex_ti.studies.sweeps import expand_runs
 
     n_static = np.prod([len(config["static"][k]) for k in ("scenes", "nodes", "fit")])
     n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation"))

@@ -3,7 +3,7 @@
 
 rule convergence:
     input:
-        [f"{d}/trajectory.h5" for d in static_dirs()],
+        static_files(rules.run_static.output.trajectory),
     output:
         "results/aggregate/convergence.nc",
     log:
@@ -14,7 +14,7 @@ rule convergence:
 
 rule study_store:
     input:
-        lambda wc: [f"{d}/trajectory.h5" for d in run_dirs(wc.study)],
+        lambda wc: study_files(rules.run_dynamic.output.trajectory, wc.study),
     output:
         "results/aggregate/{study}.nc",
     params:
@@ -27,15 +27,11 @@ rule study_store:
 
 rule cost:
     input:
-        summaries=[f"{d}/summary.json" for d in static_dirs()]
-        + [f"{d}/summary.json" for s in STUDIES for d in run_dirs(s)],
+        [summary for _, _, _, summary in COST_RUNS],
     output:
         "results/aggregate/cost.nc",
     params:
-        runs=[("static", f"{s} N={n} {f}", {"scene": s, "nodes": n, "fit": f}, f"results/runs/static/{s}/N{n}_{f}")
-              for s in STATIC["scenes"] for n in STATIC["nodes"] for f in STATIC["fit"]]
-        + [(s, p, row, f"results/runs/{s}/{p}") for s in STUDIES
-           for p, row in zip(SPACES[s].instance_patterns, run_rows(s))],
+        runs=COST_RUNS,
     log:
         "results/logs/aggregate/cost.log",
     script:

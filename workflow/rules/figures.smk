@@ -1,115 +1,34 @@
-# Figures under results/figures (every format in config figures.formats), with report captions.
+# Figures and tables under results/figures, one rule each for every registered figure
+# (cortex_ti.studies.registry.FIGURES: its data, drawing function, report section and caption).
 
 
-def _report(name, category):
-    """The figure's files; the PNG goes into the report with its caption."""
-    caption = f"../report/{name}.rst"
-    return [report(f, caption=caption, category=category) if f.endswith(".png") else f for f in figure_files(name)]
-
-
-rule figure_convergence:
+rule figure:
     input:
-        "results/aggregate/convergence.nc",
+        lambda wc: (
+            [f"results/aggregate/{FIGURES[wc.name].data}.nc"]
+            if FIGURES[wc.name].source == "store"
+            else study_files(rules.run_dynamic.output.trajectory, FIGURES[wc.name].data)
+        ),
     output:
-        _report("convergence", "1. Static sphere"),
-    log:
-        "results/logs/figures/convergence.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_furrow_radii:
-    input:
-        "results/aggregate/furrow.nc",
-    output:
-        _report("furrow_radii", "2. Furrow"),
-    log:
-        "results/logs/figures/furrow_radii.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_velocity_profiles:
-    input:
-        [f"{d}/trajectory.h5" for d in run_dirs("furrow")],
-    output:
-        _report("velocity_profiles", "2. Furrow"),
+        [figure_report(fmt) for fmt in FORMATS],
     params:
-        rows=run_rows("furrow"),
-        times=config["figures"]["profile_times"],
+        caption=lambda wc: FIGURES[wc.name].caption,
+        rows=figure_rows,
+        options=config["figures"],
     log:
-        "results/logs/figures/velocity_profiles.log",
+        "results/logs/figures/{name}.log",
     script:
         "../scripts/figures.py"
 
 
-rule figure_fold_depth:
+rule table:
     input:
-        "results/aggregate/fold.nc",
+        lambda wc: f"results/aggregate/{TABLES[wc.name][0]}.nc",
     output:
-        _report("fold_depth", "3. Fold"),
-    log:
-        "results/logs/figures/fold_depth.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_snapshots_fold:
-    input:
-        [f"{d}/trajectory.h5" for d in run_dirs("fold")],
-    output:
-        _report("snapshots_fold", "3. Fold"),
+        report("results/figures/{name}.html", caption="../report/figure.rst", category=TABLE_CATEGORY),
     params:
-        rows=run_rows("fold"),
-        times=config["figures"]["snapshot_times"],
+        caption=lambda wc: TABLES[wc.name][1],
     log:
-        "results/logs/figures/snapshots_fold.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_orientation:
-    input:
-        "results/aggregate/reorientation.nc",
-    output:
-        _report("orientation", "4. Sheared cortex"),
-    log:
-        "results/logs/figures/orientation.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_snapshots_reorientation:
-    input:
-        [f"{d}/trajectory.h5" for d in run_dirs("reorientation")],
-    output:
-        _report("snapshots_reorientation", "4. Sheared cortex"),
-    params:
-        rows=run_rows("reorientation"),
-        times=config["figures"]["snapshot_times"],
-    log:
-        "results/logs/figures/snapshots_reorientation.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule figure_accuracy_cost:
-    input:
-        "results/aggregate/cost.nc",
-    output:
-        _report("accuracy_cost", "5. Accuracy and cost"),
-    log:
-        "results/logs/figures/accuracy_cost.log",
-    script:
-        "../scripts/figures.py"
-
-
-rule cost_table:
-    input:
-        "results/aggregate/cost.nc",
-    output:
-        report("results/figures/cost_table.html", caption="../report/cost_table.rst", category="5. Accuracy and cost"),
-    log:
-        "results/logs/figures/cost_table.log",
+        "results/logs/figures/{name}.log",
     script:
         "../scripts/figures.py"

@@ -1,5 +1,6 @@
 # One job per simulation. Each writes its trajectory (netCDF4/HDF5), a run summary (JSON) and a
-# Snakemake benchmark file; resources for a cluster come from earlier benchmarks (common.smk).
+# Snakemake benchmark file, with its `threads` given to Taichi and the BLAS/PARDISO; an
+# interrupted job resumes from its flushed frames. Resources for a cluster: common.smk.
 
 
 rule run_static:
@@ -15,7 +16,8 @@ rule run_static:
         mem_mb=lambda wc: job_resources("static", int(wc.nodes))["mem_mb"],
         runtime=lambda wc: job_resources("static", int(wc.nodes))["runtime"],
     shell:
-        THREADS_ENV + "cortex-ti -v run {wildcards.scene} -o {output.trajectory} --summary {output.summary} "
+        "CORTEX_TI_THREADS={threads} OMP_NUM_THREADS={threads} MKL_NUM_THREADS={threads} "
+        "cortex-ti -v run {wildcards.scene} -o {output.trajectory} --summary {output.summary} "
         "--set mesh.nodes={wildcards.nodes} --set numerics.fit={wildcards.fit} > {log} 2>&1"
 
 
@@ -35,8 +37,9 @@ rule run_dynamic:
         mem_mb=lambda wc: job_resources(wc.study, int(run_row(wc)["nodes"]))["mem_mb"],
         runtime=lambda wc: job_resources(wc.study, int(run_row(wc)["nodes"]))["runtime"],
     shell:
-        THREADS_ENV + "cortex-ti -v run {params.scene} -o {output.trajectory} --summary {output.summary} "
-        "{params.overrides} " + RESUME + " > {log} 2>&1"
+        "CORTEX_TI_THREADS={threads} OMP_NUM_THREADS={threads} MKL_NUM_THREADS={threads} "
+        "cortex-ti -v run {params.scene} -o {output.trajectory} --summary {output.summary} {params.overrides} "
+        "$( [ -f {output.trajectory}.partial ] && echo --resume ) > {log} 2>&1"
 
 
 # The accuracy sweep deliberately includes configurations that may go unstable: such a run
@@ -53,12 +56,13 @@ rule run_accuracy:
     params:
         scene=lambda wc: run_row(wc, "accuracy")["scene"],
         overrides=lambda wc: overrides(run_row(wc, "accuracy")),
-        trajectory="results/runs/accuracy/{params}/trajectory.h5",
+        trajectory=lambda wc, output: Path(output.summary).with_name("trajectory.h5"),
     threads: config["threads"]
     resources:
         mem_mb=lambda wc: job_resources("accuracy", int(run_row(wc, "accuracy")["nodes"]))["mem_mb"],
         runtime=lambda wc: job_resources("accuracy", int(run_row(wc, "accuracy")["nodes"]))["runtime"],
     shell:
-        THREADS_ENV + "rm -f {params.trajectory} {params.trajectory}.partial; "
+        "rm -f {params.trajectory} {params.trajectory}.partial; "
+        "CORTEX_TI_THREADS={threads} OMP_NUM_THREADS={threads} MKL_NUM_THREADS={threads} "
         "cortex-ti -v run {params.scene} -o {params.trajectory} --summary {output.summary} {params.overrides} "
         "> {log} 2>&1 || test -s {output.summary}"

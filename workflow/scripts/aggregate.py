@@ -6,10 +6,10 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from pathlib import Path  # noqa: E402
 
-from cortex_ti.aggregate import cost_dataset, study_dataset  # noqa: E402
-from cortex_ti.convergence import convergence_dataset  # noqa: E402
+from cortex_ti.analysis.reference import trajectory_deviation  # noqa: E402
 from cortex_ti.io import write_dataset  # noqa: E402
-from cortex_ti.reference import trajectory_deviation  # noqa: E402
+from cortex_ti.studies.convergence import convergence_dataset  # noqa: E402
+from cortex_ti.studies.stores import cost_dataset, study_dataset  # noqa: E402
 
 sm = snakemake  # noqa: F821
 if sm.rule == "convergence":
@@ -18,12 +18,12 @@ elif sm.rule == "study_store":
     ds = study_dataset(sm.wildcards.study, sm.params.rows, list(sm.input))
 else:  # cost: one entry per run of every study, with the error against the reference where one exists
     entries = []
-    for study, label, row, folder in sm.params.runs:
-        folder = Path(folder)
+    for study, label, row, summary in sm.params.runs:
+        folder = Path(summary).parent
         traj = folder / "trajectory.h5"
         dev = trajectory_deviation(traj) if study != "static" and traj.exists() else None
         error = max(dev["pole"], dev["furrow"]) if dev else float("nan")
         entries.append({"study": study, "run": f"{study}/{label}", "params": row, "error": error,
-                        "benchmark": folder / "benchmark.tsv", "summary": folder / "summary.json"})
+                        "benchmark": folder / "benchmark.tsv", "summary": summary})
     ds = cost_dataset(entries)
 write_dataset(ds, sm.output[0])

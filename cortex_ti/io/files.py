@@ -1,0 +1,73 @@
+"""Small files of a run and of the workflow, written atomically: JSON summaries, xarray stores;
+and the Snakemake benchmark files read back."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["PARTIAL_SUFFIX", "atomic_path", "write_json", "write_dataset", "read_benchmark"]
+
+#: Suffix of a file being written (renamed when complete).
+PARTIAL_SUFFIX = ".partial"
+
+
+def atomic_path(path: str | os.PathLike) -> tuple[Path, Path]:
+    """``(final, temporary)`` paths of an atomic write; the folder is created."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path, path.with_name(path.name + PARTIAL_SUFFIX)
+
+
+def read_benchmark(path) -> dict[str, float]:
+    """The first row of a Snakemake ``benchmark:`` TSV (wall ``s``, ``max_rss`` in MB, ``cpu_time``...)."""
+    lines = Path(path).read_text().strip().splitlines()
+    if len(lines) < 2:
+        raise ValueError(f"benchmark file '{path}' has no data row")
+    keys, values = lines[0].split("\t"), lines[1].split("\t")
+    out = {}
+    for k, v in zip(keys, values):
+        try:
+            out[k] = float(v)
+        except ValueError:
+            out[k] = np.nan
+    return out
+
+
+def write_json(obj, path: str | os.PathLike) -> Path:
+    """Write ``obj`` as JSON atomically (temporary name, then rename); NaN becomes null."""
+    def clean(v):
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if isinstance(v, np.generic):
+            return clean(v.item())
+        return v
+
+    path, tmp = atomic_path(path)
+    try:
+        tmp.write_text(json.dumps(clean(obj), indent=1, allow_nan=False) + "\n")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_dataset(ds, path: str | os.PathLike) -> Path:
+    """Write an xarray Dataset (netCDF4 layout through h5netcdf) atomically: temporary name, then rename."""
+    path, tmp = atomic_path(path)
+    try:
+        ds.to_netcdf(tmp, engine="h5netcdf")
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path

@@ -1,0 +1,690 @@
+"""Trajectory files: one netCDF4/HDF5 file per run.
+
+Layout (written with ``h5netcdf``; open with ``xarray.open_dataset(path,
+engine="h5netcdf")`` or :func:`open_trajectory`)::
+
+    dimensions:  time (unlimited), node, xyz = 3, face, corner = 3
+    variables:   time(time)                  [t_a]       coordinate
+                 points(time, node, xyz)     [R0]
+                 velocity(time, node, xyz)   [R0/t_a]
+                 active_stress(time, node)   [zeta_0]
+                 pressure(time)              [zeta_0/R0] NaN without incompressibility
+                 triangles(face, corner)     int32, 0-based node indices
+                 ... extra per-frame variables declared by the caller
+    attributes:  effects, scene, cortex_ti_version, created, + caller's
+
+Every variable carries ``units`` and ``long_name``.
+
+Crash safety: frames go to ``<path>.partial`` and are flushed to disk one by
+one, so a killed run leaves a readable partial file of the frames written so
+far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
+to ``<path>``, so the final path never holds a half-written file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import os
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any, Mapping
+
+import h5netcdf
+import h5py
+import numpy as np
+
+from .. import __version__
+from ..errors import CortexError
+from .files import PARTIAL_SUFFIX
+
+__all__ = [
+    "FRAME_VARIABLES",
+    "TrajectoryWriter",
+    "Trajectory",
+    "ResumeState",
+    "open_trajectory",
+    "load_trajectory",
+    "last_frame",
+    "partial_path",
+]
+
+#: The per-frame variables every trajectory has: name -> (dims, attrs).
+FRAME_VARIABLES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
+    "points": (("time", "node", "xyz"), {"units": "R0", "long_name": "node positions"}),
+    "velocity": (("time", "node", "xyz"), {"units": "R0/t_a", "long_name": "cortex velocity at the nodes"}),
+    "active_stress": (("time", "node"), {"units": "zeta_0", "long_name": "isotropic active tension zeta at the nodes"}),
+    "pressure": (("time",), {"units": "zeta_0/R0", "long_name": "pressure difference P = p_inside - p_outside (NaN without incompressibility)"}),
+}
+_TIME_ATTRS = {"units": "t_a", "long_name": "time"}
+_TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each triangle"}
+_EXTRA_DIMS = ("time", "node", "xyz")
+_RESERVED = {"time", "triangles", *FRAME_VARIABLES}
+_TIME_CHUNK = 1024
+
+
+def _same_scene_but_time(a, b) -> bool:
+    """Scenes equal up to their ``time`` section (a run may be resumed with a new t_end or dt)."""
+    import yaml
+
+    try:
+        da, db = yaml.safe_load(a), yaml.safe_load(b)
+    except Exception:
+        return a == b
+    if not isinstance(da, dict) or not isinstance(db, dict):
+        return a == b
+    da.pop("time", None)
+    db.pop("time", None)
+    return da == db
+
+
+def partial_path(path: str | os.PathLike) -> Path:
+    """The in-progress file of a trajectory: ``<path>.partial``."""
+    return Path(os.fspath(path) + PARTIAL_SUFFIX)
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def _attr_value(name: str, value: Any) -> Any:
+    """Convert a global attribute to a type netCDF4 can store."""
+    if isinstance(value, (bool, np.bool_)):
+        return np.int8(value)
+    if isinstance(value, (str, int, float, np.integer, np.floating)):
+        return value
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    if isinstance(value, (list, tuple, np.ndarray)):
+        arr = np.asarray(value)
+        if arr.dtype.kind in "iuf" and arr.ndim == 1:
+            return arr
+    raise TypeError(
+        f"global attribute {name!r}: cannot store {type(value).__name__} in netCDF "
+        "(use a string, a number or a 1-d list of numbers)"
+    )
+
+
+def _global_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """The caller's attributes plus effects/scene derived from a Scene, version and time."""
+    from ..scene import Scene
+
+    out: dict[str, Any] = {}
+    attrs = dict(attrs)
+    scene = attrs.get("scene")
+    if isinstance(scene, Scene):
+        attrs["scene"] = scene.to_yaml()
+        attrs.setdefault("effects", list(scene.data["effects"]))
+    effects = attrs.get("effects")
+    if effects is not None and not isinstance(effects, str):
+        attrs["effects"] = ",".join(effects)
+    missing = [k for k in ("effects", "scene") if k not in attrs]
+    if missing:
+        raise ValueError(
+            f"TrajectoryWriter attrs must contain {' and '.join(missing)} "
+            "(or 'scene' as a Scene, from which effects are derived)"
+        )
+    attrs.pop("cortex_ti_version", None)  # always this package's version
+    out["effects"] = _attr_value("effects", attrs.pop("effects"))
+    out["scene"] = _attr_value("scene", attrs.pop("scene"))
+    out["cortex_ti_version"] = __version__
+    out["created"] = _attr_value("created", attrs.pop("created", _now()))
+    for key, value in attrs.items():
+        out[key] = _attr_value(key, value)
+    return out
+
+
+def _declared(extra_vars: Mapping) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
+    """The caller's extra per-frame variables, checked: ``name -> (dims, attrs)``."""
+    out = {}
+    for name, spec in extra_vars.items():
+        try:
+            dims, attrs = spec
+        except (TypeError, ValueError):
+            raise ValueError(f"extra_vars[{name!r}] must be (dims, attrs)") from None
+        dims = tuple(dims)
+        if name in _RESERVED:
+            raise ValueError(f"extra variable {name!r} clashes with a standard variable")
+        if not dims or dims[0] != "time" or any(d not in _EXTRA_DIMS for d in dims) \
+                or len(set(dims)) != len(dims):
+            raise ValueError(
+                f"extra variable {name!r}: dims must start with 'time' and use "
+                f"{_EXTRA_DIMS} without repeats, got {dims}"
+            )
+        attrs = dict(attrs)
+        missing = [k for k in ("units", "long_name") if not isinstance(attrs.get(k), str)]
+        if missing:
+            raise ValueError(f"extra variable {name!r}: attrs must give {' and '.join(missing)}")
+        out[name] = (dims, attrs)
+    return out
+
+
+def _triangles(triangles, n_nodes: int) -> np.ndarray:
+    """The triangles as int32, checked against the node count."""
+    tri = np.asarray(triangles)
+    if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
+        raise ValueError(f"triangles must have shape (n_faces, 3), got {tri.shape}")
+    if tri.dtype.kind not in "iu":
+        raise ValueError(f"triangles must be integer node indices, got dtype {tri.dtype}")
+    if tri.min() < 0 or tri.max() >= n_nodes:
+        raise ValueError(f"triangles index nodes outside 0..{n_nodes - 1}")
+    return tri.astype(np.int32)
+
+
+def _resume_problems(nc, n_nodes: int, triangles: np.ndarray, variables, scene: str) -> list[str]:
+    """Why a partial file cannot be continued by this run (empty: it can)."""
+    problems = []
+    dims = {k: d.size for k, d in nc.dimensions.items()}
+    if dims.get("node") != n_nodes:
+        problems.append(f"it has {dims.get('node')} nodes, the run has {n_nodes}")
+    elif "triangles" not in nc.variables or not np.array_equal(nc["triangles"][...], triangles):
+        problems.append("its triangles differ from the run's mesh")
+    want = set(variables) | {"time", "triangles"}
+    have = set(nc.variables)
+    if want != have:
+        problems.append(f"its variables differ from the run's: {', '.join(sorted(want ^ have))}")
+    if not _same_scene_but_time(nc.attrs.get("scene"), scene):
+        problems.append("it was written for a different scene (only the time section may change)")
+    return problems
+
+
+def _layout(nc, sizes: dict, triangles: np.ndarray, variables: Mapping, attrs: Mapping) -> None:
+    """Dimensions, variables (chunked one frame per chunk), triangles and attributes of a new file."""
+    nc.dimensions = {"time": None, "node": sizes["node"], "xyz": 3, "face": len(triangles), "corner": 3}
+    t = nc.create_variable("time", ("time",), "f8", chunks=(_TIME_CHUNK,))
+    t.attrs.update(_TIME_ATTRS)
+    for name, (dims, var_attrs) in variables.items():
+        chunks = tuple(1 if d == "time" else sizes[d] for d in dims)
+        var = nc.create_variable(name, dims, "f8", chunks=(_TIME_CHUNK,) if chunks == (1,) else chunks)
+        var.attrs.update(var_attrs)
+    tri = nc.create_variable("triangles", ("face", "corner"), "i4", data=triangles)
+    tri.attrs.update(_TRIANGLE_ATTRS)
+    nc.attrs.update(attrs)
+
+
+def _array(name: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    return arr
+
+
+def _frame_values(sizes: dict, declared: Mapping, points, velocity, active_stress, pressure, extra) -> dict:
+    """One frame's values by variable, each checked against its shape; the extras exactly those declared."""
+    n = sizes["node"]
+    values = {
+        "points": _array("points", points, (n, 3)),
+        "velocity": _array("velocity", velocity, (n, 3)),
+        "active_stress": _array("active_stress", active_stress, (n,)),
+        "pressure": _array("pressure", pressure, ()),
+    }
+    unknown = sorted(set(extra) - set(declared))
+    missing = sorted(set(declared) - set(extra))
+    if unknown or missing:
+        problems = ([f"undeclared extra variables {unknown}"] if unknown else []) + \
+                   ([f"missing extra variables {missing}"] if missing else [])
+        raise ValueError("append(): " + "; ".join(problems))
+    for name, (dims, _) in declared.items():
+        values[name] = _array(name, extra[name], tuple(sizes[d] for d in dims[1:]))
+    return values
+
+
+class TrajectoryWriter:
+    """Write a run frame by frame to ``<path>.partial``; rename to ``path`` at the end.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Final file name (``.h5`` by convention).  Its folder is created if needed.
+    triangles : (n_faces, 3) int array
+        Triangles as 0-based node indices; stored once as ``triangles`` (int32).
+    n_nodes : int
+        Number of mesh nodes.
+    attrs : dict
+        Global attributes.  Must contain ``scene`` (the scene YAML text, or a
+        :class:`~cortex_ti.scene.Scene`, which is stored as ``to_yaml()``) and
+        ``effects`` (a comma-separated string or a list of names; derived from a
+        Scene when omitted).  ``cortex_ti_version`` and ``created`` are added.
+        Other values must be strings, numbers or 1-d lists of numbers (bools
+        are stored as 0/1).
+    extra_vars : dict, optional
+        Extra per-frame float64 variables: ``name -> (dims, attrs)``, dims a
+        tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")``
+        (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
+        attrs must give ``units`` and ``long_name``.
+    resume : bool, optional
+        If ``<path>.partial`` exists, reopen it and continue after its last
+        frame instead of starting over.  Its triangles, node count, variables
+        and scene (up to its ``time`` section) must match; its ``created`` attribute is kept and the time of
+        resumption is appended to the ``resumed`` attribute.  Without a partial
+        file a new one is started.
+
+    Notes
+    -----
+    * Each :meth:`append` writes one frame and flushes it to disk, so a killed
+      process leaves a readable partial file of the frames written so far.
+      (A kill *during* the flush itself can still corrupt it: HDF5 is not
+      journaled.)
+    * The final path never exists half-written: :meth:`finish` closes the file,
+      fsyncs it and renames it with :func:`os.replace`.
+    * As a context manager, leaving the block normally calls :meth:`finish`
+      and leaving it with an exception calls :meth:`abort` (no file is left).
+      A process that dies without either keeps its ``.partial`` file for resume.
+
+    Examples
+    --------
+    ::
+
+        with TrajectoryWriter("run.h5", triangles, len(x), {"scene": scene}) as w:
+            w.append(0.0, x, v, zeta, p)       # one frame, flushed to run.h5.partial
+        # leaving the block renamed run.h5.partial -> run.h5
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        triangles: np.ndarray,
+        n_nodes: int,
+        attrs: Mapping[str, Any],
+        extra_vars: Mapping[str, tuple[tuple[str, ...], Mapping[str, str]]] | None = None,
+        resume: bool = False,
+    ) -> None:
+        self.path = Path(os.fspath(path))
+        self.partial = partial_path(self.path)
+        n_nodes = int(n_nodes)
+        if n_nodes <= 0:
+            raise ValueError(f"n_nodes must be positive, got {n_nodes}")
+        self.n_nodes = n_nodes
+        self.triangles = _triangles(triangles, n_nodes)
+        self._sizes = {"time": 1, "node": n_nodes, "xyz": 3}
+        self._extra = _declared(extra_vars or {})
+        self._attrs = _global_attrs(attrs)
+        self._h5: h5py.File | None = None
+        self._nc: h5netcdf.File | None = None
+        self._n = 0
+        self._last_t = -math.inf
+        self._state = "open"
+        if resume and self.partial.exists():
+            self._reopen()
+        else:
+            self._create()
+
+    # ----------------------------------------------------------------------------- setup
+    def _variables(self) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
+        return {**FRAME_VARIABLES, **self._extra}
+
+    def _create(self) -> None:
+        self.partial.parent.mkdir(parents=True, exist_ok=True)
+        self._h5 = h5py.File(self.partial, "w", track_order=True)
+        try:
+            self._nc = h5netcdf.File(self._h5, "w")
+            _layout(self._nc, self._sizes, self.triangles, self._variables(), self._attrs)
+            self._flush()
+        except BaseException:
+            self._close()
+            self.partial.unlink(missing_ok=True)
+            raise
+
+    def _reopen(self) -> None:
+        where = f"cannot resume '{self.partial}'"
+        try:
+            self._h5 = h5py.File(self.partial, "r+")
+            self._nc = h5netcdf.File(self._h5, "a")
+        except (OSError, ValueError, KeyError) as exc:
+            self._close()
+            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); delete it to start over") from None
+        nc = self._nc
+        try:
+            problems = _resume_problems(nc, self.n_nodes, self.triangles, self._variables(), self._attrs["scene"])
+            if problems:
+                raise CortexError(f"{where}: {'; '.join(problems)}; delete it or run without resume")
+            self._n = int(nc.dimensions["time"].size)
+            if self._n:
+                self._last_t = float(nc["time"][self._n - 1])
+            resumed = nc.attrs.get("resumed", "")
+            nc.attrs.update({k: v for k, v in self._attrs.items() if k != "created"})
+            nc.attrs["resumed"] = f"{resumed},{_now()}" if resumed else _now()
+            self._flush()
+        except BaseException:
+            self._close()
+            raise
+
+    # ----------------------------------------------------------------------------- writing
+    @property
+    def n_frames(self) -> int:
+        """Number of frames in the file (including those of a resumed partial file)."""
+        return self._n
+
+    def _flush(self) -> None:
+        self._nc.flush()   # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
+        self._h5.flush()   # push data and metadata to disk
+
+    def append(self, t: float, points, velocity, active_stress, pressure: float, **extra) -> None:
+        """Write one frame and flush it to disk.
+
+        Parameters
+        ----------
+        t : float
+            Time of the frame (t_a); finite and larger than the previous frame's.
+        points, velocity : (n_nodes, 3) arrays
+            Node positions and velocities.
+        active_stress : (n_nodes,) array
+            Active tension zeta at the nodes.
+        pressure : float
+            P = p_inside - p_outside (NaN when not computed).
+        **extra
+            One value per extra variable declared in ``extra_vars`` (all of
+            them, no others), shaped like its non-time dims.
+        """
+        if self._state != "open":
+            raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
+        t = float(t)
+        if not math.isfinite(t) or t <= self._last_t:
+            raise ValueError(
+                f"frame time must be finite and increase: got t = {t} after t = {self._last_t}"
+            )
+        values = _frame_values(self._sizes, self._extra, points, velocity, active_stress, pressure, extra)
+        k = self._n
+        nc = self._nc
+        nc.resize_dimension("time", k + 1)
+        for name, value in values.items():
+            nc[name][k, ...] = value
+        nc["time"][k] = t  # last: a frame is complete once its time is set
+        self._n = k + 1
+        self._last_t = t
+        self._flush()
+
+    # ----------------------------------------------------------------------------- closing
+    def _close(self) -> None:
+        nc, h5 = self._nc, self._h5
+        self._nc = self._h5 = None
+        try:
+            if nc is not None:
+                nc.close()
+        finally:
+            if h5 is not None:
+                h5.close()
+
+    def finish(self) -> Path:
+        """Close the file and atomically rename ``<path>.partial`` to ``path``.
+
+        Returns
+        -------
+        Path
+            The final path.  Calling it again returns the path without doing anything.
+        """
+        if self._state == "finished":
+            return self.path
+        if self._state != "open":
+            raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
+        self._close()
+        with open(self.partial, "rb") as fh:
+            os.fsync(fh.fileno())
+        os.replace(self.partial, self.path)
+        self._state = "finished"
+        return self.path
+
+    def abort(self) -> None:
+        """Close and delete the ``.partial`` file, so a failed run leaves no file.
+
+        Does nothing after :meth:`finish` (the finished file is kept) or a
+        previous :meth:`abort`.
+        """
+        if self._state != "open":
+            return
+        self._state = "aborted"
+        try:
+            self._close()
+        finally:
+            self.partial.unlink(missing_ok=True)
+
+    def close_partial(self) -> Path | None:
+        """Close but keep ``<path>.partial`` for :option:`--resume` (interrupted or failed
+        dynamic runs); a partial file without any frame is deleted instead."""
+        if self._state != "open":
+            return None
+        if self._n == 0:
+            self.abort()
+            return None
+        self._state = "kept"
+        self._close()
+        return self.partial
+
+    def __enter__(self) -> "TrajectoryWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is None:
+            self.finish()
+        else:
+            self.abort()
+        return False
+
+    def __repr__(self) -> str:
+        return f"<TrajectoryWriter '{self.partial}' {self._n} frames, {self._state}>"
+
+
+# --------------------------------------------------------------------------------------
+# Reading
+# --------------------------------------------------------------------------------------
+
+def _existing(path: str | os.PathLike) -> Path:
+    p = Path(os.fspath(path))
+    if p.exists():
+        return p
+    partial = partial_path(p)
+    if partial.exists():
+        return partial
+    raise CortexError(f"trajectory file '{p}' not found")
+
+
+def open_trajectory(path: str | os.PathLike):
+    """Open a trajectory (final or ``.partial``) as an :class:`xarray.Dataset`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.  If it does not exist but ``<path>.partial`` does, that is opened.
+
+    Returns
+    -------
+    xarray.Dataset
+        Lazily loaded; close it (or use it as a context manager) when done.
+
+    Raises
+    ------
+    CortexError
+        If neither the file nor its partial file exists.
+    """
+    import xarray as xr  # local import: writing does not need xarray
+
+    return xr.open_dataset(_existing(path), engine="h5netcdf")
+
+
+def load_trajectory(path: str | os.PathLike):
+    """Read a whole trajectory into memory and close the file; works while a run is writing it.
+
+    A running simulation holds HDF5's file lock on its ``.partial`` file, so
+    :func:`open_trajectory` cannot open it; this function opens the file without taking the
+    lock (read-only).  The writer flushes after every frame, so the frames read are those
+    complete at that moment; should a frame be caught half-appended (its time not yet set),
+    it and anything after it are dropped: only the leading frames with finite, increasing
+    times are kept.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A final or ``.partial`` trajectory; if ``path`` does not exist but
+        ``<path>.partial`` does, that is read.
+
+    Returns
+    -------
+    xarray.Dataset
+        In memory; no file stays open.
+
+    Raises
+    ------
+    CortexError
+        Neither file exists, or the file is not a readable trajectory.
+    """
+    import xarray as xr  # local import: writing does not need xarray
+
+    file = _existing(path)
+    try:
+        with h5py.File(file, "r", locking=False) as h5, h5netcdf.File(h5, "r") as nc:
+            ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc)).load()
+    except (OSError, KeyError, ValueError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+    if "time" in ds.dims:
+        t = np.asarray(ds["time"].values, dtype=float)
+        ok = np.isfinite(t)
+        ok[1:] &= np.diff(t) > 0.0
+        bad = np.flatnonzero(~ok)
+        if bad.size:
+            ds = ds.isel(time=slice(0, int(bad[0])))
+    return ds
+
+
+def last_frame(path: str | os.PathLike) -> dict[str, Any]:
+    """The last frame of a trajectory, for resuming a run.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A final or ``.partial`` trajectory file; if ``path`` does not exist but
+        ``<path>.partial`` does, that is read.
+
+    Returns
+    -------
+    dict
+        ``n_frames`` (int), ``time`` (float), ``points`` and ``velocity``
+        ((n_nodes, 3) arrays), ``active_stress`` ((n_nodes,) array),
+        ``pressure`` (float), ``extra`` (dict name -> value of each extra
+        per-frame variable) and ``path`` (the file read).  With no frames,
+        ``n_frames`` is 0 and the other values are None (``extra`` is empty).
+    """
+    file = _existing(path)
+    try:
+        with h5netcdf.File(file, "r") as nc:
+            n = int(nc.dimensions["time"].size)
+            out: dict[str, Any] = {"path": file, "n_frames": n}
+            if n == 0:
+                out.update(time=None, points=None, velocity=None, active_stress=None,
+                           pressure=None, extra={})
+                return out
+            out["time"] = float(nc["time"][n - 1])
+            for name in FRAME_VARIABLES:
+                out[name] = np.asarray(nc[name][n - 1, ...])
+            out["pressure"] = float(out["pressure"])
+            out["extra"] = {
+                name: np.asarray(var[n - 1, ...])
+                for name, var in nc.variables.items()
+                if name not in _RESERVED and var.dimensions[:1] == ("time",)
+            }
+            return out
+    except (OSError, KeyError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+
+
+@dataclass(frozen=True)
+class ResumeState:
+    """Where an interrupted run continues: the last flushed frame of its ``.partial`` file."""
+
+    path: Path              # the partial file
+    n_frames: int
+    time: float
+    points: np.ndarray      # (N, 3)
+    active_stress: np.ndarray   # (N,) the tension carried by the nodes
+    dt: float | None        # the step the integrator was about to take (None if not stored)
+
+    @classmethod
+    def read(cls, output: str | os.PathLike) -> "ResumeState | None":
+        """The state of ``<output>.partial``, or None if there is none or it holds no frame."""
+        partial = partial_path(output)
+        if not partial.exists():
+            return None
+        last = last_frame(partial)
+        if not last["n_frames"]:
+            return None
+        dt = last["extra"].get("dt")
+        return cls(path=partial, n_frames=last["n_frames"], time=float(last["time"]),
+                   points=np.asarray(last["points"], dtype=float),
+                   active_stress=np.asarray(last["active_stress"], dtype=float),
+                   dt=None if dt is None else float(dt))
+
+
+class Trajectory:
+    """A trajectory file read back, answering for itself: its dataset, its scene and settings, the
+    normals of a frame, the frame nearest a time.
+
+    ``Trajectory(path)`` reads the whole file into memory without HDF5's lock (it works on the
+    ``.partial`` of a running simulation, see :func:`load_trajectory`); ``lazy=True`` opens it
+    lazily instead (:func:`open_trajectory`; use it as a context manager to close it).
+
+    Examples
+    --------
+    ::
+
+        tr = Trajectory("p8.h5")
+        tr.scene.name, tr.settings.numerics.fit      # the stored scene, resolved
+        k = tr.frame_at(1.5)                          # nearest frame to t = 1.5
+        tr.normals(k)                                 # (N, 3) the solver's normals of that frame
+    """
+
+    def __init__(self, path: str | os.PathLike, lazy: bool = False):
+        self.path = _existing(path)
+        self.ds = open_trajectory(self.path) if lazy else load_trajectory(self.path)
+
+    def __enter__(self) -> "Trajectory":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.ds.close()
+
+    @cached_property
+    def scene(self):
+        """The scene the trajectory was written for (:class:`~cortex_ti.scene.Scene`)."""
+        from ..scene import scene_from_yaml
+
+        return scene_from_yaml(self.ds.attrs["scene"])
+
+    @property
+    def settings(self):
+        """The stored scene's :class:`~cortex_ti.scene.RunSettings`."""
+        return self.scene.settings
+
+    @property
+    def times(self) -> np.ndarray:
+        return np.asarray(self.ds["time"].values, dtype=float)
+
+    @property
+    def triangles(self) -> np.ndarray:
+        return np.asarray(self.ds["triangles"].values)
+
+    def frame_at(self, t: float) -> int:
+        """Index of the frame nearest to time ``t`` (the earlier one on a tie)."""
+        return int(np.argmin(np.abs(self.times - float(t))))
+
+    def normals(self, k: int) -> np.ndarray:
+        """The unit normals ``(N, 3)`` of frame ``k``: those the solver used (the ``normal``
+        variable runs write); for files written before it existed, the normal of the fitted
+        surface is computed again with the file's fit scheme."""
+        if "normal" in self.ds:
+            return np.asarray(self.ds["normal"].isel(time=k).values, dtype=float)
+        return _fitted_normals(np.asarray(self.ds["points"].isel(time=k).values, dtype=float), self.triangles,
+                               self.ds.attrs.get("fit_scheme", "quadratic"))
+
+
+def _fitted_normals(points: np.ndarray, triangles: np.ndarray, fit: str) -> np.ndarray:
+    """Normals of the fitted surface (:mod:`cortex_ti.surface.geometry`) of a stored shape."""
+    from ..surface.fits import StencilChooser
+    from ..surface.geometry import compute_geometry
+    from ..surface.mesh import Mesh
+    from ..surface.topology import build_topology
+
+    topo = build_topology(Mesh(points, triangles))
+    return compute_geometry(points, topo, StencilChooser(topo, fit)).normal

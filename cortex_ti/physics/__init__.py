@@ -1,0 +1,9 @@
+"""The physics of the cortex: active-stress patterns, the force-balance terms and their assembly.
+
+Owns the vocabulary of effects and the coefficients a run uses (``model``), the active-stress
+patterns (``patterns``, ``user_patterns``; registry
+:data:`~cortex_ti.physics.patterns.PATTERNS`), functions on the sphere (``spherical``), one module
+per physical term (``terms/``, registry :data:`~cortex_ti.physics.terms.TERMS`) and the
+composition of the switched-on terms into one sparse system (``assembly``). May import
+``surface`` and ``solve.system`` (the system it produces); not scenes, dynamics or I/O.
+"""

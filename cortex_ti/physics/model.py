@@ -1,0 +1,43 @@
+"""The physics a scene switches on: the vocabulary of effects and the coefficients of one run.
+
+:data:`EFFECTS` is the one list of effects a scene may name (the scene rules check against
+it; every term of :mod:`cortex_ti.physics.terms` declares one of them). :class:`Physics` is
+what the terms read: the effects switched on and the viscous coefficients. No Taichi here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["EFFECTS", "Physics"]
+
+#: The vocabulary of physical effects a scene can switch on (name -> description).
+EFFECTS: dict[str, str] = {
+    "active_stress": "isotropic active tension zeta from the active_stress patterns",
+    "shear_viscosity": "in-plane shear viscous stress, coefficient viscosity.shear (eta_s)",
+    "bulk_viscosity": "in-plane bulk (area-change) viscous stress, coefficient viscosity.bulk (eta_b)",
+    "bending_viscosity": "viscous bending moments, coefficients viscosity.bending and viscosity.bending_bulk (paper Eq. 45)",
+    "normal_balance": "solve the normal force balance for the normal velocity",
+    "fixed_normal_velocity": "impose zero normal velocity: tangential flow only, the shape stays fixed",
+    "incompressibility": "conserve the enclosed volume with a pressure P = p_inside - p_outside",
+    "shape_evolution": "move the nodes with the computed velocity and step in time (uses the time section)",
+}
+
+
+@dataclass(frozen=True)
+class Physics:
+    """The physical parameters and the effects switched on (one scene, one shape)."""
+
+    effects: frozenset
+    eta_s: float = 1.0
+    eta_b: float = 1.0
+    eta_bar: float = 0.0
+    eta_bar_b: float = 0.0
+
+    @property
+    def normal_balance(self) -> bool:
+        return "normal_balance" in self.effects
+
+    @property
+    def rows_per_node(self) -> int:
+        return 3 if self.normal_balance else 2

@@ -1,0 +1,76 @@
+r"""Bending viscosity in the normal balance (paper Sec. 3.4, Eq. 45), a stabilising term.
+
+With our curvature convention (``C_ab = -n . d_a d_b X``, a sphere has C = 2/R) the
+Eulerian rate of curvature change under a normal velocity is
+``D^a_b = d_t C^a_b = -nabla^a nabla_b v_n - v_n C^a_c C^c_b`` (trace
+``-Lap v_n - v_n C~``; a sphere growing at speed v_n has ``d_t C = -2 v_n / R^2``).
+The paper's bending stress is
+
+.. math::
+    t_b^{ab} = 2\bar\eta\,(D^{ab} + C\,v_n C^{ab}) + (\bar\eta_b - \bar\eta)\, D^c_c\, g^{ab}
+
+and only its normal force ``C_ab t_b^ab`` is kept (the tangential part is dropped, as
+in the paper). Its extra term ``C v_n C^ab`` is the one the paper adds "for reasons of
+numerical stability"; the signs lost in the extracted text are fixed here so that
+the term adds drag: on a sphere, mode ``l`` of ``v_n`` feels an extra normal force
+``kappa_l v_n`` with ``kappa_l = (2 eta_bar_b l(l+1) + 8 eta_bar - 4 eta_bar_b) / R^3``
+(see :func:`cortex_ti.analysis.analytic.sphere_bending_solution`, which the tests compare with).
+
+Written out, with ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a``:
+
+.. math::
+    C_{ab} t_b^{ab} = \beta^{cd}\,\nabla_c\nabla_d v_n + \beta_0 v_n,\quad
+    \beta^{cd} = -2\bar\eta C^{cd} - (\bar\eta_b-\bar\eta) C g^{cd},\quad
+    \beta_0 = 2\bar\eta (C\tilde C - \bar C) - (\bar\eta_b-\bar\eta) C \tilde C,
+
+and ``nabla_c nabla_d v_n = d_c d_d v_n - Gamma^m_cd d_m v_n`` with the derivatives of
+``v_n = n . v`` fitted from the nodal values ``n_a . v_a``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import ROW_NORMAL, AssemblyContext, Term, register
+
+
+def curvature_invariants(geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``C^a_b``, ``C^ab``, ``C``, ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a`` per node."""
+    gi, cab = geometry.metric_inv, geometry.curvature
+    cmix = np.einsum("nac,ncb->nab", gi, cab)            # C^a_b
+    cup = np.einsum("nab,nbd->nad", cmix, gi)           # C^ad
+    ctr = np.trace(cmix, axis1=1, axis2=2)
+    c2 = np.einsum("nab,nba->n", cmix, cmix)
+    c3 = np.einsum("nab,nbc,nca->n", cmix, cmix, cmix)
+    return cmix, cup, ctr, c2, c3
+
+
+def hessian_weights(geometry, beta: np.ndarray) -> np.ndarray:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n that give ``beta^cd nabla_c nabla_d v_n``,
+    with ``nabla_c nabla_d v_n = d_c d_d v_n - Gamma^m_cd d_m v_n``."""
+    w = np.zeros((geometry.n_nodes, 5))
+    w[:, 0:2] = -np.einsum("ncd,nmcd->nm", beta, geometry.christoffel)
+    w[:, 2] = beta[:, 0, 0]
+    w[:, 3] = beta[:, 1, 1]
+    w[:, 4] = beta[:, 0, 1] + beta[:, 1, 0]
+    return w
+
+
+def bending_weights(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n itself."""
+    gi = geometry.metric_inv
+    _, cup, ctr, c2, c3 = curvature_invariants(geometry)
+    beta = -2.0 * eta_bar * cup - (eta_bar_b - eta_bar) * ctr[:, None, None] * gi
+    w0 = 2.0 * eta_bar * (ctr * c2 - c3) - (eta_bar_b - eta_bar) * ctr * c2
+    return hessian_weights(geometry, beta), w0
+
+
+@register
+class BendingViscosity(Term):
+    effect = "bending_viscosity"
+    name = "bending viscosity"
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        w, w0 = bending_weights(ctx.geometry, ctx.physics.eta_bar, ctx.physics.eta_bar_b)
+        ctx.Wn[:, ROW_NORMAL] += w
+        ctx.Wn0[:, ROW_NORMAL] += w0

@@ -1,0 +1,44 @@
+r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multiplier.
+
+* Rigid-body gauge (always on: the force balance contains only derivatives of the
+  velocity, so a rigid motion can be added to any solution): zero total velocity
+  ``sum_i A_i v_i = 0`` (Eq. 36) and zero angular momentum
+  ``sum_i A_i (x_i - x_c) x v_i = 0`` (Eq. 37), ``A_i`` the Meyer mixed area, ``x_c``
+  the area-weighted centroid (with zero total velocity the reference point drops out).
+* Incompressibility (effect ``incompressibility``): the pressure difference ``P``
+  becomes an unknown of the normal balance and the enclosed volume is kept,
+  ``sum_i v_n,i W_i = 0`` (Eq. 35). We take ``W_i = n_i . dV/dx_i``, the derivative
+  of the *triangulated* volume along the direction the node is advected in
+  (Eq. 60), rather than the mixed area ``A_i``: both converge to the same
+  ``integral of v_n dS = 0``, but with this choice the discrete volume is exactly
+  stationary under normal advection, so it is conserved to O(dt^2) per step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...solve.system import rigid_motion_rows
+from .base import AssemblyContext, Constraint, Term, register
+
+
+@register
+class RigidBodyGauge(Term):
+    effect = None
+    name = "zero total velocity and angular momentum"
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        g = ctx.geometry
+        ctx.constraints.append(Constraint("momentum", rigid_motion_rows(g.points, g.area)))
+
+
+@register
+class Incompressibility(Term):
+    effect = "incompressibility"
+    name = "pressure and volume conservation"
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        g = ctx.geometry
+        weight = np.einsum("nc,nc->n", g.normal, g.volume_gradient)
+        ctx.pressure = True
+        ctx.constraints.append(Constraint("volume", (weight[:, None] * g.normal)[None]))

@@ -1,0 +1,54 @@
+r"""Semi-implicit active tension: the normal force of the tension on the shape after the step.
+
+Explicit normal advection evaluates the tension's normal force ``-zeta C`` on the current
+shape. A normal perturbation of wavenumber q changes C by ``q^2`` times its height, so
+the explicit step must resolve a relaxation rate that grows with q; where the discrete
+viscous operator holds such a mode only weakly (the stiff spurious modes of sheared,
+coarse meshes, :func:`cortex_ti.dynamics.spectrum.stiffest_normal_mode`) the step collapses.
+
+The classical remedy for surface tension (the semi-implicit curvature of free-surface
+flow solvers) is to evaluate the curvature on the shape the step produces,
+``C(t + dt) ~ C + dt dC/dt``, with the Eulerian rate under normal advection
+(conventions of :mod:`cortex_ti.physics.terms.bending`)
+
+.. math:: \partial_t C = -\Delta v_n - \tilde C\, v_n, \qquad \tilde C = C^a_b C^b_a .
+
+The normal balance ``... = -zeta C`` becomes
+
+.. math:: \ldots - \zeta\,\Delta t\,(\Delta v_n + \tilde C v_n) = -\zeta C,
+
+i.e. a drag ``zeta dt q^2`` on mode q: for a mode whose explicit rate is ``lambda`` the
+step multiplies it by ``1 / (1 - lambda dt)`` (backward Euler) instead of
+``1 + lambda dt``. The term is O(dt), so the scheme stays first order and a steady
+shape (v_n = 0) is unchanged; at ``dt = 0`` (static solves, frame diagnostics) it is
+absent. It is assembled only when the time integrator asks for it
+(``time.implicit_tension``) and the normal balance is solved.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import ROW_NORMAL, AssemblyContext, Term, register
+from .bending import curvature_invariants, hessian_weights
+
+
+def implicit_tension_weights(geometry, zeta: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n."""
+    _, _, _, c2, _ = curvature_invariants(geometry)
+    beta = -(dt * zeta)[:, None, None] * geometry.metric_inv
+    return hessian_weights(geometry, beta), -dt * zeta * c2
+
+
+@register
+class ImplicitTension(Term):
+    effect = "active_stress"
+    name = "semi-implicit active tension"
+
+    def applies(self, ctx: AssemblyContext) -> bool:
+        return ctx.implicit_dt > 0.0 and ctx.physics.normal_balance
+
+    def apply(self, ctx: AssemblyContext) -> None:
+        w, w0 = implicit_tension_weights(ctx.geometry, ctx.zeta, ctx.implicit_dt)
+        ctx.Wn[:, ROW_NORMAL] += w
+        ctx.Wn0[:, ROW_NORMAL] += w0

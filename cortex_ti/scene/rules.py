@@ -1,0 +1,149 @@
+"""Cross-key rules of a scene that JSON schema does not express (effects versus coefficients,
+exactly one mesh source, a time scheme and its tension treatment, ...)."""
+
+from __future__ import annotations
+
+import difflib
+
+from ..dynamics.schemes import SCHEMES
+from ..errors import SceneError
+from ..physics.model import EFFECTS
+from ..surface.mesh import icosphere_sizes
+from .schema import fmt_value
+
+__all__ = ["check_rules", "VALID_NODE_COUNTS"]
+
+#: Icosphere node counts 10*4^k+2 accepted for mesh.nodes (k = 0..7).
+VALID_NODE_COUNTS: tuple[int, ...] = tuple(icosphere_sizes(7))
+
+#: Effects that need the normal force balance.
+_NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "shape_evolution")
+
+
+def check_rules(data: dict) -> None:
+    """Cross-key rules that JSON schema does not express, on a schema-valid scene with its
+    defaults filled in; each rule raises one :class:`SceneError` naming the keys involved."""
+    _check_mesh_source(data["mesh"])
+    effects = _check_effect_names(data["effects"])
+    _check_effect_combinations(effects)
+    _check_coefficients(data["viscosity"], effects)
+    _check_time(data.get("time") or {})
+    _check_patterns(data["active_stress"], effects)
+
+
+def _check_mesh_source(mesh: dict) -> None:
+    """Exactly one mesh source, and a valid icosphere size."""
+    nodes, file = mesh.get("nodes"), mesh.get("file")
+    if nodes is not None and file is not None:
+        raise SceneError(
+            f"mesh.nodes = {nodes} and mesh.file = '{file}' are both set: give exactly one of them"
+        )
+    if nodes is None and file is None:
+        raise SceneError(
+            "mesh needs exactly one of mesh.nodes (icosphere node count) or mesh.file (a mesh file)"
+        )
+    if nodes is not None and nodes not in VALID_NODE_COUNTS:
+        valid = ", ".join(str(n) for n in VALID_NODE_COUNTS)
+        raise SceneError(
+            f"mesh.nodes = {nodes} is not an icosphere node count 10*4^k+2; valid values: {valid}"
+        )
+
+
+def _check_effect_names(effects: list) -> set[str]:
+    """Every effect is in the vocabulary, none twice. Returns them as a set."""
+    known = ", ".join(EFFECTS)
+    seen: set[str] = set()
+    for i, name in enumerate(effects):
+        if name not in EFFECTS:
+            close = difflib.get_close_matches(name, list(EFFECTS), n=1, cutoff=0.6)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise SceneError(f"effects.{i}: unknown effect '{name}'{hint}; known effects: {known}")
+        if name in seen:
+            raise SceneError(f"effects lists '{name}' twice")
+        seen.add(name)
+    return seen
+
+
+def _check_effect_combinations(seen: set[str]) -> None:
+    """Exactly one of the normal balance and the fixed normal velocity; what needs the normal
+    balance has it; shear viscosity is there."""
+    if ("normal_balance" in seen) == ("fixed_normal_velocity" in seen):
+        got = "both" if "normal_balance" in seen else "neither"
+        raise SceneError(
+            "effects must contain exactly one of 'normal_balance' and "
+            f"'fixed_normal_velocity', got {got}"
+        )
+    for name in _NEED_NORMAL_BALANCE:
+        if name in seen and "normal_balance" not in seen:
+            raise SceneError(
+                f"the effect '{name}' requires 'normal_balance' in effects "
+                "(it cannot be combined with 'fixed_normal_velocity')"
+            )
+    if "shear_viscosity" not in seen:
+        raise SceneError(
+            "effects must contain 'shear_viscosity': without shear viscosity every area-preserving "
+            "flow costs nothing and the force balance does not determine the velocity"
+        )
+
+
+def _check_coefficients(visc: dict, seen: set[str]) -> None:
+    """A viscous effect is on exactly when its coefficient is nonzero."""
+    for effect, key in (("shear_viscosity", "shear"), ("bulk_viscosity", "bulk")):
+        value = visc[key]
+        if value > 0 and effect not in seen:
+            raise SceneError(
+                f"viscosity.{key} = {fmt_value(value)} but the effect '{effect}' is off: "
+                f"add it to effects or set viscosity.{key}: 0"
+            )
+        if value == 0 and effect in seen:
+            raise SceneError(
+                f"the effect '{effect}' is on but viscosity.{key} = 0: "
+                f"set viscosity.{key} > 0 or remove '{effect}' from effects"
+            )
+    bending = {k: visc[k] for k in ("bending", "bending_bulk")}
+    if any(v > 0 for v in bending.values()) and "bending_viscosity" not in seen:
+        named = " and ".join(f"viscosity.{k} = {fmt_value(v)}" for k, v in bending.items() if v > 0)
+        zero = ", ".join(f"viscosity.{k}: 0" for k, v in bending.items() if v > 0)
+        raise SceneError(
+            f"{named} but the effect 'bending_viscosity' is off: add it to effects or set {zero}"
+        )
+    if all(v == 0 for v in bending.values()) and "bending_viscosity" in seen:
+        raise SceneError(
+            "the effect 'bending_viscosity' is on but viscosity.bending = 0 and "
+            "viscosity.bending_bulk = 0: set one of them > 0 or remove 'bending_viscosity' from effects"
+        )
+
+
+def _check_time(time: dict) -> None:
+    """The semi-implicit tension is first order: refused with a second-order scheme."""
+    scheme = SCHEMES.get(time.get("scheme", "euler"))
+    if time.get("implicit_tension") is True and scheme is not None and not scheme.first_order:
+        raise SceneError(
+            f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
+            f"second-order scheme time.scheme = {time['scheme']}: use euler or adaptive_euler, or set "
+            "time.implicit_tension: auto"
+        )
+
+
+def _check_patterns(patterns: list, seen: set[str]) -> None:
+    """Patterns exactly when the active stress is on; pattern details the schema cannot say."""
+    if patterns and "active_stress" not in seen:
+        raise SceneError(
+            f"active_stress has {len(patterns)} pattern(s) but the effect 'active_stress' is off: "
+            "add it to effects or set active_stress: []"
+        )
+    if not patterns and "active_stress" in seen:
+        raise SceneError(
+            "the effect 'active_stress' is on but the active_stress list is empty: "
+            "add a pattern or remove 'active_stress' from effects"
+        )
+    for i, pattern in enumerate(patterns):
+        if pattern["type"] == "harmonics":
+            for j, term in enumerate(pattern["terms"]):
+                if abs(term["m"]) > term["l"]:
+                    raise SceneError(
+                        f"active_stress.{i}.terms.{j}.m = {term['m']} but |m| must be <= l = {term['l']}"
+                    )
+        elif pattern["type"] == "ring":
+            if not any(pattern["axis"]):
+                raise SceneError(f"active_stress.{i}.axis must not be all zero, got {pattern['axis']}")

@@ -1,0 +1,167 @@
+"""One typed resolution of a scene's settings: :class:`RunSettings`.
+
+A :class:`~cortex_ti.scene.loader.Scene` is the validated YAML (what the user wrote, with the
+schema's defaults filled in); :class:`RunSettings` is what a run does with it, resolved once:
+numbers as floats, the solver backend ``auto`` as the backend that runs, the time scheme's
+treatment of the tension (``time.implicit_tension: auto``) as a bool for that scheme, a null
+fit-residual weight as 0. Everything downstream (the simulation, ``cortex-ti check``, the run
+summaries, the workflow's sweep tables) reads these, never the raw strings.
+
+Sections follow the scene's (``mesh``, ``viscosity``, ``numerics``, ``solver``, ``time``), each a
+frozen dataclass.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..dynamics.schemes import SCHEMES
+from ..physics.model import Physics
+from ..physics.patterns import pattern_axis
+from ..solve.factorizations import choose_factorization
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .loader import Scene
+
+__all__ = ["RunSettings", "MeshSettings", "ViscositySettings", "NumericsSettings", "SolverSettings",
+           "TimeSettings"]
+
+
+@dataclass(frozen=True)
+class MeshSettings:
+    """The initial surface: an icosphere of ``nodes`` nodes and ``radius``, or a user's ``file``;
+    then the affine ``transform`` and the simple ``shear`` x -> x + shear z."""
+
+    nodes: int | None
+    file: str | None
+    radius: float
+    shear: float
+    transform: tuple[tuple[float, float, float], ...] | None
+
+    def initial_map(self) -> np.ndarray | None:
+        """The 3x3 matrix of ``transform`` followed by ``shear`` (None for the identity)."""
+        matrix = np.eye(3) if self.transform is None else np.asarray(self.transform, dtype=float)
+        if self.shear:
+            shear = np.eye(3)
+            shear[0, 2] = self.shear
+            matrix = shear @ matrix
+        return None if np.array_equal(matrix, np.eye(3)) else matrix
+
+
+@dataclass(frozen=True)
+class ViscositySettings:
+    """Viscous coefficients (units of eta_s)."""
+
+    shear: float
+    bulk: float
+    bending: float
+    bending_bulk: float
+
+
+@dataclass(frozen=True)
+class NumericsSettings:
+    """The discretisation: the fit scheme and the weight of the fit-residual rows (0: off)."""
+
+    fit: str
+    fit_residual_weight: float
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """The factorisation that runs (``auto`` resolved), reuse across solves, GMRES tolerance."""
+
+    backend: str
+    reuse: bool
+    rtol: float
+
+
+@dataclass(frozen=True)
+class TimeSettings:
+    """Time stepping (only used with the ``shape_evolution`` effect)."""
+
+    dt: float
+    t_end: float
+    scheme: str
+    save_every: float
+    steady_tol: float
+    tol: float
+    dt_max: float
+    implicit_tension: bool   # the semi-implicit tension, resolved for the scheme (False for a static scene)
+
+    @property
+    def scheme_class(self):
+        """The scheme's class in :data:`cortex_ti.dynamics.schemes.SCHEMES`."""
+        return SCHEMES[self.scheme]
+
+    def describe(self) -> str:
+        """One line: how the run steps (for ``cortex-ti check`` and logs)."""
+        return (f"{self.scheme} from dt = {self.dt:g} to t = {self.t_end:g}, "
+                f"{'semi-implicit' if self.implicit_tension else 'explicit'} tension")
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """Everything a run needs from its scene, resolved once (see the module docstring)."""
+
+    name: str
+    effects: frozenset
+    mesh: MeshSettings
+    viscosity: ViscositySettings
+    patterns: tuple            # the active_stress patterns (mappings; treat as read-only)
+    numerics: NumericsSettings
+    solver: SolverSettings
+    time: TimeSettings
+
+    @classmethod
+    def from_scene(cls, scene: "Scene") -> "RunSettings":
+        data = scene.data
+        effects = frozenset(data["effects"])
+        mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
+        dynamic = "shape_evolution" in effects
+        scheme = SCHEMES[tim["scheme"]]
+        implicit = dynamic and "normal_balance" in effects and scheme.implicit_tension(tim["implicit_tension"])
+        transform = mesh["transform"]
+        return cls(
+            name=data["name"],
+            effects=effects,
+            mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
+                              shear=float(mesh["shear"]),
+                              transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform)),
+            viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),
+            patterns=tuple(copy.deepcopy(data["active_stress"])) if "active_stress" in effects else (),
+            numerics=NumericsSettings(fit=num["fit"], fit_residual_weight=float(num["fit_residual_weight"] or 0.0)),
+            solver=SolverSettings(backend=choose_factorization(sol["backend"]).name, reuse=bool(sol["reuse"]),
+                                  rtol=float(sol["rtol"])),
+            time=TimeSettings(dt=float(tim["dt"]), t_end=float(tim["t_end"]), scheme=tim["scheme"],
+                              save_every=float(tim["save_every"]), steady_tol=float(tim["steady_tol"]),
+                              tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
+        )
+
+    def has(self, effect: str) -> bool:
+        """Whether ``effect`` is switched on."""
+        return effect in self.effects
+
+    @property
+    def dynamic(self) -> bool:
+        """Whether the shape evolves in time (the ``shape_evolution`` effect)."""
+        return "shape_evolution" in self.effects
+
+    @property
+    def physics(self) -> Physics:
+        """What the force-balance terms read: the effects and the viscous coefficients."""
+        v = self.viscosity
+        return Physics(effects=self.effects, eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk)
+
+    @property
+    def pattern_axis(self) -> np.ndarray:
+        """The unit axis of the active-stress pattern (+z without one)."""
+        return pattern_axis(self.patterns)
+
+    def describe_numerics(self) -> str:
+        """One line on the discretisation (for ``cortex-ti check`` and logs)."""
+        w = self.numerics.fit_residual_weight
+        return f"{self.numerics.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}"

@@ -1,0 +1,20 @@
+"""One scene, from its settings to a trajectory file.
+
+Owns the set-up of a run from its :class:`~cortex_ti.scene.RunSettings` (initial mesh, initial
+shape, active tension: ``setup``), :class:`~cortex_ti.simulation.core.Simulation`, the velocity
+solve on any shape of the scene's mesh (geometry -> assembly -> constrained solve: ``core``),
+and the static and dynamic runs that write, flush and resume trajectories and report what they
+cost (``run``). Imports every layer below it (scene, surface, physics, solve, dynamics,
+analysis, io); ``setup`` needs no Taichi, so ``cortex-ti check`` does not start it.
+"""
+
+__all__ = ["Simulation"]
+
+
+def __getattr__(name):
+    # lazily: importing cortex_ti.simulation.setup must not load the Taichi kernels of core
+    if name == "Simulation":
+        from .core import Simulation
+
+        return Simulation
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

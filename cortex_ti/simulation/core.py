@@ -1,0 +1,123 @@
+"""One scene ready to solve: its mesh, topology, active tension and solver, and the velocity on
+any shape of that mesh.
+
+The flow of one solve: shape -> geometry (:mod:`cortex_ti.surface.geometry`) -> the terms of the
+enabled effects (:mod:`cortex_ti.physics.assembly`) -> constrained least squares
+(:mod:`cortex_ti.solve.constrained`) -> velocity. :meth:`Simulation.run` writes the scene's
+trajectory (:mod:`cortex_ti.simulation.run`): a static scene (no ``shape_evolution``) solves once
+and writes one frame; it never enters a time loop.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..dynamics.schemes import Evaluation
+from ..physics.assembly import assemble
+from ..scene.loader import Scene
+from ..solve.constrained import ConstrainedLeastSquares, SolveInfo
+from ..surface.fits import StencilChooser
+from ..surface.geometry import compute_geometry
+from ..surface.mesh import Mesh
+from ..surface.topology import Topology, build_topology
+from .run import run_scene, run_summary
+from .setup import active_tension, initial_mesh, initial_shape
+
+__all__ = ["Simulation", "Solution"]
+
+
+@dataclass
+class Solution:
+    """The velocity field on one shape, the normals the shape moves along, and what it took."""
+
+    points: np.ndarray
+    velocity: np.ndarray
+    pressure: float
+    info: SolveInfo
+    normal: np.ndarray                # (N, 3) the solver's normals (fitted surface)
+    edge_length: np.ndarray           # (N,) mean edge length at each node (the local mesh size)
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def diagnostics(self) -> dict:
+        """The solve's per-frame diagnostics (:data:`cortex_ti.simulation.run.SOLVE_DIAGNOSTICS`)."""
+        return {
+            "lsq_residual": self.info.lsq_residual,
+            "relative_residual": self.info.relative_residual,
+            "constraint_violation": self.info.constraint_violation,
+            "kkt_residual": self.info.kkt_residual,
+        }
+
+
+class Simulation:
+    """A scene ready to solve: mesh, topology, active tension and the chosen solver.
+
+    ``Simulation(scene).solve(points)`` gives the velocity on a shape with the scene's mesh
+    connectivity; ``run(output)`` writes the scene's trajectory. The settings are the scene's,
+    resolved once (:attr:`settings`).
+    """
+
+    def __init__(self, scene: Scene, mesh: Mesh | None = None):
+        self.scene = scene
+        self.settings = scene.settings
+        self.physics = self.settings.physics
+        undeformed = mesh or initial_mesh(self.settings)
+        self.topology: Topology = build_topology(undeformed)
+        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
+        # the stress is carried by the nodes: assign it on the undeformed mesh, then deform
+        self.zeta = active_tension(undeformed, self.settings)
+        self.mesh = initial_shape(undeformed, self.settings)
+        s = self.settings.solver
+        self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol)
+        self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
+        self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
+
+    @property
+    def fit_residual_weight(self) -> float:
+        return self.settings.numerics.fit_residual_weight
+
+    @property
+    def stats(self):
+        """Steps, solves and time of the last dynamic :meth:`run` (None before one)."""
+        return None if self.report is None else self.report.stats
+
+    def solve(self, points: np.ndarray | None = None, dt: float = 0.0) -> Solution:
+        """Velocity and pressure on the shape ``points`` (default: the initial shape).
+
+        ``dt > 0``: the velocity of a step of that length with the semi-implicit tension
+        (:mod:`cortex_ti.physics.terms.implicit_tension`); 0 is the instantaneous velocity."""
+        x = self.mesh.points if points is None else points
+        weight = self.fit_residual_weight
+        t0 = time.perf_counter()
+        geometry = compute_geometry(x, self.topology, self.stencils, residual=weight > 0)
+        t1 = time.perf_counter()
+        system = assemble(geometry, self.physics, self.zeta, weight, implicit_dt=dt)
+        t2 = time.perf_counter()
+        unknowns, pressure, info = self.solver.solve(system, x)
+        t3 = time.perf_counter()
+        return Solution(points=x, velocity=system.velocity(unknowns), pressure=pressure, info=info,
+                        normal=geometry.normal.copy(), edge_length=geometry.edge_length.copy(),
+                        seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2})
+
+    def evaluate(self, points: np.ndarray, dt: float = 0.0) -> Evaluation:
+        """Solve on ``points`` (for a step ``dt``, see :meth:`solve`), count its time per stage, and
+        package what the time integration needs."""
+        sol = self.solve(points, dt)
+        for k, v in sol.seconds.items():
+            self.seconds[k] = self.seconds.get(k, 0.0) + v
+        return Evaluation(points=points, velocity=sol.velocity, normal=sol.normal, pressure=sol.pressure,
+                          solution=sol, edge_length=sol.edge_length)
+
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+        """Run the scene and write its trajectory file (atomically; dynamic runs resumable).
+        What the run did is in :attr:`report` (and :meth:`summary`)."""
+        self.report = run_scene(self, Path(output), resume=resume, progress=progress)
+        return self.report.path
+
+    def summary(self) -> dict:
+        """What the last :meth:`run` took: steps, solves and time per stage (for cost tables)."""
+        return run_summary(self)

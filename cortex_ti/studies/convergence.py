@@ -1,0 +1,49 @@
+"""Errors of static sphere runs against their analytic solutions, gathered over resolutions."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+import xarray as xr
+
+from ..analysis.analytic import error_measures, scene_solution
+from ..io.trajectory import Trajectory
+
+
+def run_errors(path) -> dict:
+    """eps and eps_rel (paper Eqs. 57, 58) of the first frame of one trajectory file."""
+    with Trajectory(path, lazy=True) as tr:
+        settings = tr.settings
+        points = tr.ds["points"].isel(time=0).values
+        velocity = tr.ds["velocity"].isel(time=0).values
+    eps, eps_rel = error_measures(velocity, scene_solution(settings, points))
+    return {"scene": settings.name, "nodes": points.shape[0], "fit": settings.numerics.fit, "eps": eps,
+            "eps_rel": eps_rel}
+
+
+def convergence_dataset(paths: Iterable) -> xr.Dataset:
+    """``eps(scene, fit, nodes)`` and ``eps_rel(scene, fit, nodes)`` with units and descriptions."""
+    rows = [run_errors(p) for p in paths]
+    scenes = sorted({r["scene"] for r in rows})
+    fits = sorted({r["fit"] for r in rows})
+    nodes = sorted({r["nodes"] for r in rows})
+    shape = (len(scenes), len(fits), len(nodes))
+    eps = np.full(shape, np.nan)
+    eps_rel = np.full(shape, np.nan)
+    for r in rows:
+        idx = (scenes.index(r["scene"]), fits.index(r["fit"]), nodes.index(r["nodes"]))
+        eps[idx], eps_rel[idx] = r["eps"], r["eps_rel"]
+    return xr.Dataset(
+        {
+            "eps": (("scene", "fit", "nodes"), eps, {
+                "units": "R0/t_a", "long_name": "mean velocity error",
+                "description": "paper Eq. 57: (1/N) sum over nodes of |v - v_an|"}),
+            "eps_rel": (("scene", "fit", "nodes"), eps_rel, {
+                "units": "1", "long_name": "relative rms velocity error",
+                "description": "paper Eq. 58: sqrt(mean over nodes of |v - v_an|^2) / max over nodes of |v_an|"}),
+        },
+        coords={"scene": scenes, "fit": fits, "nodes": ("nodes", nodes, {"long_name": "number of mesh nodes N"})},
+        attrs={"description": "Static sphere scenes (paper Figs. 2F,G and 3F,G) against the analytic solutions of "
+                              "conventions.md"},
+    )

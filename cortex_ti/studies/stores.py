@@ -1,0 +1,185 @@
+"""Gather the workflow's runs into xarray stores (``results/aggregate/*.nc``).
+
+Each time-dependent study becomes one Dataset with dimensions ``(run, time)``: the run's
+parameters (the columns of :data:`cortex_ti.studies.registry.STUDIES`) are coordinates along
+``run``, ``time`` is the union of the frame times (a run that ended earlier is NaN after its
+end). To get a dense grid over the swept parameters::
+
+    ds.set_index(run=["zeta_hat", "p", "nodes", "dt"]).unstack("run")
+
+The cost store has one entry per run of every study, from the ``benchmark:`` files Snakemake
+writes (wall time, peak memory) and the run summaries of ``cortex-ti run --summary``
+(steps, solves, time per stage).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, fold_radii
+from ..io.files import read_benchmark
+from ..io.trajectory import Trajectory
+from .registry import STUDIES
+
+__all__ = ["study_dataset", "cost_dataset", "run_label", "short_labels"]
+
+_TIME_DECIMALS = 9
+
+
+def _number(text: str):
+    """A sweep value as a number where it is one (so coordinates sort and plot)."""
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        return text
+    return int(v) if v.is_integer() and "." not in str(text) and "e" not in str(text).lower() else v
+
+
+def run_label(row: Mapping) -> str:
+    """Human label of a run: its parameters joined, e.g. ``furrow_p8_a1 nodes=2562 dt=0.0005``."""
+    return " ".join([str(row.get("scene", ""))] + [f"{k}={v}" for k, v in row.items() if k != "scene"])
+
+
+def short_labels(rows: Sequence[Mapping]) -> list[str]:
+    """Labels that tell the runs apart: the scene and only the parameters that vary between rows."""
+    varying = [k for k in (rows[0] if rows else {}) if k != "scene" and len({str(r[k]) for r in rows}) > 1]
+    return [" ".join([str(r.get("scene", ""))] + [f"{k}={r[k]}" for k in varying]) for r in rows]
+
+
+def _fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
+    ds = tr.ds
+    axis = tr.settings.pattern_axis
+    faces = ds["triangles"].values
+    on, off = [], []
+    for pts in ds["points"].values:
+        a, b = fold_radii(pts, faces, axis)
+        on.append(a)
+        off.append(b)
+    on, off = np.array(on), np.array(off)
+    return {"radius_stripe": on, "radius_off_stripe": off, "fold_depth": off - on}
+
+
+_FOLD_ATTRS = {
+    "radius_stripe": {"units": "R0", "long_name": "equatorial radius across the stripe",
+                      "description": "half the width of the surface along the stripe's direction e2 "
+                                     "(diagnostics.fold_radii)"},
+    "radius_off_stripe": {"units": "R0", "long_name": "equatorial radius beside the stripe",
+                          "description": "half the width of the surface along e1, 90 degrees from the stripe"},
+    "fold_depth": {"units": "R0", "long_name": "fold depth",
+                   "description": "radius beside the stripe minus radius across it"},
+}
+
+
+def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Dataset:
+    """``(run, time)`` store of one study from its table rows and trajectory files (same order)."""
+    if len(rows) != len(paths):
+        raise ValueError(f"{len(rows)} rows but {len(paths)} trajectory files")
+    if study not in STUDIES or not STUDIES[study].has_store:
+        known = ", ".join(name for name, s in STUDIES.items() if s.has_store)
+        raise ValueError(f"unknown study {study!r}; the studies with a store: {known}")
+    series, times, attrs = [], [], {}
+    for path in paths:
+        with Trajectory(path, lazy=True) as tr:
+            ds = tr.ds
+            t = np.round(ds["time"].values.astype(float), _TIME_DECIMALS)
+            data = {}
+            for name in STUDIES[study].variables:
+                if name in ds:
+                    data[name] = ds[name].values.astype(float)
+                    attrs[name] = {k: v for k, v in ds[name].attrs.items() if k in ("units", "long_name", "description")}
+            if study == "fold":
+                data.update(_fold_series(tr))
+                attrs.update(_FOLD_ATTRS)
+            if "volume" in data:
+                data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
+        times.append(t)
+        series.append((t, data))
+    attrs["volume_change"] = {"units": "1", "long_name": "relative change of the enclosed volume", "description": "V(t)/V(0) - 1"}
+    grid = np.unique(np.concatenate(times)) if times else np.zeros(0)
+    names = sorted({k for _, d in series for k in d})
+    out = {}
+    for name in names:
+        arr = np.full((len(series), grid.size), np.nan)
+        for i, (t, d) in enumerate(series):
+            if name in d:
+                arr[i, np.searchsorted(grid, t)] = d[name]
+        out[name] = (("run", "time"), arr, attrs.get(name, DIAGNOSTIC_ATTRS.get(name, {})))
+    coords = {"time": ("time", grid, {"units": "t_a", "long_name": "time"}),
+              "run": ("run", np.arange(len(rows)), {"long_name": "run index (parameters are coordinates along run)"})}
+    for col in (rows[0].keys() if rows else []):
+        values = [_number(r[col]) for r in rows]
+        if all(isinstance(v, (int, float)) for v in values):
+            values = np.asarray(values)
+        else:
+            values = np.asarray([str(v) for v in values], dtype=object)
+        coords[col] = ("run", values, {"long_name": f"sweep parameter {col}"})
+    coords["label"] = ("run", np.asarray([run_label(r) for r in rows], dtype=object), {"long_name": "run label"})
+    return xr.Dataset(out, coords=coords, attrs={"description": STUDIES[study].description, "study": study,
+                                                 "units": "lengths R0, times t_a = eta_s / zeta_0"})
+
+
+_COST_ATTRS = {
+    "wall_s": ("s", "wall time of the job", "Snakemake benchmark 's': the whole process, start-up included"),
+    "max_rss_mb": ("MB", "peak resident memory", "Snakemake benchmark 'max_rss'"),
+    "cpu_time_s": ("s", "CPU time of the job", "Snakemake benchmark 'cpu_time'"),
+    "steps": ("1", "time steps taken", "accepted steps of the time integration (0 for a static solve)"),
+    "solves": ("1", "force-balance solves", "geometry + assembly + sparse solve, rejected steps included"),
+    "ms_per_step": ("ms", "wall time per step", "run wall time (cortex-ti's own) divided by the steps"),
+    "ms_geometry_per_solve": ("ms", "geometry per solve", "local frames and parabolic fits"),
+    "ms_assembly_per_solve": ("ms", "assembly per solve", "Taichi kernels writing the force balance rows"),
+    "ms_solve_per_solve": ("ms", "sparse solve per solve", "factorisation and solve of the constrained least squares"),
+    "t_reached": ("t_a", "time reached", "end time of the run (earlier than t_end if it failed or became steady)"),
+    "error": ("R0", "error of the radii against the axisymmetric reference",
+              "largest |3D - reference| of pole and furrow radius over the frames on the reference's 0.01 t_a grid "
+              "(NaN where no reference exists or the run failed)"),
+}
+
+
+def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
+    """One row per run: ``entries`` are dicts with ``study``, ``run`` (label), ``benchmark`` (path),
+    ``summary`` (path or None) and optionally ``params`` (the sweep row) and ``error`` (float)."""
+    n = len(entries)
+    data = {k: np.full(n, np.nan) for k in _COST_ATTRS}
+    status, studies, labels, nodes, scheme, fit, dt, implicit, residual = [], [], [], [], [], [], [], [], []
+    for i, e in enumerate(entries):
+        b = read_benchmark(e["benchmark"])
+        data["wall_s"][i] = b.get("s", np.nan)
+        data["max_rss_mb"][i] = b.get("max_rss", np.nan)
+        data["cpu_time_s"][i] = b.get("cpu_time", np.nan)
+        s = json.loads(Path(e["summary"]).read_text()) if e.get("summary") else {}
+        for k in ("steps", "solves", "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve", "t_reached"):
+            if s.get(k) is not None:
+                data[k][i] = float(s[k])
+        if s.get("steps"):
+            data["ms_per_step"][i] = 1e3 * float(s["wall_s"]) / float(s["steps"])
+        data["error"][i] = float(e.get("error", np.nan))
+        status.append(s.get("status", "ok") if s else "ok")
+        studies.append(e["study"])
+        labels.append(e["run"])
+        p = e.get("params", {})
+        nodes.append(int(float(p.get("nodes", s.get("n_nodes", -1)))))
+        scheme.append(str(p.get("scheme", "static" if s.get("stopped") == "static" else "")))
+        fit.append(str(p.get("fit", s.get("fit", ""))))
+        dt.append(float(p.get("dt", np.nan)))
+        implicit.append(bool(s.get("implicit_tension", str(p.get("implicit", "false")) == "true")))
+        residual.append(float(s.get("fit_residual_weight", p.get("residual", 0.0)) or 0.0))
+    variables = {k: (("run",), v, {"units": u, "long_name": ln, "description": d})
+                 for k, v in data.items() for u, ln, d in [_COST_ATTRS[k]]}
+    obj = lambda xs: np.asarray(xs, dtype=object)  # noqa: E731
+    coords = {"run": ("run", obj(labels), {"long_name": "study and parameters of the run"}),
+              "study": ("run", obj(studies)), "status": ("run", obj(status), {"long_name": "ok or failed (with why in the summary)"}),
+              "nodes": ("run", np.asarray(nodes)), "scheme": ("run", obj(scheme)), "fit": ("run", obj(fit)),
+              "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
+              "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
+                                   {"long_name": "semi-implicit active tension (time.implicit_tension)"}),
+              "fit_residual_weight": ("run", np.asarray(residual),
+                                      {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"})}
+    return xr.Dataset(variables, coords=coords,
+                      attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
+                                            "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
+                                            "run summaries; error against the axisymmetric reference where one exists."})

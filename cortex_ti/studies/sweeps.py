@@ -1,0 +1,198 @@
+"""Parameter sweeps as data: the workflow's tables of runs and how a row becomes a scene.
+
+The workflow config (``config/config.yaml``) lists, per study, *records* of run
+parameters; a value that is a list is swept (the record expands to the Cartesian
+product of its lists). :func:`expand_runs` turns the records into a table with one row
+per run and every column of the study filled (missing values come from the base scene
+itself, so the table says exactly what ran); :func:`scene_overrides` turns a row into the
+``--set KEY=VALUE`` overrides of ``cortex-ti run``. The workflow feeds the tables to
+``snakemake.utils.Paramspace``, which names each run's folder after its parameters, e.g.
+``results/runs/furrow/scene~furrow_p8_a1/zeta_hat~1/p~8/nodes~2562/.../trajectory.h5``.
+
+Parameters (columns) and the scene values they set:
+
+=========  =================================  =====================================
+column     scene key                          meaning
+=========  =================================  =====================================
+scene      (the base scene)                   built-in scene name or YAML file
+nodes      ``mesh.nodes``                     icosphere node count N
+fit        ``numerics.fit``                   quadratic (one ring) or quartic
+scheme     ``time.scheme``                    euler, heun, adaptive, adaptive_euler
+implicit   ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
+                                              is resolved for the row's scheme)
+residual   ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)
+dt         ``time.dt``                        (first) time step, t_a
+t_end      ``time.t_end``                     end time, t_a
+zeta_hat   ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
+p          ``active_stress.0.p``              exponent of Eq. 59
+gamma      ``mesh.shear``                     initial simple shear x -> x + gamma z
+tilt       ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
+                                              about +y, toward +x (the shear direction)
+=========  =================================  =====================================
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from ..errors import SceneError
+from ..scene import load_scene
+from .registry import STUDIES
+
+__all__ = ["PARAMETERS", "expand_runs", "scene_overrides", "tilt_axis", "format_value", "job_resources"]
+
+#: Column -> scene key it sets (``tilt`` is special: it sets the pattern axis).
+PARAMETERS: dict[str, str] = {
+    "nodes": "mesh.nodes",
+    "fit": "numerics.fit",
+    "scheme": "time.scheme",
+    "implicit": "time.implicit_tension",
+    "residual": "numerics.fit_residual_weight",
+    "dt": "time.dt",
+    "t_end": "time.t_end",
+    "zeta_hat": "active_stress.0.amplitude",
+    "p": "active_stress.0.p",
+    "gamma": "mesh.shear",
+    "tilt": "active_stress.0.axis",
+}
+
+def format_value(value) -> str:
+    """A parameter value as it appears in folder names and overrides: the shortest text that
+    reads back to the same number (``5e-04`` -> ``0.0005``, ``2562.0`` -> ``2562``), the
+    string itself otherwise.
+
+    >>> format_value(5e-4), format_value(2562.0), format_value(True), format_value("quartic")
+    ('0.0005', '2562', 'true', 'quartic')"""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        if not math.isfinite(value):
+            raise SceneError(f"a sweep value must be finite, got {value!r}")
+        if float(value).is_integer() and abs(value) < 1e15:
+            return str(int(value))
+        return repr(float(value))
+    text = str(value)
+    if not text or any(c in text for c in "/~ \t\n"):
+        raise SceneError(f"sweep value {text!r} cannot name a folder (no '/', '~' or spaces)")
+    return text
+
+
+def tilt_axis(degrees: float) -> list[float]:
+    """Unit pattern axis rotated from +z by ``degrees`` about +y, toward +x.
+
+    >>> tilt_axis(90), tilt_axis(0)
+    ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0])"""
+    a = math.radians(float(degrees))
+    return [round(math.sin(a), 15), 0.0, round(math.cos(a), 15)]
+
+
+def _settings_value(settings, column: str):
+    """The value of a sweep column in a run's resolved settings."""
+    if column == "tilt":
+        ax, _, az = (float(v) for v in settings.pattern_axis)
+        return math.degrees(math.atan2(ax, az))
+    if column in ("zeta_hat", "p"):
+        if not settings.patterns:
+            raise SceneError(f"scene {settings.name!r} has no active-stress pattern for sweep column {column!r}")
+        return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
+    section, key = {"nodes": ("mesh", "nodes"), "fit": ("numerics", "fit"), "scheme": ("time", "scheme"),
+                    "implicit": ("time", "implicit_tension"), "residual": ("numerics", "fit_residual_weight"),
+                    "dt": ("time", "dt"), "t_end": ("time", "t_end"), "gamma": ("mesh", "shear")}[column]
+    return getattr(getattr(settings, section), key)
+
+
+def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
+    """One row per run: the records' lists expanded, every column of the study filled.
+
+    Values a record leaves out are those the run resolves to (its scene's, with the record's
+    values applied: e.g. the semi-implicit tension of the row's scheme), so the row describes
+    the run completely. Rows are returned in order, duplicates dropped; all values are strings
+    (:func:`format_value`).
+
+    Raises
+    ------
+    SceneError
+        Unknown study or column, a record without ``scene``, an empty list, a value that
+        cannot name a folder, or a combination the scene rules refuse (it fails here, not in a job).
+    """
+    if study not in STUDIES:
+        raise SceneError(f"unknown study {study!r}; known: {', '.join(STUDIES)}")
+    columns = STUDIES[study].columns
+    rows: list[dict[str, str]] = []
+    for i, rec in enumerate(records):
+        for given in _combinations(study, i, rec, columns):
+            overrides = scene_overrides({k: format_value(v) for k, v in given.items()})
+            try:
+                settings = load_scene(str(given["scene"]), overrides).settings
+            except SceneError as exc:
+                raise SceneError(f"{study} runs[{i}] {given}: {exc}") from None
+            row = {col: format_value(given["scene"] if col == "scene" else _settings_value(settings, col))
+                   for col in columns}
+            if row not in rows:
+                rows.append(row)
+    return rows
+
+
+def _combinations(study: str, i: int, rec, columns) -> Iterable[dict]:
+    """The record's lists expanded: one mapping of the given columns per run."""
+    if not isinstance(rec, Mapping):
+        raise SceneError(f"{study} runs[{i}] must be a mapping of parameters, got {rec!r}")
+    unknown = sorted(set(rec) - set(columns))
+    if unknown:
+        raise SceneError(f"{study} runs[{i}]: unknown parameter(s) {', '.join(unknown)}; "
+                         f"accepted: {', '.join(columns)}")
+    if "scene" not in rec:
+        raise SceneError(f"{study} runs[{i}] names no scene")
+    lists = {k: (list(v) if isinstance(v, (list, tuple)) else [v]) for k, v in rec.items()}
+    for k, v in lists.items():
+        if not v:
+            raise SceneError(f"{study} runs[{i}].{k} is an empty list")
+    keys = list(lists)
+    for combo in itertools.product(*(lists[k] for k in keys)):
+        yield dict(zip(keys, combo))
+
+
+def scene_overrides(row: Mapping) -> list[str]:
+    """The ``KEY=VALUE`` overrides that make the row's base scene into the run (no ``scene``)."""
+    out = []
+    for col, value in row.items():
+        if col == "scene":
+            continue
+        if col not in PARAMETERS:
+            raise SceneError(f"unknown sweep column {col!r}; known: scene, {', '.join(PARAMETERS)}")
+        if col == "tilt":
+            out.append(f"{PARAMETERS[col]}={tilt_axis(float(value))}")
+        else:
+            out.append(f"{PARAMETERS[col]}={value}")
+    return out
+
+
+def job_resources(benchmarks: Iterable, nodes: int, margin: float = 1.5) -> dict[str, int]:
+    """Memory (``mem_mb``) and wall-time limit (``runtime``, minutes) for a job at ``nodes``.
+
+    From earlier runs: every Snakemake benchmark file in ``benchmarks`` whose neighbouring
+    ``summary.json`` says it ran at ``nodes`` counts; the limits are ``margin`` times the
+    largest peak memory and wall time seen (runtime at least 5 minutes). Without such runs, a
+    default that grows with N (measured on a 2-core machine: ~0.3 GB and under a minute per
+    thousand steps at 2562 nodes; 10242 nodes about four times that).
+    """
+    from ..io.files import read_benchmark
+
+    rss, wall = [], []
+    for b in benchmarks:
+        summary = Path(b).with_name("summary.json")
+        try:
+            n = json.loads(summary.read_text()).get("n_nodes")
+            bench = read_benchmark(b)
+        except (OSError, ValueError):
+            continue
+        if n == nodes and math.isfinite(bench.get("max_rss", math.nan)) and math.isfinite(bench.get("s", math.nan)):
+            rss.append(bench["max_rss"])
+            wall.append(bench["s"])
+    if rss:
+        return {"mem_mb": int(math.ceil(margin * max(rss))), "runtime": max(5, int(math.ceil(margin * max(wall) / 60.0)))}
+    return {"mem_mb": int(1000 + 0.5 * nodes), "runtime": int(60 + nodes // 20)}

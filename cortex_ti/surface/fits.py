@@ -1,0 +1,144 @@
+"""Local Taylor fits: the fit schemes (registry :data:`FIT_SCHEMES`) and each node's stencil.
+
+A fit scheme says which Taylor polynomial is fitted on which ring of neighbours (paper Sec.
+3.5); :class:`StencilChooser` picks each node's stencil and widens it where the fit is rank
+deficient. The fit operators themselves are computed per shape by
+:func:`cortex_ti.surface.geometry.compute_geometry`. No Taichi here: the scene loader reads
+this registry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .topology import Topology
+
+__all__ = ["FitScheme", "FIT_SCHEMES", "register_fit", "StencilChooser"]
+
+
+@dataclass(frozen=True)
+class FitScheme:
+    """A fit of the local Taylor polynomial of degree ``order`` on the ``rings``-ring.
+
+    ``quadratic`` is the paper's method (one-ring, Sec. 3.5): second derivatives are
+    accurate to O(h^2) (error ~ h^2/12 times the fourth derivative). ``quartic`` fits
+    all 14 monomials up to degree 4 on the two-ring: the five derivatives A..E it
+    returns are accurate to O(h^3) or better, for a wider stencil (more nonzeros,
+    dearer solve). The monomials are Taylor-normalised, ``u^a w^b / (a! b!)``, so the
+    first five coefficients are the derivatives A..E themselves.
+    """
+
+    name: str
+    order: int
+    rings: int
+
+    @property
+    def powers(self) -> np.ndarray:
+        out = [(1, 0), (0, 1), (2, 0), (0, 2), (1, 1)]
+        for d in range(3, self.order + 1):
+            out += [(a, d - a) for a in range(d, -1, -1)]
+        return np.array(out, dtype=np.int32)
+
+    @property
+    def n_terms(self) -> int:
+        return len(self.powers)
+
+
+
+
+#: The fit schemes by name (the scene key ``numerics.fit``).
+FIT_SCHEMES: dict[str, FitScheme] = {}
+
+
+def register_fit(scheme: FitScheme) -> FitScheme:
+    """Add a fit scheme to :data:`FIT_SCHEMES` (and so to the scene schema's choices)."""
+    FIT_SCHEMES[scheme.name] = scheme
+    return scheme
+
+
+register_fit(FitScheme("quadratic", 2, 1))
+register_fit(FitScheme("quartic", 4, 2))
+
+
+def _k_ring_lists(topo: Topology, k: int) -> list[np.ndarray]:
+    """Nodes within ``k`` edges of each node (node itself excluded), nearest rings first."""
+    n = len(topo.valence)
+    mask = topo.ring >= 0
+    rows = np.repeat(np.arange(n), mask.sum(1))
+    adj = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, topo.ring[mask])), shape=(n, n))
+    dist = sp.identity(n, format="csr", dtype=np.int8)
+    hop = dist.copy()
+    levels = {}
+    reach = dist.copy()
+    for level in range(1, k + 1):
+        hop = (hop @ adj).tocsr()
+        hop.data[:] = 1
+        new = (hop - hop.multiply(reach)).tocsr()
+        new.eliminate_zeros()
+        levels[level] = new
+        reach = ((reach + new) > 0).astype(np.int8).tocsr()
+        hop = new
+    out = []
+    for i in range(n):
+        parts = [levels[lv].indices[levels[lv].indptr[i]:levels[lv].indptr[i + 1]] for lv in range(1, k + 1)]
+        out.append(np.concatenate(parts).astype(np.int32))
+    return out
+
+
+def _pad(rows: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    size = np.array([len(r) for r in rows], dtype=np.int32)
+    out = np.full((len(rows), int(size.max())), -1, dtype=np.int32)
+    for i, r in enumerate(rows):
+        out[i, : len(r)] = r
+    return out, size
+
+
+class StencilChooser:
+    """Chooses each node's fit stencil and widens it where the fit is rank deficient.
+
+    A scheme with ``P`` monomials needs at least ``P`` stencil nodes in general
+    position. Nodes start on the scheme's ring (one ring wider if it has fewer than
+    ``P + 1`` nodes); a node whose fit turns out rank deficient (e.g. one-ring
+    neighbours on a conic through the node) is moved one ring out and stays there.
+    The stencil is topological, so it is fixed while the shape evolves unless such a
+    degeneracy appears.
+    """
+
+    MAX_EXTRA_RINGS = 2
+
+    def __init__(self, topo: Topology, scheme: FitScheme | str = "quadratic"):
+        self.topo = topo
+        self.scheme = FIT_SCHEMES[scheme] if isinstance(scheme, str) else scheme
+        self._rings: dict[int, list[np.ndarray]] = {}
+        n = len(topo.valence)
+        self.level = np.full(n, self.scheme.rings, dtype=np.int32)
+        small = np.array([len(r) for r in self._ring(self.scheme.rings)]) < self.scheme.n_terms
+        self.level[small] += 1
+        self._cache = None
+
+    def _ring(self, k: int) -> list[np.ndarray]:
+        if k not in self._rings:
+            if k == 1:
+                t = self.topo
+                self._rings[k] = [t.ring[i, : t.valence[i]] for i in range(len(t.valence))]
+            else:
+                self._rings[k] = _k_ring_lists(self.topo, k)
+        return self._rings[k]
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._cache is None:
+            rows = [self._ring(int(lv))[i] for i, lv in enumerate(self.level)]
+            self._cache = _pad(rows)
+        return self._cache
+
+    def widen(self, nodes: np.ndarray) -> bool:
+        """Move ``nodes`` one ring out; False if they are already at the widest stencil."""
+        can = nodes[self.level[nodes] < self.scheme.rings + self.MAX_EXTRA_RINGS]
+        self.level[can] += 1
+        self._cache = None
+        return can.size > 0
+
+
