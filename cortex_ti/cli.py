@@ -94,11 +94,16 @@ def _run(args) -> int:
     try:
         scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
         settings = scene.settings
-        from . import runtime
-        from .simulation import Simulation
+        if settings.model == "axisymmetric":
+            from .axisymmetric.run import AxisymmetricRun
 
-        runtime.init(args.arch, args.threads)
-        sim = Simulation(scene)
+            sim = AxisymmetricRun(scene)
+        else:
+            from . import runtime
+            from .simulation import Simulation
+
+            runtime.init(args.arch, args.threads)
+            sim = Simulation(scene)
         out = sim.run(args.output, resume=args.resume)
     except KeyboardInterrupt:
         summary("interrupted")
@@ -109,8 +114,7 @@ def _run(args) -> int:
         summary("failed", f"{type(exc).__name__}: {exc}")
         raise
     summary("ok")
-    log.info("wrote %s (%s nodes, %s, %.1f s)", out, sim.mesh.n_nodes, settings.describe_numerics(),
-             time.perf_counter() - t0)
+    log.info("wrote %s (%s, %.1f s)", out, settings.describe_numerics(), time.perf_counter() - t0)
     print(out)
     return 0
 
@@ -122,12 +126,19 @@ def _check(args) -> int:
 
     scene = load_scene(args.scene, args.overrides)
     settings = scene.settings
-    mesh = initial_mesh(settings)
-    build_topology(mesh)
-    # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
-    # checks one finite value per node, imports and calls python patterns
-    active_tension(mesh, settings)
-    print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {', '.join(sorted(scene.effects))})")
+    effects = ", ".join(sorted(scene.effects))
+    if settings.model == "axisymmetric":
+        from .axisymmetric.run import axisymmetric_tension
+
+        axisymmetric_tension(settings)   # runs python patterns, refuses one that varies about z
+        print(f"{scene.name}: valid ({settings.describe_numerics()}, effects: {effects})")
+    else:
+        mesh = initial_mesh(settings)
+        build_topology(mesh)
+        # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
+        # checks one finite value per node, imports and calls python patterns
+        active_tension(mesh, settings)
+        print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {effects})")
     if settings.dynamic:
         w = settings.numerics.fit_residual_weight
         print(f"  time: {settings.time.describe()}; fit-residual rows {'off' if not w else f'at {w:g}'}")

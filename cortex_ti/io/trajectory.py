@@ -135,7 +135,7 @@ def _global_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _declared(extra_vars: Mapping) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
+def _declared(extra_vars: Mapping, allowed=_EXTRA_DIMS) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
     """The caller's extra per-frame variables, checked: ``name -> (dims, attrs)``."""
     out = {}
     for name, spec in extra_vars.items():
@@ -146,11 +146,11 @@ def _declared(extra_vars: Mapping) -> dict[str, tuple[tuple[str, ...], dict[str,
         dims = tuple(dims)
         if name in _RESERVED:
             raise ValueError(f"extra variable {name!r} clashes with a standard variable")
-        if not dims or dims[0] != "time" or any(d not in _EXTRA_DIMS for d in dims) \
+        if not dims or dims[0] != "time" or any(d not in allowed for d in dims) \
                 or len(set(dims)) != len(dims):
             raise ValueError(
                 f"extra variable {name!r}: dims must start with 'time' and use "
-                f"{_EXTRA_DIMS} without repeats, got {dims}"
+                f"{tuple(allowed)} without repeats, got {dims}"
             )
         attrs = dict(attrs)
         missing = [k for k in ("units", "long_name") if not isinstance(attrs.get(k), str)]
@@ -191,7 +191,8 @@ def _resume_problems(nc, n_nodes: int, triangles: np.ndarray, variables, scene: 
 
 def _layout(nc, sizes: dict, triangles: np.ndarray, variables: Mapping, attrs: Mapping) -> None:
     """Dimensions, variables (chunked one frame per chunk), triangles and attributes of a new file."""
-    nc.dimensions = {"time": None, "node": sizes["node"], "xyz": 3, "face": len(triangles), "corner": 3}
+    nc.dimensions = {"time": None, "node": sizes["node"], "xyz": 3, "face": len(triangles), "corner": 3,
+                     **{k: v for k, v in sizes.items() if k not in ("time", "node", "xyz")}}
     t = nc.create_variable("time", ("time",), "f8", chunks=(_TIME_CHUNK,))
     t.attrs.update(_TIME_ATTRS)
     for name, (dims, var_attrs) in variables.items():
@@ -250,9 +251,11 @@ class TrajectoryWriter:
         are stored as 0/1).
     extra_vars : dict, optional
         Extra per-frame float64 variables: ``name -> (dims, attrs)``, dims a
-        tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")``
-        (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
+        tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")`` and
+        ``extra_dims`` (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
         attrs must give ``units`` and ``long_name``.
+    extra_dims : dict, optional
+        Further fixed dimensions ``name -> size`` (e.g. the axisymmetric model's ``meridian``).
     resume : bool, optional
         If ``<path>.partial`` exists, reopen it and continue after its last
         frame instead of starting over.  Its triangles, node count, variables
@@ -289,6 +292,7 @@ class TrajectoryWriter:
         attrs: Mapping[str, Any],
         extra_vars: Mapping[str, tuple[tuple[str, ...], Mapping[str, str]]] | None = None,
         resume: bool = False,
+        extra_dims: Mapping[str, int] | None = None,
     ) -> None:
         self.path = Path(os.fspath(path))
         self.partial = partial_path(self.path)
@@ -297,11 +301,15 @@ class TrajectoryWriter:
             raise ValueError(f"n_nodes must be positive, got {n_nodes}")
         self.n_nodes = n_nodes
         self.triangles = _triangles(triangles, n_nodes)
-        self._sizes = {"time": 1, "node": n_nodes, "xyz": 3}
-        self._extra = _declared(extra_vars or {})
+        extra_dims = dict(extra_dims or {})
+        if set(extra_dims) & {"time", "node", "xyz", "face", "corner"}:
+            raise ValueError(f"extra_dims {sorted(extra_dims)} clash with the standard dimensions")
+        self._sizes = {"time": 1, "node": n_nodes, "xyz": 3, **{k: int(v) for k, v in extra_dims.items()}}
+        self._extra = _declared(extra_vars or {}, tuple(self._sizes))
         self._attrs = _global_attrs(attrs)
         self._h5: h5py.File | None = None
         self._nc: h5netcdf.File | None = None
+        self._h5data: dict | None = None
         self._n = 0
         self._last_t = -math.inf
         self._state = "open"
@@ -356,6 +364,13 @@ class TrajectoryWriter:
         """Number of frames in the file (including those of a resumed partial file)."""
         return self._n
 
+    def _datasets(self) -> dict:
+        """The HDF5 datasets of the per-frame variables (written directly: h5netcdf's item
+        assignment looks up the variable's metadata on every call, 25 ms a frame)."""
+        if self._h5data is None:
+            self._h5data = {name: self._h5[name] for name in ["time", *self._variables()]}
+        return self._h5data
+
     def _flush(self) -> None:
         self._nc.flush()   # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
         self._h5.flush()   # push data and metadata to disk
@@ -386,11 +401,11 @@ class TrajectoryWriter:
             )
         values = _frame_values(self._sizes, self._extra, points, velocity, active_stress, pressure, extra)
         k = self._n
-        nc = self._nc
-        nc.resize_dimension("time", k + 1)
+        self._nc.resize_dimension("time", k + 1)
+        data = self._datasets()
         for name, value in values.items():
-            nc[name][k, ...] = value
-        nc["time"][k] = t  # last: a frame is complete once its time is set
+            data[name][k, ...] = value
+        data["time"][k] = t  # last: a frame is complete once its time is set
         self._n = k + 1
         self._last_t = t
         self._flush()
@@ -398,7 +413,7 @@ class TrajectoryWriter:
     # ----------------------------------------------------------------------------- closing
     def _close(self) -> None:
         nc, h5 = self._nc, self._h5
-        self._nc = self._h5 = None
+        self._nc = self._h5 = self._h5data = None
         try:
             if nc is not None:
                 nc.close()

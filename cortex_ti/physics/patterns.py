@@ -404,7 +404,8 @@ def mean_over_sphere(patterns: list[dict], order: int | None = None) -> float:
 
     Computed pattern by pattern on a grid aligned with the pattern's axis (see
     :func:`sphere_quadrature`), by default with the order doubled until converged to ~1e-13
-    (Eq. 59, p = 8, sigma = 10, zeta0 = amplitude = 1: 1.6454810...; p = 4: 1.48299...).
+    (Eq. 59, p = 8, sigma = 10, zeta0 = amplitude = 1: 1.6454788579...; p = 4: 1.4829937138...;
+    the tests check it against :func:`cortex_ti.analysis.sphere_exact.sphere_mean`).
     For a ``harmonics`` pattern the mean is ``coeff_00 / sqrt(4 pi)``.
     """
     return float(integrate_patterns(patterns, order=order)) / (4.0 * np.pi)

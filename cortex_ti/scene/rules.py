@@ -29,6 +29,8 @@ def check_rules(data: dict) -> None:
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
     _check_patterns(data["active_stress"], effects)
+    if data["model"] == "axisymmetric":
+        _check_axisymmetric(data)
 
 
 def _check_mesh_source(mesh: dict) -> None:
@@ -147,3 +149,35 @@ def _check_patterns(patterns: list, seen: set[str]) -> None:
         elif pattern["type"] == "ring":
             if not any(pattern["axis"]):
                 raise SceneError(f"active_stress.{i}.axis must not be all zero, got {pattern['axis']}")
+
+
+def _check_axisymmetric(data: dict) -> None:
+    """``model: axisymmetric`` needs a surface of revolution about z and a tension that does not
+    vary about z; the first thing that breaks the symmetry is named. (A ``python`` pattern is
+    checked when it is evaluated: :func:`cortex_ti.axisymmetric.run.axisymmetric_tension`.)"""
+    why = "model = axisymmetric needs a scene symmetric about the z axis"
+    mesh = data["mesh"]
+    if mesh["file"] is not None:
+        raise SceneError(f"{why}: mesh.file = '{mesh['file']}' is a user's mesh; the axisymmetric model starts from "
+                         "the sphere of radius mesh.radius (set mesh.nodes instead, it is not used)")
+    if mesh["shear"]:
+        raise SceneError(f"{why}: mesh.shear = {fmt_value(mesh['shear'])} tilts the shape (set it to 0 or use model: 3d)")
+    if mesh["transform"] is not None:
+        raise SceneError(f"{why}: mesh.transform deforms the initial sphere (remove it or use model: 3d)")
+    for i, pattern in enumerate(data["active_stress"]):
+        kind = pattern["type"]
+        if kind == "field":
+            raise SceneError(f"{why}: active_stress.{i} is a field pattern, whose values exist only at the nodes of a "
+                             "3D mesh (write the tension as a python pattern of the polar angle, or use model: 3d)")
+        if kind == "fold" and pattern["sigma_phi"] != 0:
+            raise SceneError(f"{why}: active_stress.{i} is a fold pattern, which varies about its axis "
+                             f"(sigma_phi = {fmt_value(pattern['sigma_phi'])})")
+        if kind == "harmonics":
+            for j, term in enumerate(pattern["terms"]):
+                if term["m"] != 0 and term["coeff"] != 0:
+                    raise SceneError(f"{why}: active_stress.{i}.terms.{j} has m = {term['m']}, which varies about z "
+                                     "(only m = 0 harmonics are axisymmetric)")
+        axis = pattern.get("axis")
+        if axis is not None and (axis[0] != 0 or axis[1] != 0):
+            raise SceneError(f"{why}: active_stress.{i}.axis = {axis} is not the z axis (rotate the scene so that "
+                             "the pattern's axis is [0, 0, 1], or use model: 3d)")

@@ -28,7 +28,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .loader import Scene
 
 __all__ = ["RunSettings", "MeshSettings", "ViscositySettings", "NumericsSettings", "SolverSettings",
-           "TimeSettings"]
+           "TimeSettings", "AxisymmetricSettings"]
 
 
 @dataclass(frozen=True)
@@ -104,10 +104,21 @@ class TimeSettings:
 
 
 @dataclass(frozen=True)
+class AxisymmetricSettings:
+    """The spectral meridian solver of ``model: axisymmetric`` (:mod:`cortex_ti.axisymmetric`)."""
+
+    n: int                  # collocation points on the half meridian (whole meridian without symmetry)
+    rtol: float             # Radau tolerance on the node positions
+    surface_points: int     # meridian points of the written surface of revolution
+    azimuthal_points: int   # points around the axis
+
+
+@dataclass(frozen=True)
 class RunSettings:
     """Everything a run needs from its scene, resolved once (see the module docstring)."""
 
     name: str
+    model: str                 # "3d" or "axisymmetric"
     effects: frozenset
     mesh: MeshSettings
     viscosity: ViscositySettings
@@ -115,6 +126,7 @@ class RunSettings:
     numerics: NumericsSettings
     solver: SolverSettings
     time: TimeSettings
+    axisymmetric: AxisymmetricSettings
 
     @classmethod
     def from_scene(cls, scene: "Scene") -> "RunSettings":
@@ -125,8 +137,10 @@ class RunSettings:
         scheme = SCHEMES[tim["scheme"]]
         implicit = dynamic and "normal_balance" in effects and scheme.implicit_tension(tim["implicit_tension"])
         transform = mesh["transform"]
+        ax = data["axisymmetric"]
         return cls(
             name=data["name"],
+            model=data["model"],
             effects=effects,
             mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
                               shear=float(mesh["shear"]),
@@ -139,6 +153,9 @@ class RunSettings:
             time=TimeSettings(dt=float(tim["dt"]), t_end=float(tim["t_end"]), scheme=tim["scheme"],
                               save_every=float(tim["save_every"]), steady_tol=float(tim["steady_tol"]),
                               tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
+            axisymmetric=AxisymmetricSettings(n=int(ax["n"]), rtol=float(ax["rtol"]),
+                                              surface_points=int(ax["surface_points"]),
+                                              azimuthal_points=int(ax["azimuthal_points"])),
         )
 
     def has(self, effect: str) -> bool:
@@ -163,5 +180,8 @@ class RunSettings:
 
     def describe_numerics(self) -> str:
         """One line on the discretisation (for ``cortex-ti check`` and logs)."""
+        if self.model == "axisymmetric":
+            a = self.axisymmetric
+            return f"axisymmetric model: {a.n} meridian points, Radau rtol {a.rtol:g}"
         w = self.numerics.fit_residual_weight
         return f"{self.numerics.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}"

@@ -15,8 +15,8 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from ..analysis import reference
-from ..io.trajectory import Trajectory, open_trajectory
 from ..dynamics.schemes import SCHEMES
+from ..io.trajectory import Trajectory, open_trajectory
 from ..surface.fits import FIT_SCHEMES
 from .registry import FIGURES
 

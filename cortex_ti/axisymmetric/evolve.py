@@ -1,0 +1,569 @@
+r"""Shape evolution of the axisymmetric cortex: the material points move with ``v_n n``.
+
+The state is the node positions ``(r, z)`` (``lagrangian``: the nodes are the normally moving
+material points, label fixed) or ``(r, z, u)`` (``arclength``: nodes kept equidistant in arc
+length, carrying the material label). The time stepping is scipy's Radau IIA (or BDF) with
+error control on the node positions and an exact Jacobian (complex step through one
+linearised solve): the normal modes are stiff (rates growing like l^2, bounded by the bending
+viscosity), which an L-stable implicit scheme takes in its stride.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg as sla
+from scipy.integrate import BDF, Radau
+
+from .balance import (
+    ForceBalance,
+    ZetaFn,
+    _check_gauge,
+    _check_n,
+    _check_visc,
+    _eval_zeta,
+    _is_symmetric,
+    _lu,
+)
+from .spectral import Spectral, geometry
+
+__all__ = ["SimulationResult", "simulate", "revolve"]
+
+ArrayF = np.ndarray
+
+
+class _ZetaSeries:
+    """Cosine series of ``zeta(u)`` on [0, pi] (1024 modes): only its derivative is used, for the
+    Jacobian of the arc-length mode (the values themselves always come from the user function)."""
+
+    def __init__(self, zeta: ZetaFn, m: int = 1024):
+        from scipy.fft import dct
+
+        u = (np.arange(m) + 0.5) * (np.pi / m)
+        X = dct(_eval_zeta(zeta, u), type=2)
+        c = X / m
+        c[0] *= 0.5
+        self.c = c
+        self.k = np.arange(m, dtype=float)
+
+    def derivative(self, u: ArrayF) -> ArrayF:
+        return -(np.sin(np.outer(u, self.k)) * self.k) @ self.c
+
+
+class _Dynamics:
+    """Right-hand side of the shape evolution at the nodes and its exact Jacobian.
+
+    ``lagrangian``: state ``(r, z)`` at fixed labels ``u`` (nodes = material points moving
+    with ``v_n n``).  ``arclength``: state ``(r, z, u)`` at computational points ``sigma`` that
+    move with ``v_n n + w e_s``, ``w`` chosen so that ``|dX/dsigma|`` stays uniform (= L/pi);
+    the material label is carried along, ``du/dt = (w / h) du/dsigma`` (``h = |dX/dsigma|``).
+    """
+
+    def __init__(self, sp: Spectral, system: ForceBalance, zeta: ZetaFn, mode: str, relax: float = 1.0):
+        self.sp, self.system, self.zeta_fn, self.mode = sp, system, zeta, mode
+        self.n = sp.n
+        self.relax = relax
+        self.nrhs = 0
+        self.njac = 0
+        if mode == "lagrangian":
+            self.zeta_nodes = _eval_zeta(zeta, sp.u)
+        else:
+            self.series = _ZetaSeries(zeta)
+
+    def geometry(self, y: ArrayF) -> dict:
+        n = self.n
+        g = geometry(self.sp, y[..., :n], y[..., n : 2 * n])
+        if self.mode == "lagrangian":
+            g["zeta"] = self.zeta_nodes
+        else:
+            u = y[..., 2 * n :]
+            g["u"] = u
+            if np.iscomplexobj(u):  # complex step: zeta(u + i d) = zeta(u) + i d zeta'(u)
+                ur = u.real[0] if u.ndim > 1 else u.real
+                g["zeta"] = _eval_zeta(self.zeta_fn, ur) + 1j * u.imag * self.series.derivative(ur)
+            else:
+                g["zeta"] = _eval_zeta(self.zeta_fn, u)
+        return g
+
+    def solve(self, y: ArrayF) -> tuple[dict, ArrayF, tuple]:
+        g = self.geometry(y)
+        A, b = self.system.assemble(g)
+        lu = _lu(A)
+        x = sla.lu_solve(lu, b, check_finite=False)
+        return g, x, lu
+
+    def mesh_velocity(self, g: dict, x: ArrayF) -> ArrayF:
+        """Tangential velocity ``w`` of the computational points (arc-length mode)."""
+        sp = self.sp
+        vn = x[..., self.n : 2 * self.n]
+        a = g["k1"] * vn * g["h"]  # d h / dt at fixed material label, per unit du
+        a0 = a @ sp.Binv["E"][0]  # mean over [0, pi]
+        h0 = g["h"] @ sp.Binv["E"][0]  # L / pi
+        gw = a0[..., None] - a + self.relax * (h0[..., None] - g["h"])
+        return gw @ sp.IE.T
+
+    def velocity(self, g: dict, x: ArrayF) -> ArrayF:
+        sp, n = self.sp, self.n
+        vn = x[..., n : 2 * n]
+        dr = -vn * g["zs"]  # v_n sin(psi)
+        dz = vn * g["rs"]  # v_n cos(psi)
+        if self.mode == "lagrangian":
+            out = [dr, dz]
+        else:
+            w = self.mesh_velocity(g, x)
+            dr = dr + w * g["rs"]
+            dz = dz + w * g["zs"]
+            us = 1.0 + (g["u"] - sp.u) @ sp.D["O"].T
+            du = (w / g["h"] * us) @ sp.FO.T
+            out = [dr, dz, du]
+        if sp.FR is not None:
+            out[0] = out[0] @ sp.FR.T
+        return np.concatenate(out, axis=-1)
+
+    def rhs(self, t: float, y: ArrayF) -> ArrayF:
+        self.nrhs += 1
+        g, x, _ = self.solve(y)
+        return self.velocity(g, x)
+
+    def jac(self, t: float, y: ArrayF) -> ArrayF:
+        """Exact Jacobian by complex-step differentiation through one linearised solve.
+
+        For a perturbation ``i eps e_k`` of the state, ``x(y + i eps e_k) = x0 - i eps A^-1 dR/dy_k``
+        to first order (``R(x, y) = A(y) x - b(y)``), so one LU and one batched residual give all
+        columns exactly (no truncation error)."""
+        self.njac += 1
+        g0, x0, lu = self.solve(y)
+        m = y.size
+        eps = 1e-30
+        yc = y[None, :] + 1j * eps * np.eye(m)
+        gc = self.geometry(yc)
+        res = self.system.residual(np.repeat(x0[None, :], m, axis=0).astype(complex), gc)
+        dx = sla.lu_solve(lu, res.imag.T / eps, check_finite=False).T  # A^-1 dR/dy
+        xc = x0[None, :] - 1j * eps * dx
+        vel = self.velocity(gc, xc)
+        return (vel.imag / eps).T
+
+
+@dataclass
+class SimulationResult:
+    """Saved states of :func:`simulate`, always on the **full** meridian, ordered from the north
+    pole (label 0) to the south pole (label pi).  Arrays with a time axis have shape
+    ``(len(t), N)`` with ``N`` the number of nodes on the full meridian.
+
+    ``u`` is the material (Lagrangian) label of each node = the polar angle theta0 of that
+    material point on the initial sphere.  In the ``lagrangian`` parametrisation the nodes are
+    material points and ``u`` is the same at every time; in ``arclength`` the nodes are
+    equidistant in arc length and ``u`` varies.
+
+    Fields: ``r, z`` node positions (R0), ``v_s`` material tangential velocity (along increasing
+    u, i.e. north -> south), ``v_n`` (outward), ``v_r, v_z`` Cartesian (cylindrical radial /
+    axial) velocity (R0/t_a), ``zeta`` tension at the nodes (zeta(u)), ``P`` pressure difference
+    (zeta_0/R0), ``lam`` net axial force multiplier (0 up to discretisation error without
+    bending viscosity or with up-down symmetry), ``pole_radius`` (half the pole-to-pole
+    distance), ``furrow_radius`` (cylindrical radius in the plane z = z_centroid normal to the
+    axis; z_centroid = area centroid, 0 with symmetry), ``volume``, ``area``, ``z_centroid``,
+    ``stretch`` (max/min over the meridian of the material stretch |dX/du| / R0: the clustering of
+    the normally moving points; inf if the label map has folded, i.e. the material is no longer
+    resolved), ``grid_stretch`` (max/min of the node spacing in arc length).
+    Run statistics: ``wall_time`` (s, integration only), ``n_rhs`` (force-balance solves),
+    ``n_steps`` (accepted steps), ``n_jac``, ``n_lu``.
+    """
+
+    t: ArrayF
+    u: ArrayF
+    r: ArrayF
+    z: ArrayF
+    v_s: ArrayF
+    v_n: ArrayF
+    v_r: ArrayF
+    v_z: ArrayF
+    zeta: ArrayF
+    P: ArrayF
+    lam: ArrayF
+    pole_radius: ArrayF
+    furrow_radius: ArrayF
+    volume: ArrayF
+    area: ArrayF
+    z_centroid: ArrayF
+    stretch: ArrayF
+    grid_stretch: ArrayF
+    wall_time: float
+    n_rhs: int
+    n_steps: int
+    n_jac: int
+    n_lu: int
+    params: dict
+    _states: list = field(repr=False, default_factory=list)
+    _spectral: Spectral | None = field(repr=False, default=None)
+    _zeta_fn: ZetaFn | None = field(repr=False, default=None)
+
+    def index(self, t: float) -> int:
+        """Index of the saved time closest to ``t``."""
+        return int(np.argmin(np.abs(self.t - t)))
+
+    def _sigma_of_label(self, i: int, lab: ArrayF) -> ArrayF:
+        sp, st = self._spectral, self._states[i]
+        if st.get("u") is None:
+            return lab
+        du = st["u"] - sp.u
+        grid = np.linspace(0.0, np.pi, 2049)
+        ug = grid + sp.evaluate("O", du, grid)
+        sig = np.interp(lab, ug, grid)
+        for _ in range(6):  # Newton polish on the spectral u(sigma)
+            f = sig + sp.evaluate("O", du, sig) - lab
+            fp = 1.0 + sp.evaluate("O", du, sig, 1)
+            sig = np.clip(sig - f / fp, 0.0, np.pi)
+        return sig
+
+    def evaluate(self, i: int, u: ArrayF, *, coordinate: str = "label") -> dict:
+        """Curve and fields at arbitrary parameter values at saved time index ``i``.
+
+        Spectral interpolation of the solved nodal values.  ``coordinate='label'`` (default):
+        ``u`` are material labels theta0 in [0, pi]; ``coordinate='sigma'``: ``u`` are values of
+        the computational parameter (equal to the label in the lagrangian parametrisation,
+        proportional to arc length in the arclength one: best for building a surface).
+        Returns a dict of arrays: ``label``, ``sigma``, ``r, z`` (position), ``n_r, n_z`` (outward
+        unit normal), ``t_r, t_z`` (unit tangent, north -> south), ``v_s, v_n, v_r, v_z``,
+        ``zeta`` (the user's function at the label), ``k1, k2`` principal curvatures (meridional,
+        azimuthal; sphere 1/R).
+        """
+        sp = self._spectral
+        st = self._states[i]
+        uu = np.atleast_1d(np.asarray(u, dtype=float))
+        if np.any(uu < -1e-12) or np.any(uu > np.pi + 1e-12):
+            raise ValueError("parameter values must lie in [0, pi]")
+        uu = np.clip(uu, 0.0, np.pi)
+        if coordinate == "label":
+            sig, lab = self._sigma_of_label(i, uu), uu
+        elif coordinate == "sigma":
+            sig = uu
+            lab = uu if st.get("u") is None else uu + sp.evaluate("O", st["u"] - sp.u, uu)
+        else:
+            raise ValueError("coordinate must be 'label' or 'sigma'")
+        r = sp.evaluate("R", st["r"], sig)
+        z = sp.evaluate("Z", st["z"], sig)
+        ru = sp.evaluate("R", st["r"], sig, 1)
+        zu = sp.evaluate("Z", st["z"], sig, 1)
+        ruu = sp.evaluate("R", st["r"], sig, 2)
+        zuu = sp.evaluate("Z", st["z"], sig, 2)
+        h = np.hypot(ru, zu)
+        tr, tz = ru / h, zu / h
+        k1 = (zu * ruu - ru * zuu) / h**3
+        safe = np.where(r > 1e-12, r, 1.0)
+        k2 = np.where(r > 1e-12, -tz / safe, k1)  # at a pole the two curvatures agree
+        vs = sp.evaluate("O", st["v_s"], sig)
+        vn = sp.evaluate("E", st["v_n"], sig)
+        nr, nz = -tz, tr
+        return dict(
+            label=lab, sigma=sig, r=r, z=z, n_r=nr, n_z=nz, t_r=tr, t_z=tz, k1=k1, k2=k2, v_s=vs, v_n=vn,
+            v_r=vs * tr + vn * nr, v_z=vs * tz + vn * nz, zeta=_eval_zeta(self._zeta_fn, lab),
+        )
+
+    def surface(self, i: int, n_u: int = 65, n_phi: int = 64, *, coordinate: str = "sigma") -> tuple[ArrayF, ArrayF]:
+        """Triangulated surface of revolution at saved index ``i``.
+
+        ``n_u`` parameter values equally spaced in [0, pi] (``coordinate`` as in :meth:`evaluate`;
+        poles included, one vertex each) times ``n_phi`` azimuthal points.  Returns
+        ``points (N, 3)`` (x, y, z; the axis is z) and ``triangles (M, 3)`` oriented with the
+        outward normal (counter-clockwise seen from outside).
+        """
+        if n_u < 3 or n_phi < 3:
+            raise ValueError("need n_u >= 3 and n_phi >= 3")
+        e = self.evaluate(i, np.linspace(0.0, np.pi, n_u), coordinate=coordinate)
+        pts, tri, _ = revolve(e["r"], e["z"], n_phi)
+        return pts, tri
+
+
+def revolve(r: ArrayF, z: ArrayF, n_phi: int) -> tuple[ArrayF, ArrayF, ArrayF]:
+    """The surface of revolution of a meridian sampled from the north pole (``r[0] = 0``) to the
+    south pole (``r[-1] = 0``): ``points (N, 3)`` (one vertex per pole, ``n_phi`` per ring; the
+    axis is z), ``triangles (M, 3)`` oriented with the outward normal, and for each point the
+    index of its meridian sample and its azimuth ``phi`` (``(N, 2)``; 0 at the poles)."""
+    n_u = len(r)
+    phi = np.arange(n_phi) * (2 * np.pi / n_phi)
+    rr, zz = np.asarray(r)[1:-1, None], np.asarray(z)[1:-1, None]
+    ring_pts = np.stack([rr * np.cos(phi), rr * np.sin(phi), np.broadcast_to(zz, (n_u - 2, n_phi))], -1)
+    pts = np.concatenate([[[0.0, 0.0, z[0]]], ring_pts.reshape(-1, 3), [[0.0, 0.0, z[-1]]]])
+    where = np.concatenate([[[0, 0.0]], np.stack(np.broadcast_arrays(np.arange(1, n_u - 1)[:, None], phi[None, :]),
+                                                 -1).reshape(-1, 2), [[n_u - 1, 0.0]]])
+    k = np.arange(n_phi)
+    kp = (k + 1) % n_phi
+
+    def ring(j, kk):
+        return 1 + (j - 1) * n_phi + kk
+
+    tri = [np.stack([np.zeros(n_phi, int), ring(1, k), ring(1, kp)], 1)]
+    for j in range(1, n_u - 2):
+        a, b, c, d = ring(j, k), ring(j, kp), ring(j + 1, k), ring(j + 1, kp)
+        tri.append(np.stack([a, c, d], 1))
+        tri.append(np.stack([a, d, b], 1))
+    last = len(pts) - 1
+    tri.append(np.stack([np.full(n_phi, last), ring(n_u - 2, kp), ring(n_u - 2, k)], 1))
+    return pts, np.concatenate(tri).astype(int), where
+
+
+def _diagnostics(dyn: _Dynamics, y: ArrayF, g: dict, x: ArrayF, radius: float) -> dict:
+    sp, system, n = dyn.sp, dyn.system, dyn.n
+    z = y[n : 2 * n]
+    f = system.unpack(x)
+    w = sp.wR * g["r"] * g["h"]
+    area = 2 * np.pi * w.sum()
+    zu = z @ sp.D["Z"].T
+    volume = np.pi * float(np.sum(sp.wR * g["r"] ** 2 * (-zu)))
+    if sp.symmetric:
+        zc = 0.0
+        pole = float(sp.evaluate("Z", z, [0.0])[0])
+        furrow = float(sp.evaluate("R", g["r"], [np.pi / 2])[0])
+    else:
+        zc = 2 * np.pi * float(np.sum(sp.wO * z * g["r"] * g["h"])) / area
+        zn, zs_ = sp.evaluate("Z", z, [0.0, np.pi])
+        pole = 0.5 * float(zn - zs_)
+        furrow = _furrow(sp, g["r"], z, zc)
+    vs, vn = f["v_s"], f["v_n"]
+    if dyn.mode == "lagrangian":
+        u = sp.u.copy()
+        us = np.ones(n)
+    else:
+        u = y[2 * n :].copy()
+        us = 1.0 + (u - sp.u) @ sp.D["O"].T
+    mat = g["h"] / us / radius  # material line element |dX/du| / R0
+    stretch = float(mat.max() / mat.min()) if np.all(us > 0) else float("inf")  # inf: label map folded
+    return dict(
+        u=u, r=g["r"], z=z, v_s=vs, v_n=vn, v_r=vs * g["rs"] - vn * g["zs"], v_z=vs * g["zs"] + vn * g["rs"],
+        zeta=np.asarray(g["zeta"]), P=float(f["P"]), lam=float(f["lam"]), area=float(area), volume=volume, z_centroid=zc,
+        pole_radius=pole, furrow_radius=furrow, stretch=stretch,
+        grid_stretch=float(g["h"].max() / g["h"].min()),
+    )
+
+
+def _furrow(sp: Spectral, r: ArrayF, z: ArrayF, zc: float) -> float:
+    """Cylindrical radius where the meridian crosses z = zc (the smallest one if several)."""
+    from scipy.optimize import brentq
+
+    uu = np.linspace(0.0, np.pi, 2001)
+    f = sp.evaluate("Z", z, uu) - zc
+    roots = []
+    for j in np.nonzero(np.sign(f[:-1]) * np.sign(f[1:]) <= 0)[0]:
+        if f[j] == 0.0:
+            roots.append(uu[j])
+            continue
+        roots.append(brentq(lambda s: float(sp.evaluate("Z", z, [s])[0]) - zc, uu[j], uu[j + 1], xtol=1e-15, rtol=1e-15))
+    if not roots:
+        return float("nan")
+    return float(min(sp.evaluate("R", r, roots)))
+
+
+def _mirror(sp: Spectral, a: ArrayF, parity: int, shift: float = 0.0) -> ArrayF:
+    """Full-meridian nodal values from the symmetric half: ``a(pi - s) = shift + parity a(s)``."""
+    if not sp.symmetric:
+        return a
+    return np.concatenate([a, shift + parity * a[::-1]])
+
+
+def simulate(
+    zeta: ZetaFn,
+    *,
+    eta_s: float,
+    eta_b: float,
+    eta_bar: float,
+    eta_bar_b: float,
+    radius: float = 1.0,
+    t_end: float,
+    save_times: Sequence[float] | None = None,
+    n: int = 48,
+    rtol: float = 1e-10,
+    atol: float | None = None,
+    symmetric: bool | None = None,
+    parametrization: str = "auto",
+    gauge: str = "velocity",
+    method: str = "Radau",
+    interpolate: bool = False,
+    max_steps: int = 100000,
+) -> SimulationResult:
+    """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
+
+    Parameters
+    ----------
+    zeta : callable
+        Active tension as a function of the initial polar angle theta0 in [0, pi] (units of
+        zeta_0), vectorised or scalar.  Carried by the normally moving material points.  For
+        spectral accuracy it should be smooth on the sphere (even about the poles).
+    eta_s, eta_b, eta_bar, eta_bar_b : float
+        Shear (> 0), bulk (>= 0) and bending (>= 0) viscosities (units eta_s, eta_s R0^2).
+    radius : float
+        Initial radius (R0).
+    t_end : float
+        Final time (t_a).
+    save_times : sequence of float, optional
+        Sorted times in [0, t_end] at which to save (default ``[0, t_end]``).
+    n : int
+        Collocation points on the half meridian (symmetric) or on the full meridian.
+    rtol, atol : float
+        Tolerances of the stiff integrator on the node positions (atol default ``rtol * radius``).
+    symmetric : bool or None
+        Solve only [0, pi/2] using the up-down symmetry (None: detect ``zeta(pi-t) == zeta(t)``).
+    parametrization : {'auto', 'lagrangian', 'arclength'}
+        ``lagrangian``: nodes are the normally moving material points (state r, z).
+        ``arclength``: nodes stay equidistant in arc length and carry the material label
+        (state r, z, u); needed when the material points cluster (e.g. a drifting non-symmetric
+        pattern).  ``auto``: lagrangian with symmetry, arclength without.
+    gauge : {'velocity', 'centroid'}
+        Full meridian only (irrelevant with symmetry): the rigid axial translation is fixed by
+        ``oint v_z dA = 0`` (default, the 3D code's convention) or by ``oint z v_n dA = 0``
+        (the enclosed volume's centroid stays put).  With normal-only point motion the choice
+        changes which material point sits where, hence the dynamics of a non-symmetric pattern.
+    method : {'Radau', 'BDF'}
+        scipy's implicit integrator (with the exact complex-step Jacobian).
+    interpolate : bool
+        Save via the integrator's dense output instead of stopping exactly at each save time
+        (cheaper with many save times; its interpolation error is measured in REPORT.md).
+    max_steps : int
+        Abort with ValueError after this many steps.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    ValueError
+        Bad input, singular force balance, or integrator failure (one-line message).
+    """
+    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
+    n = _check_n(n)
+    R = float(radius)
+    st, atol = _check_times(t_end, save_times, rtol, atol, R)
+    if method not in ("Radau", "BDF"):
+        raise ValueError(f"method must be 'Radau' or 'BDF', got {method!r}")
+    if parametrization not in ("auto", "lagrangian", "arclength"):
+        raise ValueError(f"parametrization must be 'auto', 'lagrangian' or 'arclength', got {parametrization!r}")
+    _eval_zeta(zeta, np.linspace(0.0, np.pi, 7))
+    if symmetric is None:
+        symmetric = _is_symmetric(zeta)
+    if parametrization == "auto":
+        parametrization = "lagrangian" if symmetric else "arclength"
+    sp = Spectral(n, symmetric)
+    dyn = _Dynamics(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, parametrization)
+    y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if parametrization == "arclength" else [])
+    t0 = time.perf_counter()
+    saved, nsteps, nlu = _integrate(dyn, np.concatenate(y0), st, float(t_end), Radau if method == "Radau" else BDF,
+                                    rtol, atol, interpolate, max_steps)
+    stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
+    params = dict(eta_s=phys.eta_s, eta_b=phys.eta_b, eta_bar=phys.eta_bar, eta_bar_b=phys.eta_bar_b, radius=R, n=n,
+                  rtol=rtol, atol=atol, symmetric=symmetric, method=method, parametrization=parametrization,
+                  gauge=gauge, interpolate=interpolate)
+    return _result(dyn, saved, R, stats, params)
+
+
+def _check_times(t_end, save_times, rtol, atol, R) -> tuple[ArrayF, float]:
+    """The save times (default ``[0, t_end]``) and ``atol`` (default ``rtol R``), checked."""
+    for name, val in (("t_end", t_end), ("rtol", rtol)):
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(val) or val <= 0:
+            raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
+    atol = rtol * R if atol is None else atol
+    if isinstance(atol, bool) or not isinstance(atol, (int, float, np.floating)) or not math.isfinite(atol) or atol <= 0:
+        raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
+    try:
+        st = np.asarray([0.0, float(t_end)] if save_times is None else save_times, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ValueError("save_times must be a sequence of numbers") from None
+    if st.size == 0 or not np.all(np.isfinite(st)) or np.any(st < 0) or np.any(st > t_end * (1 + 1e-12)) \
+            or np.any(np.diff(st) < 0):
+        raise ValueError("save_times must be finite, sorted and within [0, t_end]")
+    return st, atol
+
+
+def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps):
+    """Step from 0 to the save times (or, with ``interpolate``, to ``t_end`` reading the dense
+    output at the save times). Returns ``(saved [(t, y)], steps, LU factorisations)``."""
+    saved: list[tuple[float, ArrayF]] = []
+    nsteps = nlu = k = 0
+    while k < st.size and st[k] <= 0.0:
+        saved.append((float(st[k]), y0.copy()))
+        k += 1
+    t, y = 0.0, y0
+    first = None
+    while k < st.size:
+        bound = t_end if interpolate else float(st[k])
+        if bound <= t:  # repeated save time
+            saved.append((float(st[k]), y.copy()))
+            k += 1
+            continue
+        if first is not None:
+            first = min(first, bound - t)
+        try:
+            solver = Solver(dyn.rhs, t, y, bound, rtol=rtol, atol=atol, jac=dyn.jac, first_step=first)
+        except (ValueError, np.linalg.LinAlgError) as err:
+            raise ValueError(f"integrator start failed at t={t:.6g}: {err}") from None
+        while solver.status == "running":
+            nsteps = _step(solver, nsteps, max_steps)
+            if interpolate:
+                k = _save_dense(solver, st, k, saved)
+        nlu += solver.nlu
+        if not interpolate:
+            saved.append((float(st[k]), solver.y.copy()))
+            k += 1
+        # continue with the step size the controller proposed (not the one truncated at the bound)
+        first = float(getattr(solver, "h_abs", 0.0) or 0.0) or None
+        t, y = solver.t, solver.y
+    return saved, nsteps, nlu
+
+
+def _step(solver, nsteps: int, max_steps: int) -> int:
+    """One step of the scipy integrator, its failures as one-line ValueErrors."""
+    t_old = solver.t
+    try:
+        msg = solver.step()
+    except (ValueError, np.linalg.LinAlgError) as err:  # singular system inside a stage
+        raise ValueError(f"integrator step failed at t={t_old:.6g}: {err}") from None
+    if solver.status == "failed":
+        raise ValueError(f"integrator step failed at t={solver.t:.6g}: {msg}")
+    if nsteps + 1 > max_steps:
+        raise ValueError(f"integrator exceeded max_steps={max_steps} at t={solver.t:.6g}")
+    return nsteps + 1
+
+
+def _save_dense(solver, st, k: int, saved: list) -> int:
+    """Save the states at the save times the last step passed (dense output between steps)."""
+    dense = None
+    while k < st.size and st[k] <= solver.t:
+        if st[k] == solver.t:
+            saved.append((float(st[k]), solver.y.copy()))
+        else:
+            dense = dense or solver.dense_output()
+            saved.append((float(st[k]), np.asarray(dense(st[k]))))
+        k += 1
+    return k
+
+
+def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult:
+    """The saved states on the full meridian, with the diagnostics recomputed at each (one extra
+    force-balance solve each, not counted in the statistics)."""
+    sp, lagrangian = dyn.sp, dyn.mode == "lagrangian"
+    states, diags = [], []
+    for _, ys in saved:
+        g, x, _ = dyn.solve(ys)
+        d = _diagnostics(dyn, ys, g, x, R)
+        states.append(dict(r=d["r"], z=d["z"], v_s=d["v_s"], v_n=d["v_n"], u=None if lagrangian else d["u"]))
+        diags.append(d)
+
+    def stack(key, parity, shift=0.0):
+        return np.array([_mirror(sp, d[key], parity, shift) for d in diags])
+
+    def series(key):
+        return np.array([d[key] for d in diags])
+
+    return SimulationResult(
+        t=np.array([s[0] for s in saved]), u=stack("u", -1, np.pi),
+        r=stack("r", 1), z=stack("z", -1), v_s=stack("v_s", -1), v_n=stack("v_n", 1),
+        v_r=stack("v_r", 1), v_z=stack("v_z", -1), zeta=stack("zeta", 1),
+        P=series("P"), lam=series("lam"), pole_radius=series("pole_radius"), furrow_radius=series("furrow_radius"),
+        volume=series("volume"), area=series("area"), z_centroid=series("z_centroid"), stretch=series("stretch"),
+        grid_stretch=series("grid_stretch"), **stats, params=params,
+        _states=states, _spectral=sp, _zeta_fn=dyn.zeta_fn,
+    )

@@ -1,0 +1,213 @@
+"""A scene run with ``model: axisymmetric``: its tension as a function of the polar angle, the
+spectral meridian solver, and a trajectory file in the layout of a 3D run.
+
+The file holds the surface of revolution as points and triangles (the nodes are material
+points, like the 3D code's: they move with the normal velocity), the velocity, active tension,
+pressure and normals at those points, the same per-frame diagnostics as a 3D run (the pole and
+furrow radii, volume and area from the spectral solution itself, the others measured on the
+surface), and the solution along the meridian (dimension ``meridian``, north to south:
+``meridian_label`` = theta0, ``meridian_r``, ``meridian_z``, ``meridian_s`` the arc length from
+the north pole, ``meridian_v_s`` along the meridian from north to south, ``meridian_v_n``
+outward, ``meridian_zeta``), so ``cortex-ti plot``, ``export`` and the workflow's stores read it
+as any trajectory.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
+from ..errors import CortexError, SceneError
+from ..io.trajectory import TrajectoryWriter
+from ..physics.patterns import evaluate_active_stress
+from ..scene.loader import Scene
+from ..scene.settings import RunSettings
+from .balance import static_flow
+from .evolve import revolve, simulate
+
+log = logging.getLogger(__name__)
+
+__all__ = ["axisymmetric_tension", "viscosities", "AxisymmetricRun", "MERIDIAN_VARIABLES"]
+
+#: The meridian arrays of an axisymmetric trajectory (dims: time, meridian).
+MERIDIAN_VARIABLES = {
+    "meridian_label": {"units": "rad", "long_name": "material label: the polar angle theta0 of the point on the "
+                                                    "initial sphere"},
+    "meridian_r": {"units": "R0", "long_name": "distance from the axis along the meridian"},
+    "meridian_z": {"units": "R0", "long_name": "height along the meridian"},
+    "meridian_s": {"units": "R0", "long_name": "arc length from the north pole"},
+    "meridian_v_s": {"units": "R0/t_a", "long_name": "tangential velocity along the meridian, north to south"},
+    "meridian_v_n": {"units": "R0/t_a", "long_name": "normal velocity (outward)"},
+    "meridian_zeta": {"units": "zeta_0", "long_name": "active tension"},
+}
+_EXACT = ("pole_radius", "furrow_radius", "volume", "area")
+
+
+def axisymmetric_tension(settings: RunSettings):
+    """The scene's active tension as a function of the polar angle on its initial sphere,
+    ``zeta(theta0)`` (vectorised); a python pattern that varies about z is refused here, naming it."""
+    radius, patterns = settings.mesh.radius, list(settings.patterns)
+    if not patterns:
+        return lambda theta: np.zeros(np.shape(theta))
+
+    def at(theta, phi=0.0):
+        th = np.asarray(theta, dtype=float)
+        pts = radius * np.stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi), np.cos(th) + 0.0 * th], -1)
+        return evaluate_active_stress(pts.reshape(-1, 3), patterns).reshape(th.shape)
+
+    theta = np.linspace(0.0, np.pi, 181)
+    ref = at(theta)
+    scale = max(1.0, float(np.max(np.abs(ref))))
+    for phi in np.linspace(0.0, 2.0 * np.pi, 13)[1:-1]:
+        dev = float(np.max(np.abs(at(theta, phi) - ref)))
+        if dev > 1e-10 * scale:
+            which = ", ".join(f"active_stress.{i} ({p['type']})" for i, p in enumerate(patterns))
+            raise SceneError(f"scene '{settings.name}': model = axisymmetric needs a tension that does not vary about "
+                             f"the z axis, but {which} changes by {dev:.3g} between azimuths 0 and {phi:.3g} rad")
+    return lambda th: at(th)
+
+
+def viscosities(settings: RunSettings) -> dict:
+    """The viscous coefficients as the solver's keywords (bending ones 0 without the effect)."""
+    v = settings.viscosity
+    return dict(eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk)
+
+
+class AxisymmetricRun:
+    """A scene with ``model: axisymmetric`` ready to run (the counterpart of
+    :class:`~cortex_ti.simulation.core.Simulation`)."""
+
+    def __init__(self, scene: Scene):
+        if scene.settings.model != "axisymmetric":
+            raise SceneError(f"scene '{scene.name}' has model = {scene.settings.model}, not axisymmetric")
+        self.scene = scene
+        self.settings = scene.settings
+        self.zeta = axisymmetric_tension(self.settings)
+        self.result = None
+        self.seconds = 0.0
+
+    # ------------------------------------------------------------------------------- solving
+    def solve(self):
+        """The static flow on the initial sphere (:class:`~cortex_ti.axisymmetric.balance.StaticResult`)."""
+        s = self.settings
+        try:
+            return static_flow(self.zeta, **viscosities(s), radius=s.mesh.radius, n=2 * s.axisymmetric.n,
+                               fixed_normal=s.has("fixed_normal_velocity"))
+        except ValueError as exc:
+            raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
+
+    def simulate(self):
+        """The shape evolution to ``time.t_end`` with frames every ``time.save_every``
+        (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`)."""
+        s = self.settings
+        st = s.time
+        n_frames = int(math.floor(st.t_end / st.save_every + 1e-9))
+        times = np.append(np.arange(n_frames + 1) * st.save_every, st.t_end)
+        times = np.unique(np.round(np.minimum(times, st.t_end), 12))
+        try:
+            return simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,
+                            n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True)
+        except ValueError as exc:
+            raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
+
+    # ------------------------------------------------------------------------------- writing
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+        """Solve (static scene) or evolve (``shape_evolution``) and write the trajectory atomically.
+
+        Runs take a second or less, so ``resume`` starts over (a partial file is replaced)."""
+        output = Path(output)
+        t0 = time.perf_counter()
+        frames = list(self._static_frames() if not self.settings.dynamic else self._dynamic_frames())
+        self.seconds = time.perf_counter() - t0
+        first = frames[0][1]
+        n_meridian = len(first["meridian_label"])
+        writer = TrajectoryWriter(output, first["triangles"], len(first["points"]), self._attrs(),
+                                  extra_vars=self._extra_vars(), extra_dims={"meridian": n_meridian})
+        with writer:
+            for t, f in frames:
+                writer.append(t, f["points"], f["velocity"], f["zeta"], f["pressure"],
+                              **{k: f[k] for k in self._extra_vars()})
+        log.info("%s (axisymmetric): %d frames to t = %.4g in %.2f s", self.settings.name, len(frames), frames[-1][0],
+                 self.seconds)
+        return output
+
+    def summary(self) -> dict:
+        """What the run took (the cost tables' fields of a 3D run's summary)."""
+        s, r = self.settings, self.result
+        out = {"scene": s.name, "model": "axisymmetric", "n_nodes": 2 * s.axisymmetric.n, "fit": "spectral",
+               "solver_backend": "dense LU", "effects": sorted(s.effects), "implicit_tension": False,
+               "fit_residual_weight": 0.0}
+        if r is None or not s.dynamic:
+            out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
+        else:
+            out.update(steps=int(r.n_steps), rejected=0, solves=int(r.n_rhs), t_reached=float(r.t[-1]), stopped="t_end")
+        out["ms_solve_per_solve"] = 1e3 * self.seconds / max(out["solves"], 1)
+        return out
+
+    def _attrs(self) -> dict:
+        s = self.settings
+        return {"scene": self.scene.to_yaml(), "effects": ",".join(sorted(s.effects)), "model": "axisymmetric",
+                "fit_scheme": "spectral", "solver_backend": "dense LU", "n_meridian_points": 2 * s.axisymmetric.n,
+                "cortex_ti_version": __version__}
+
+    def _extra_vars(self) -> dict:
+        out = {"normal": (("time", "node", "xyz"), {"units": "1", "long_name": "outward unit normal at the nodes"})}
+        out.update({k: (("time",), v) for k, v in DIAGNOSTIC_ATTRS.items()})
+        out.update({k: (("time", "meridian"), v) for k, v in MERIDIAN_VARIABLES.items()})
+        if self.settings.dynamic:
+            out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
+        return out
+
+    def _static_frames(self):
+        s = self.settings
+        res = self.solve()
+        self.result = res
+        theta = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
+        at = res.at(theta)
+        e = dict(label=theta, r=s.mesh.radius * np.sin(theta), z=s.mesh.radius * np.cos(theta),
+                 n_r=np.sin(theta), n_z=np.cos(theta), v_s=at["v_s"], v_n=at["v_n"], v_r=at["v_r"], v_z=at["v_z"],
+                 zeta=self.zeta(theta))
+        pressure = res.P if s.has("incompressibility") else float("nan")
+        exact = {"pole_radius": s.mesh.radius, "furrow_radius": s.mesh.radius,
+                 "volume": 4.0 / 3.0 * np.pi * s.mesh.radius ** 3, "area": 4.0 * np.pi * s.mesh.radius ** 2}
+        yield 0.0, self._frame(e, pressure, exact, dt=None)
+
+    def _dynamic_frames(self):
+        s = self.settings
+        res = self.simulate()
+        self.result = res
+        labels = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
+        for i, t in enumerate(res.t):
+            e = res.evaluate(i, labels)
+            pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
+            exact = {k: float(getattr(res, k)[i]) for k in _EXACT}
+            dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
+            yield float(t), self._frame(e, pressure, exact, dt=dt)
+
+    def _frame(self, e: dict, pressure: float, exact: dict, dt) -> dict:
+        """One frame: the meridian values ``e`` revolved about z, with the diagnostics."""
+        s = self.settings
+        points, triangles, where = revolve(e["r"], e["z"], s.axisymmetric.azimuthal_points)
+        j, phi = where[:, 0].astype(int), where[:, 1]
+        c, sn = np.cos(phi), np.sin(phi)
+
+        def cartesian(radial, axial):
+            return np.stack([radial[j] * c, radial[j] * sn, axial[j]], -1)
+
+        velocity, normal = cartesian(e["v_r"], e["v_z"]), cartesian(e["n_r"], e["n_z"])
+        diag = frame_diagnostics(points, triangles, velocity, normal, axis=s.pattern_axis)
+        diag.update(exact)
+        ds = np.hypot(np.diff(e["r"]), np.diff(e["z"]))
+        frame = dict(points=points, triangles=triangles, velocity=velocity, zeta=e["zeta"][j], pressure=pressure,
+                     normal=normal, meridian_label=e["label"], meridian_r=e["r"], meridian_z=e["z"],
+                     meridian_s=np.concatenate([[0.0], np.cumsum(ds)]), meridian_v_s=e["v_s"], meridian_v_n=e["v_n"],
+                     meridian_zeta=e["zeta"], **diag)
+        if dt is not None:
+            frame["dt"] = dt
+        return frame
