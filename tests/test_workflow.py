@@ -39,11 +39,15 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     for path in expected_outputs(config):
         assert path in res.stdout, f"{path} is not in the DAG of {configfile}"
     # one simulation job per configured run: the static product and every study's rows
-    from cortex_ti.studies.sweeps import expand_runs
+    from cortex_ti.studies.registry import STUDIES
+    from cortex_ti.studies.sweeps import expand_runs, twin_rows
 
     n_static = np.prod([len(config["static"][k]) for k in ("scenes", "nodes", "fit")])
     n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation"))
     n_accuracy = len(expand_runs("accuracy", config["accuracy"]["runs"]))
+    # plus one axisymmetric twin per distinct axisymmetric problem of the furrow and accuracy runs
+    twin_sources = [r for s in ("furrow", "accuracy") for r in expand_runs(s, config[s]["runs"])]
+    n_dynamic += len(twin_rows(twin_sources, STUDIES["axisymmetric"].columns))
     for rule, n in (("run_static", n_static), ("run_dynamic", n_dynamic), ("run_accuracy", n_accuracy)):
         row = [line.split() for line in res.stdout.splitlines() if line.split()[:1] == [rule]]
         assert row and int(row[0][1]) == n, f"{rule}: expected {n} jobs"
@@ -110,14 +114,16 @@ def test_tiny_configuration_end_to_end(tmp_path):
         assert angle[-1] < angle[0]                              # turning back toward the pattern axis
 
     cost = open_store("cost")
-    n_runs = 4 + 1 + 1 + 2 + 3
+    n_runs = 4 + 1 + 1 + 2 + 3 + 1          # + the axisymmetric twin of furrow_p8_a1 (both studies run it)
     assert cost.sizes["run"] == n_runs
+    twin = cost["study"].values == "axisymmetric"
+    assert twin.sum() == 1 and cost["model"].values[twin][0] == "axisymmetric" and cost["wall_s"].values[twin][0] > 0
     assert np.all(cost["wall_s"].values > 0) and np.all(cost["max_rss_mb"].values > 0)
     failed = cost["status"].values == "failed"
     assert failed.sum() == 1 and cost["nodes"].values[failed][0] == 642
     acc_ok = (cost["study"].values == "accuracy") & ~failed
     err = cost["error"].values[acc_ok]
-    assert err.size == 2 and np.all((err > 0) & (err < 5e-3))    # against the axisymmetric reference
+    assert err.size == 2 and np.all((err > 0) & (err < 5e-3))    # against the axisymmetric solution of the scene
     assert np.isnan(cost["error"].values[cost["study"].values == "static"]).all()
 
     import matplotlib.image as mpimg

@@ -150,7 +150,7 @@ def run_summary(sim: "Simulation") -> dict:
     s = sim.settings
     st = sim.stats
     solves = st.solves if st is not None else 1
-    out = {"scene": s.name, "n_nodes": sim.mesh.n_nodes, "fit": s.numerics.fit,
+    out = {"scene": s.name, "model": s.model, "n_nodes": sim.mesh.n_nodes, "fit": s.numerics.fit,
            "solver_backend": s.solver.backend, "effects": sorted(s.effects),
            "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
            "solves": solves, "t_reached": st.t if st is not None else 0.0,

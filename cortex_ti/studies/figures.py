@@ -7,6 +7,7 @@ each figure (what it shows, which paper figure it matches) is in ``workflow/repo
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -66,65 +67,86 @@ def _groups(ds: xr.Dataset, keys: Sequence[str]) -> dict[tuple, list[int]]:
     return out
 
 
-def radii_figure(ds: xr.Dataset) -> Figure:
-    """Pole and furrow radius against time, one panel per (p, zeta_hat); the axisymmetric
-    reference as lines where the run is its problem (paper Figs. 5A, 7A, 8A)."""
-    groups = _groups(ds, ("p", "zeta_hat"))
-    fig = Figure(figsize=(4.2 * len(groups), 3.6), layout="constrained")
+def _twin_index(axisym: xr.Dataset | None) -> dict[tuple, int]:
+    """Run index of each axisymmetric twin in its store, by (scene, zeta_hat, p)."""
+    if axisym is None:
+        return {}
+    return {(str(axisym["scene"].values[i]), float(axisym["zeta_hat"].values[i]), float(axisym["p"].values[i])): i
+            for i in range(axisym.sizes["run"])}
+
+
+def radii_figure(ds: xr.Dataset, axisym: xr.Dataset | None = None) -> Figure:
+    """Pole and furrow radius against time, one panel per furrow problem (scene, p, zeta_hat):
+    the 3D runs as dots, the axisymmetric solution of the same scene (its twin, with the scene's
+    own bending viscosity) as black lines (paper Figs. 5A, 7A, 8A)."""
+    groups = _groups(ds, ("scene", "p", "zeta_hat"))
+    twins = _twin_index(axisym)
+    fig = Figure(figsize=(4.2 * len(groups), 3.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(groups), squeeze=False)[0])
-    ref = reference.load_radii()
-    for ax, ((p, zh), idx) in zip(axes, groups.items()):
+    t = ds["time"].values
+    for ax, ((scene, p, zh), idx) in zip(axes, groups.items()):
         for i in idx:
-            lab = f"N={ds['nodes'].values[i]}, {ds['scheme'].values[i]}, dt={ds['dt'].values[i]}"
-            t = ds["time"].values
+            lab = f"3D N={ds['nodes'].values[i]}, {ds['scheme'].values[i]}"
             ok = np.isfinite(ds["pole_radius"].values[i])
             every = max(1, ok.sum() // 40)
             ax.plot(t[ok][::every], ds["pole_radius"].values[i][ok][::every], "o", ms=3, label=f"pole, {lab}")
             ax.plot(t[ok][::every], ds["furrow_radius"].values[i][ok][::every], "s", ms=3, label=f"furrow, {lab}")
-        if float(p) == 8 and float(zh) == 1:
-            tmax = np.nanmax(np.where(np.isfinite(ds["pole_radius"].values[idx]), ds["time"].values, np.nan))
-            keep = ref["t"] <= tmax + 1e-9
-            ax.plot(ref["t"][keep], ref["pole_radius"][keep], "k-", lw=1, label="axisymmetric reference")
-            ax.plot(ref["t"][keep], ref["furrow_radius"][keep], "k-", lw=1)
-        ax.set_title(f"p = {p}, $\\hat\\zeta$ = {zh}")
+        j = twins.get((str(scene), float(zh), float(p)))
+        if j is not None:
+            ta = axisym["time"].values
+            ok = np.isfinite(axisym["pole_radius"].values[j])
+            ax.plot(ta[ok], axisym["pole_radius"].values[j][ok], "k-", lw=1, label="axisymmetric (same model)")
+            ax.plot(ta[ok], axisym["furrow_radius"].values[j][ok], "k-", lw=1)
+        ax.set_title(f"{scene}: p = {p}, $\\hat\\zeta$ = {zh}", fontsize=9)
         ax.set_xlabel(r"$t / t_a$")
         ax.legend(fontsize=6)
     axes[0].set_ylabel(r"radius / $R_0$")
     return fig
 
 
-def _profiles(path, times: Sequence[float]) -> tuple[float, bool, dict]:
-    """One pass over a trajectory: its last time, whether it is the reference's problem, and per
-    requested time up to its end ``(z, |v_t|, v_n, frame time)`` at the nearest frame, with the
-    solver's normals (:meth:`cortex_ti.io.trajectory.Trajectory.normals`: the normal of the fitted
-    surface; area-weighted vertex normals are off by O(h), which at 2562 nodes mixes ~1 % of v_n
-    into v_t, visible where v_t is small, at t = 0)."""
+def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
+    """One pass over a trajectory: its last time and, per requested time up to its end,
+    ``(z, |v_t|, v_n, frame time)`` at the nearest frame, with the solver's normals
+    (:meth:`cortex_ti.io.trajectory.Trajectory.normals`: the normal of the fitted surface;
+    area-weighted vertex normals are off by O(h), which at 2562 nodes mixes ~1 % of v_n into
+    v_t, visible where v_t is small, at t = 0). For an axisymmetric run, its meridian."""
     out = {}
     with Trajectory(path, lazy=True) as tr:
         tt = tr.times
-        has_ref = reference.matches_reference(tr.settings)
+        meridian = "meridian_z" in tr.ds
         for t in times:
             if t > tt[-1] + 1e-9:
                 continue
             k = tr.frame_at(t)
+            if meridian:
+                f = tr.ds.isel(time=k)
+                out[t] = (f["meridian_z"].values, np.abs(f["meridian_v_s"].values), f["meridian_v_n"].values,
+                          float(tt[k]))
+                continue
             pts = tr.ds["points"].isel(time=k).values
             vel = tr.ds["velocity"].isel(time=k).values
             normals = tr.normals(k)
             vn = np.einsum("nc,nc->n", vel, normals)
             vt = np.linalg.norm(vel - vn[:, None] * normals, axis=1)
             out[t] = (pts[:, 2], vt, vn, float(tt[k]))
-    return float(tt[-1]), has_ref, out
+    return float(tt[-1]), out
 
 
-def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float]) -> Figure:
+def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
+                    twins: Sequence[tuple[Mapping, str]] = ()) -> Figure:
     """|v_t| and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
-    pair per run; the reference profile as a line where the run is its problem. Times beyond a
-    run's end are left empty."""
+    pair per 3D run; the axisymmetric solution of the same scene (its twin) as a black line.
+    Times beyond a run's end are left empty."""
+    from .sweeps import twin_key
+
     times = [float(t) for t in times]
+    twin_of = {twin_key(row): path for row, path in twins}
     fig = Figure(figsize=(4.0 * len(runs), 2.2 * len(times) + 0.6), layout="constrained")
     axes = fig.subplots(len(times), 2 * len(runs), squeeze=False)
     for j, (row, path) in enumerate(runs):
-        t_last, has_ref, profiles = _profiles(path, times)
+        t_last, profiles = _profiles(path, times)
+        twin = twin_of.get(twin_key(row))
+        twin_profiles = _profiles(twin, times)[1] if twin else {}
         for i, t in enumerate(times):
             ax_t, ax_n = axes[i, 2 * j], axes[i, 2 * j + 1]
             if t not in profiles:
@@ -137,19 +159,62 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float])
             z, vt, vn, tk = profiles[t]
             ax_t.plot(z, vt, ".", ms=2, label="3D nodes")
             ax_n.plot(z, vn, ".", ms=2, label="3D nodes")
-            if has_ref and any(abs(t - tp) < 1e-9 for tp in reference.PROFILE_TIMES):
-                prof = reference.load_profile(t)
-                ax_t.plot(prof["z"], prof["abs_vt"], "k-", lw=1, label="axisymmetric")
-                ax_n.plot(prof["z"], prof["vn"], "k-", lw=1, label="axisymmetric")
+            if t in twin_profiles:
+                za, vta, vna, _ = twin_profiles[t]
+                ax_t.plot(za, vta, "k-", lw=1, label="axisymmetric")
+                ax_n.plot(za, vna, "k-", lw=1, label="axisymmetric")
             ax_t.set_ylabel(f"t = {tk:g}\n" + r"$|v_t| / v_a$")
             ax_n.set_ylabel(r"$v_n / v_a$")
             if i == 0:
-                ax_t.set_title(f"p = {row.get('p')}, $\\hat\\zeta$ = {row.get('zeta_hat')}: tangential", fontsize=9)
-                ax_n.set_title("normal", fontsize=9)
+                ax_t.set_title(f"{row.get('scene')} N={row.get('nodes')}: tangential", fontsize=8)
+                ax_n.set_title("normal", fontsize=8)
                 ax_t.legend(fontsize=6)
             if i == len(times) - 1:
                 ax_t.set_xlabel(r"$z / R_0$")
                 ax_n.set_xlabel(r"$z / R_0$")
+    return fig
+
+
+#: The overrides that take the furrow_p8_a1 scene to the external reference's problem (no bending viscosity).
+REFERENCE_PROBLEM = ["model=axisymmetric", "viscosity.bending=0", "viscosity.bending_bulk=0", "time.t_end=3",
+                     "effects=[active_stress, shear_viscosity, bulk_viscosity, normal_balance, incompressibility, "
+                     "shape_evolution]"]
+
+
+def reference_check_figure(axisym: xr.Dataset | None = None) -> Figure:
+    """The axisymmetric solver against the external reference run (cortex_ti/data/axisym, the
+    authors' code run once: p = 8, zeta_hat = 1, no bending viscosity): the radii, and their
+    deviation over time, for the same problem without bending viscosity (solved here, about a
+    second) and, for scale, for the scene with its bending viscosity (the twin in ``axisym``)."""
+    from ..axisymmetric.run import AxisymmetricRun
+    from ..scene import load_scene
+
+    ref = reference.load_radii()
+    res = AxisymmetricRun(load_scene("furrow_p8_a1", REFERENCE_PROBLEM)).simulate()
+    keep = ref["t"] <= res.t[-1] + 1e-9
+    tr = ref["t"][keep]
+    fig = Figure(figsize=(10, 3.8), layout="constrained")
+    a0, a1 = fig.subplots(1, 2)
+    a0.plot(tr, ref["pole_radius"][keep], "k-", lw=2.5, alpha=0.35, label="external reference (pole, furrow)")
+    a0.plot(tr, ref["furrow_radius"][keep], "k-", lw=2.5, alpha=0.35)
+    a0.plot(res.t, res.pole_radius, "C0-", lw=1, label="axisymmetric solver, no bending viscosity")
+    a0.plot(res.t, res.furrow_radius, "C0-", lw=1)
+    for name, mark in (("pole_radius", "-"), ("furrow_radius", "--")):
+        a1.semilogy(tr, np.abs(np.interp(tr, res.t, getattr(res, name)) - ref[name][keep]) + 1e-12, "C0" + mark,
+                    label=f"{name.split('_')[0]}: no bending (the reference's problem)")
+        twin = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
+        if twin is not None:
+            ta = axisym["time"].values
+            ok = np.isfinite(axisym[name].values[twin])
+            a1.semilogy(tr, np.abs(np.interp(tr, ta[ok], axisym[name].values[twin][ok]) - ref[name][keep]) + 1e-12,
+                        "C1" + mark, label=f"{name.split('_')[0]}: with the scene's bending viscosity")
+    a1.axhline(1e-4, color="0.5", lw=0.8, ls=":", label="1e-4 (the reference's own time error ~8e-5)")
+    a0.set_xlabel(r"$t / t_a$")
+    a0.set_ylabel(r"radius / $R_0$")
+    a0.legend(fontsize=7)
+    a1.set_xlabel(r"$t / t_a$")
+    a1.set_ylabel(r"|radius - external reference| / $R_0$")
+    a1.legend(fontsize=6)
     return fig
 
 
@@ -209,47 +274,67 @@ def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 
 def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
-    """Error of the radii against the axisymmetric reference versus wall time, one point per
-    (N, fit, scheme, implicit tension, dt; colour: N, marker: scheme, filled: semi-implicit tension),
-    the Pareto front joined; runs that failed (unstable) are marked at the top."""
-    sel = ds.where(ds["study"] == "accuracy", drop=True) if "accuracy" in set(ds["study"].values) else ds
-    fig = Figure(figsize=(6.4, 4.4), layout="constrained")
-    ax = fig.subplots()
+    """What accuracy costs: the error of the radii against the axisymmetric solution of the same
+    scene versus the wall time of the run, one point per run of the accuracy study (colour: N,
+    marker: time scheme, filled: semi-implicit tension), the Pareto front as a dashed line and,
+    beside the plot, a table of the runs on it; runs that failed are crosses along the top; the
+    axisymmetric solution's own wall time as a vertical line."""
+    study = ds["study"].values
+    sel = ds.isel(run=np.flatnonzero(study == "accuracy")) if "accuracy" in set(study) else ds
+    fig = Figure(figsize=(11.5, 4.8), layout="constrained")
+    ax, tab = fig.subplots(1, 2, width_ratios=[1.35, 1])
     wall, err = sel["wall_s"].values, sel["error"].values
     ok = np.asarray(sel["status"].values == "ok") & np.isfinite(err)
     markers = _markers(SCHEMES)
-    implicit = (sel["implicit_tension"].values.astype(bool) if "implicit_tension" in sel.coords
-                else np.zeros(sel.sizes["run"], dtype=bool))
-    node_counts = sorted({int(v) for v in sel["nodes"].values})
-    rows = (sel["fit_residual_weight"].values if "fit_residual_weight" in sel.coords
-            else np.zeros(sel.sizes["run"]))
-    extra = [(" impl." if implicit[i] else "") + (f" rows {rows[i]:g}" if rows[i] > 0 else "")
-             for i in range(sel.sizes["run"])]
+    implicit = sel["implicit_tension"].values.astype(bool)
+    nodes = sel["nodes"].values.astype(int)
+    colours = {n: f"C{i}" for i, n in enumerate(sorted(set(nodes)))}
     for i in np.flatnonzero(ok):
-        color = f"C{node_counts.index(int(sel['nodes'].values[i])) % 10}"
-        ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=color,
-                  mfc=color if implicit[i] else "none")
-        ax.annotate(f"N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{extra[i]} "
-                    f"{sel['fit'].values[i][:4]} dt={sel['dt'].values[i]:g}", (wall[i], err[i]), fontsize=6,
-                    xytext=(4, 2), textcoords="offset points")
+        c = colours[nodes[i]]
+        ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=c,
+                  mfc=c if implicit[i] else "none", zorder=3)
     front = pareto_front(np.where(ok, wall, np.nan), np.where(ok, err, np.nan))
     if front.size:
-        ax.loglog(wall[front], err[front], "k-", lw=1, label="Pareto front")
-    top = np.nanmax(err[ok]) * 2 if ok.any() else 1.0
-    for k, i in enumerate(np.flatnonzero(~ok)):
-        ax.loglog(wall[i], top, "rx", ms=8)
-        ax.annotate(f"failed: N={int(sel['nodes'].values[i])} {sel['scheme'].values[i]}{extra[i]} "
-                    f"dt={sel['dt'].values[i]:g}",
-                    (wall[i], top), fontsize=6, color="r", xytext=(4, -8 - 8 * k), textcoords="offset points")
-    for s, m in markers.items():
-        ax.plot([], [], m, color="0.4", label=s)
+        ax.loglog(wall[front], err[front], "k--", lw=1.5, zorder=2, label="Pareto front")
+    top = np.nanmax(err[ok]) * 2.5 if ok.any() else 1.0
+    failed = np.flatnonzero(~ok)
+    if failed.size:
+        ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8, label=f"failed ({failed.size}; see the cost table)")
+    twin_wall = ds["wall_s"].values[(study == "axisymmetric")] if "axisymmetric" in set(study) else []
+    if len(twin_wall):
+        ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
+                   label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
+    for n, c in colours.items():
+        ax.plot([], [], "s", color=c, label=f"N = {n}")
+    for name, m in markers.items():
+        if name in set(sel["scheme"].values):
+            ax.plot([], [], m, color="0.4", mfc="none", label=name)
     ax.plot([], [], "o", color="0.4", label="filled: semi-implicit tension")
-    ax.plot([], [], "o", color="0.4", mfc="none", label="open: explicit")
-    ax.set_xlabel("wall time of the run (s)")
-    ax.set_ylabel(r"max |radius - reference| / $R_0$")
-    ax.set_title("furrow p = 8, $\\hat\\zeta$ = 1 against the axisymmetric reference", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.set_xlabel("wall time of the run (s, one job, start-up included)")
+    ax.set_ylabel(r"max |radius - axisymmetric| / $R_0$")
+    scenes = ", ".join(sorted({m.group(1) for m in map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
+                               if m}))
+    ax.set_title(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=9)
+    ax.legend(fontsize=7, loc="lower left")
+    _pareto_table(tab, sel, front)
     return fig
+
+
+def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
+    """The runs on the Pareto front as a table: what each costs and what it gets."""
+    ax.axis("off")
+    rows = [[str(int(sel["nodes"].values[i])), str(sel["scheme"].values[i]),
+             "semi-impl." if bool(sel["implicit_tension"].values[i]) else "explicit", f"{sel['dt'].values[i]:g}",
+             f"{sel['wall_s'].values[i]:.0f}", f"{sel['error'].values[i]:.1e}"] for i in front]
+    if not rows:
+        ax.text(0.5, 0.5, "no run finished", ha="center", va="center")
+        return
+    table = ax.table(cellText=rows, colLabels=["N", "scheme", "tension", "dt", "wall (s)", "error (R0)"],
+                     loc="upper center", cellLoc="center")
+    table.auto_set_font_size(False)
+    table.set_fontsize(7)
+    table.scale(1.0, 1.3)
+    ax.set_title("the Pareto front: nothing is both cheaper and more accurate", fontsize=9)
 
 
 def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], view=(20.0, -60.0)) -> Figure:
@@ -293,18 +378,24 @@ def cost_table_html(ds: xr.Dataset) -> str:
             f"{body}</body></html>")
 
 
-def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Sequence[Mapping] = ()) -> Figure:
+def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str, Sequence[Mapping]] = {}) -> Figure:
     """Draw the registered figure ``name`` (:data:`cortex_ti.studies.registry.FIGURES`).
 
-    ``inputs``: its store (one path) or its study's trajectories (one per row of ``rows``, the
-    study's sweep table); ``options``: the config's ``figures`` section."""
+    ``inputs``: its stores (one path each, in the order of ``spec.data``) or its studies'
+    trajectories (in the order of ``rows``, the studies' sweep tables); ``options``: the config's
+    ``figures`` section."""
     spec = FIGURES[name]
     draw = globals()[spec.draw]
     extra = [options[k] for k in spec.options]
     if spec.source == "store":
-        return draw(xr.load_dataset(inputs[0], engine="h5netcdf"), *extra)
+        return draw(*[xr.load_dataset(path, engine="h5netcdf") for path in inputs], *extra)
+    runs, start = {}, 0
+    for study in spec.data:
+        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])]))
+        start += len(rows[study])
     if spec.draw == "profiles_figure":
-        return draw(list(zip(rows, inputs)), *extra)
+        return draw(runs[spec.data[0]], *extra, *(runs[s] for s in spec.data[1:]))
     from .stores import short_labels
 
-    return draw(list(zip(short_labels(rows), inputs)), *extra)
+    main = runs[spec.data[0]]
+    return draw(list(zip(short_labels([r for r, _ in main]), [p for _, p in main])), *extra)

@@ -134,9 +134,12 @@ _COST_ATTRS = {
     "ms_assembly_per_solve": ("ms", "assembly per solve", "Taichi kernels writing the force balance rows"),
     "ms_solve_per_solve": ("ms", "sparse solve per solve", "factorisation and solve of the constrained least squares"),
     "t_reached": ("t_a", "time reached", "end time of the run (earlier than t_end if it failed or became steady)"),
-    "error": ("R0", "error of the radii against the axisymmetric reference",
-              "largest |3D - reference| of pole and furrow radius over the frames on the reference's 0.01 t_a grid "
-              "(NaN where no reference exists or the run failed)"),
+    "error": ("R0", "error of the radii against the axisymmetric solution of the same scene",
+              "largest |3D - axisymmetric| of pole and furrow radius over the run's frames, against its axisymmetric "
+              "twin (model: axisymmetric, the scene's own bending viscosity; NaN without one or if the run failed)"),
+    "error_external": ("R0", "deviation of the radii from the external reference run",
+                       "largest |run - reference| of pole and furrow radius on the reference's 0.01 t_a grid, for runs "
+                       "of the reference's problem (p = 8, zeta_hat = 1; the reference has no bending viscosity)"),
 }
 
 
@@ -145,7 +148,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     ``summary`` (path or None) and optionally ``params`` (the sweep row) and ``error`` (float)."""
     n = len(entries)
     data = {k: np.full(n, np.nan) for k in _COST_ATTRS}
-    status, studies, labels, nodes, scheme, fit, dt, implicit, residual = [], [], [], [], [], [], [], [], []
+    status, studies, labels, nodes, scheme, fit, dt, implicit, residual, model = ([] for _ in range(10))
     for i, e in enumerate(entries):
         b = read_benchmark(e["benchmark"])
         data["wall_s"][i] = b.get("s", np.nan)
@@ -158,7 +161,9 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         if s.get("steps"):
             data["ms_per_step"][i] = 1e3 * float(s["wall_s"]) / float(s["steps"])
         data["error"][i] = float(e.get("error", np.nan))
+        data["error_external"][i] = float(e.get("error_external", np.nan))
         status.append(s.get("status", "ok") if s else "ok")
+        model.append(str(s.get("model", "3d")))
         studies.append(e["study"])
         labels.append(e["run"])
         p = e.get("params", {})
@@ -177,6 +182,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
               "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
               "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
                                    {"long_name": "semi-implicit active tension (time.implicit_tension)"}),
+              "model": ("run", obj(model), {"long_name": "3d or axisymmetric"}),
               "fit_residual_weight": ("run", np.asarray(residual),
                                       {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"})}
     return xr.Dataset(variables, coords=coords,

@@ -36,14 +36,15 @@ from __future__ import annotations
 import itertools
 import json
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from ..errors import SceneError
 from ..scene import load_scene
 from .registry import STUDIES
 
-__all__ = ["PARAMETERS", "expand_runs", "scene_overrides", "tilt_axis", "format_value", "job_resources"]
+__all__ = ["PARAMETERS", "expand_runs", "twin_rows", "twin_key", "scene_overrides", "tilt_axis", "format_value",
+           "job_resources"]
 
 #: Column -> scene key it sets (``tilt`` is special: it sets the pattern axis).
 PARAMETERS: dict[str, str] = {
@@ -58,6 +59,7 @@ PARAMETERS: dict[str, str] = {
     "p": "active_stress.0.p",
     "gamma": "mesh.shear",
     "tilt": "active_stress.0.axis",
+    "model": "model",
 }
 
 def format_value(value) -> str:
@@ -99,6 +101,8 @@ def _settings_value(settings, column: str):
         if not settings.patterns:
             raise SceneError(f"scene {settings.name!r} has no active-stress pattern for sweep column {column!r}")
         return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
+    if column == "model":
+        return settings.model
     section, key = {"nodes": ("mesh", "nodes"), "fit": ("numerics", "fit"), "scheme": ("time", "scheme"),
                     "implicit": ("time", "implicit_tension"), "residual": ("numerics", "fit_residual_weight"),
                     "dt": ("time", "dt"), "t_end": ("time", "t_end"), "gamma": ("mesh", "shear")}[column]
@@ -135,6 +139,34 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
             if row not in rows:
                 rows.append(row)
     return rows
+
+
+def twin_key(row: Mapping) -> tuple[str, str, str]:
+    """What identifies a run's axisymmetric twin: its scene, ring amplitude and exponent."""
+    settings = load_scene(str(row["scene"])).settings
+    ring = settings.patterns[0] if settings.patterns else {}
+    return (str(row["scene"]), format_value(row.get("zeta_hat", ring.get("amplitude", 0.0))),
+            format_value(row.get("p", ring.get("p", 0.0))))
+
+
+def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str, str]]:
+    """The axisymmetric twins of the runs ``rows`` (of any studies): one row per distinct
+    (scene, zeta_hat, p) whose scene the axisymmetric model accepts, to the latest ``t_end``
+    of its runs (:func:`twin_key`). Runs whose scene is not axisymmetric have no twin."""
+    latest: dict[tuple, float] = {}
+    for row in rows:
+        key = twin_key(row)
+        if key not in latest:
+            try:
+                load_scene(key[0], [f"active_stress.0.amplitude={key[1]}", f"active_stress.0.p={key[2]}",
+                                    "model=axisymmetric"])
+            except SceneError:
+                continue
+            latest[key] = float(row["t_end"])
+        latest[key] = max(latest[key], float(row["t_end"]))
+    values = {"model": "axisymmetric"}
+    return [{col: {"scene": k[0], "zeta_hat": k[1], "p": k[2], "t_end": format_value(t)}.get(col, values.get(col))
+             for col in columns} for k, t in latest.items()]
 
 
 def _combinations(study: str, i: int, rec, columns) -> Iterable[dict]:

@@ -27,7 +27,7 @@ rule study_store:
 
 rule cost:
     input:
-        [summary for _, _, _, summary in COST_RUNS],
+        [summary for _, _, _, summary, _ in COST_RUNS],
     output:
         "results/aggregate/cost.nc",
     params:

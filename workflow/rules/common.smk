@@ -8,17 +8,22 @@ import pandas as pd
 from snakemake.utils import Paramspace
 
 from cortex_ti.studies.registry import FIGURES, STORES, STUDIES, TABLE_CATEGORY, TABLES
-from cortex_ti.studies.sweeps import expand_runs, job_resources as estimate_resources, scene_overrides
+from cortex_ti.studies.sweeps import expand_runs, job_resources as estimate_resources, scene_overrides, twin_key, twin_rows
+
+
+def _space(study, rows):
+    return Paramspace(pd.DataFrame(rows, columns=list(STUDIES[study].columns), dtype=str), single_wildcard="params")
+
 
 # One Paramspace per study: a run's folder is named after its parameters,
 # e.g. results/runs/furrow/scene~furrow_p8_a1/zeta_hat~1/p~8/nodes~2562/fit~quadratic/...
-SPACES = {
-    study: Paramspace(
-        pd.DataFrame(expand_runs(study, config[study]["runs"]), columns=list(STUDIES[study].columns), dtype=str),
-        single_wildcard="params",
-    )
-    for study in STUDIES
-}
+# The configured studies first; then the derived ones (the axisymmetric twins of their runs).
+SPACES = {s: _space(s, expand_runs(s, config[s]["runs"])) for s, spec in STUDIES.items() if not spec.twin_of}
+SPACES.update({
+    s: _space(s, twin_rows([r for src in spec.twin_of for r in SPACES[src].dataframe.to_dict("records")],
+                           spec.columns))
+    for s, spec in STUDIES.items() if spec.twin_of
+})
 FORMATS = config["figures"].get("formats", ["png", "pdf"])
 STATIC = config["static"]
 STATIC_RUNS = [(s, n, f) for s in STATIC["scenes"] for n in STATIC["nodes"] for f in STATIC["fit"]]
@@ -56,13 +61,26 @@ def static_files(pattern):
     return [pattern.format(scene=s, nodes=n, fit=f) for s, n, f in STATIC_RUNS]
 
 
+def twin_trajectory(study, row):
+    """The trajectory of a run's axisymmetric twin (None without one)."""
+    for twin, spec in STUDIES.items():
+        if study in spec.twin_of:
+            key = twin_key(row)
+            for pattern, trow in zip(SPACES[twin].instance_patterns, run_rows(twin)):
+                if twin_key(trow) == key:
+                    return f"results/runs/{twin}/{pattern}/trajectory.h5"
+    return None
+
+
 def cost_runs():
-    """Every run of the workflow as (study, label, parameters, summary file), for the cost store."""
+    """Every run of the workflow as (study, label, parameters, summary file, twin trajectory or
+    None), for the cost store."""
     out = [("static", f"{s} N={n} {f}", {"scene": s, "nodes": n, "fit": f},
-            f"results/runs/static/{s}/N{n}_{f}/summary.json") for s, n, f in STATIC_RUNS]
+            f"results/runs/static/{s}/N{n}_{f}/summary.json", None) for s, n, f in STATIC_RUNS]
     for study in STUDIES:
         for pattern, row in zip(SPACES[study].instance_patterns, run_rows(study)):
-            out.append((study, pattern, row, f"results/runs/{study}/{pattern}/summary.json"))
+            out.append((study, pattern, row, f"results/runs/{study}/{pattern}/summary.json",
+                        twin_trajectory(study, row)))
     return out
 
 
@@ -87,6 +105,15 @@ def figure_report(fmt):
     return report(path, caption="../report/figure.rst", category=lambda wc: FIGURES[wc.name].category)
 
 
-def figure_rows(wildcards):
+def figure_inputs(wildcards):
+    """A figure's stores, or the trajectories of its studies (in the order of their tables)."""
     spec = FIGURES[wildcards.name]
-    return run_rows(spec.data) if spec.source == "runs" else []
+    if spec.source == "store":
+        return [f"results/aggregate/{store}.nc" for store in spec.data]
+    return [f for study in spec.data for f in study_files("results/runs/{study}/{params}/trajectory.h5", study)]
+
+
+def figure_rows(wildcards):
+    """The sweep-table rows of a figure's trajectories, by study."""
+    spec = FIGURES[wildcards.name]
+    return {study: run_rows(study) for study in spec.data} if spec.source == "runs" else {}

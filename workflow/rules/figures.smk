@@ -4,11 +4,7 @@
 
 rule figure:
     input:
-        lambda wc: (
-            [f"results/aggregate/{FIGURES[wc.name].data}.nc"]
-            if FIGURES[wc.name].source == "store"
-            else study_files(rules.run_dynamic.output.trajectory, FIGURES[wc.name].data)
-        ),
+        figure_inputs,
     output:
         [figure_report(fmt) for fmt in FORMATS],
     params:

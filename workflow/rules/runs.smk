@@ -34,8 +34,8 @@ rule run_dynamic:
         overrides=lambda wc: overrides(run_row(wc)),
     threads: config["threads"]
     resources:
-        mem_mb=lambda wc: job_resources(wc.study, int(run_row(wc)["nodes"]))["mem_mb"],
-        runtime=lambda wc: job_resources(wc.study, int(run_row(wc)["nodes"]))["runtime"],
+        mem_mb=lambda wc: job_resources(wc.study, int(run_row(wc).get("nodes", 0)))["mem_mb"],
+        runtime=lambda wc: job_resources(wc.study, int(run_row(wc).get("nodes", 0)))["runtime"],
     shell:
         "CORTEX_TI_THREADS={threads} OMP_NUM_THREADS={threads} MKL_NUM_THREADS={threads} "
         "cortex-ti -v run {params.scene} -o {output.trajectory} --summary {output.summary} {params.overrides} "
