@@ -3,10 +3,18 @@
 # Rules live in workflow/rules, thin scripts in workflow/scripts; the studies, stores and figures
 # are registered in cortex_ti/studies/registry.py and computed by the cortex_ti package.
 import os
+import sys
 
 from snakemake.utils import min_version, validate
 
 min_version("8.0")
+
+# Jobs call the `cortex-ti` of the Python environment that runs Snakemake (it imports cortex_ti
+# below), activated or not: cluster jobs (sbatch --export=ALL) re-run this file with the same
+# interpreter, so they find it too.
+_bin = os.path.dirname(sys.executable)
+if os.environ.get("PATH", "").split(os.pathsep)[0] != _bin:
+    os.environ["PATH"] = os.pathsep.join(p for p in (_bin, os.environ.get("PATH")) if p)
 
 
 # the default; --configfile FILE overrides it (paths relative to this file, so --directory works)

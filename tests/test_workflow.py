@@ -28,10 +28,11 @@ def expected_outputs(config):
     formats = config["figures"].get("formats", ["png", "pdf"])
     out = [f"results/aggregate/{s}.nc" for s in STORES]
     out += [f"results/figures/{f}.{fmt}" for f in FIGURES for fmt in formats]
+    out += [f"results/figures/{f}_numbers.html" for f in FIGURES]
     return out + [f"results/figures/{t}.html" for t in TABLES]
 
 
-@pytest.mark.parametrize("configfile", ["config/config.yaml", "config/paper.yaml"])
+@pytest.mark.parametrize("configfile", ["config/config.yaml", "config/smoke.yaml", "config/paper.yaml"])
 def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     res = snakemake(tmp_path, "-n", "--cores", "2", "--configfile", str(ROOT / configfile), timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]

@@ -28,10 +28,10 @@ def twin_of(tr: Trajectory):
                     save_times=tr.times, n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True)
 
 
-def compare(path: str) -> dict:
+def compare(path: str, times=PROFILE_TIMES) -> dict:
     """Radii (largest deviation over the frames, its time, the deviation at the last frame) and
-    velocity profiles (largest / rms deviation of v_n and |v_t| at the nodes, and their scales)
-    of a 3D trajectory against its axisymmetric twin."""
+    velocity profiles at ``times`` (largest / rms deviation of v_n and |v_t| at the nodes, and
+    their scales) of a 3D trajectory against its axisymmetric twin."""
     tr = Trajectory(path, lazy=True)
     res = twin_of(tr)
     ds = tr.ds
@@ -41,7 +41,7 @@ def compare(path: str) -> dict:
         out[name] = (float(d.max()), float(tr.times[np.argmax(d)]), float(d[-1]))
     x0 = ds["points"].isel(time=0).values
     labels = np.arccos(np.clip(x0[:, 2] / np.linalg.norm(x0, axis=1), -1.0, 1.0))
-    for t in PROFILE_TIMES:
+    for t in times:
         if t > tr.times[-1] + 1e-9:
             continue
         k = tr.frame_at(t)

@@ -366,6 +366,48 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
     return fig
 
 
+def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
+    """The flow on a static sphere (paper Figs. 2B-E, 3B-E): per scene the surface coloured by
+    |v| with arrows, and the velocity against the polar angle theta at the nodes (the normal
+    part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
+    pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
+    from ..analysis.analytic import scene_solution
+    from ..plotting import plot_frame
+
+    fig = Figure(figsize=(7.2, 2.8 * len(paths)), layout="constrained")
+    for r, path in enumerate(paths):
+        with Trajectory(path, lazy=True) as tr:
+            settings = tr.settings
+            ax = fig.add_subplot(len(paths), 2, 2 * r + 1, projection="3d")
+            _, m = plot_frame(tr.ds, frame=0, color="speed", arrows=True, ax=ax, view=view)
+            fig.colorbar(m, ax=ax, shrink=0.6, label=r"$|v| / v_a$")
+            ax.set_title(f"{settings.name}, N = {tr.ds.sizes['node']}", fontsize=8)
+            ax.tick_params(labelsize=6)
+            x = tr.ds["points"].isel(time=0).values
+            v = tr.ds["velocity"].isel(time=0).values
+            n = tr.normals(0)
+        theta = np.arccos(np.clip(x[:, 2] / np.linalg.norm(x, axis=1), -1, 1))
+        phi = np.arctan2(x[:, 1], x[:, 0])
+        tangential = settings.has("fixed_normal_velocity")
+        axisym = all(t["m"] == 0 for p in settings.patterns for t in p.get("terms", []))
+        near = np.ones(len(x), bool) if axisym else np.abs(phi) < 0.2      # the meridian phi = 0
+        radius = float(np.mean(np.linalg.norm(x, axis=1)))
+        line = np.linspace(0.0, np.pi, 181)
+        meridian = radius * np.stack([np.sin(line), np.zeros_like(line), np.cos(line)], -1)
+
+        def value(w, normals):
+            wn = np.einsum("nc,nc->n", w, normals)
+            return np.linalg.norm(w - wn[:, None] * normals, axis=1) if tangential else wn
+
+        ax = fig.add_subplot(len(paths), 2, 2 * r + 2)
+        ax.plot(theta[near], value(v, n)[near], ".", ms=2, label="3D nodes")
+        ax.plot(line, value(scene_solution(settings, meridian), meridian / radius), "k-", lw=1, label="analytic")
+        ax.set_xlabel(r"$\theta$" + ("" if axisym else r" (nodes near the meridian $\phi$ = 0)"))
+        ax.set_ylabel(r"$|v_t| / v_a$" if tangential else r"$v_n / v_a$")
+        ax.legend(fontsize=6)
+    return fig
+
+
 def cost_table_html(ds: xr.Dataset) -> str:
     """The cost store as an HTML table (for the report), through pandas."""
     cols = ["study", "status", "nodes", "fit", "scheme", "dt", "wall_s", "max_rss_mb", "steps", "solves", "ms_per_step",
@@ -389,6 +431,8 @@ def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str
     extra = [options[k] for k in spec.options]
     if spec.source == "store":
         return draw(*[xr.load_dataset(path, engine="h5netcdf") for path in inputs], *extra)
+    if spec.source == "static":
+        return draw(list(inputs), *extra)
     runs, start = {}, 0
     for study in spec.data:
         runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])]))

@@ -35,7 +35,8 @@ class FigureSpec:
     """A figure of the workflow: what it is drawn from and how it appears in the report."""
 
     name: str
-    source: str            # "store": drawn from results/aggregate/<data>.nc; "runs": from the trajectories of studies <data>
+    source: str            # "store": from results/aggregate/<data>.nc; "runs": from the trajectories of studies <data>;
+                           # "static": from the static runs at nodes data[0] with fit data[1]
     data: tuple[str, ...]
     draw: str              # the function of cortex_ti.studies.figures that draws it
     category: str          # the report's section
@@ -78,66 +79,88 @@ STUDIES: dict[str, Study] = {s.name: s for s in _STUDIES}
 #: per-frame variables, and the cost of every run.
 STORES: tuple[str, ...] = ("convergence", *(s.name for s in _STUDIES if s.has_store), "cost")
 
+_SPHERE = "1. Figs. 2, 3: flow on a static sphere"
+_SHAPES = "2. Figs. 4, 6: the furrow"
+_FURROW = "3. Figs. 5, 7, 8: furrow dynamics against the axisymmetric solution"
+_FOLD = "4. Fig. 9: fold formation"
+_SHEAR = "5. Figs. 10-12: the sheared cortex reorients"
+_COST = "6. What accuracy costs"
+
+#: The figures in the paper's order: the report shows them in this order, each with its caption
+#: (what the paper shows there and what to compare) and a table of the numbers to compare and
+#: of the cost of the runs behind it.
 _FIGURES = (
     FigureSpec(
-        "convergence", "store", ("convergence",), "convergence_figure", "1. Static sphere",
-        "Relative velocity error eps_rel (paper Eq. 58) of the static sphere scenes against their analytic "
-        "solutions, over the number of nodes N, for the one-ring quadratic fit of the paper and the two-ring "
-        "quartic fit. Left: the full force balance (case i, Y20 and Y21 patterns: paper Figs. 2F and 3F); right: "
-        "the tangential balance only (case ii: paper Figs. 2G and 3G). Dotted and dashed lines are N^-1 and N^-2 "
-        "guides. Store: ``results/aggregate/convergence.nc``."),
+        "sphere_flows", "static", ("2562", "quadratic"), "sphere_flows_figure", _SPHERE,
+        "Paper Figs. 2B-E (zeta = Y20) and 3B-E (zeta = Y21, plus a uniform part): the instantaneous flow on a static "
+        "sphere of 2562 nodes with the paper's quadratic fit, for the full force balance (i: normal flow, inward at "
+        "the poles and outward at the equator for Y20) and the tangential one (ii: v_n = 0, flow from the equator to "
+        "the poles). Right: the velocity at the nodes against the polar angle with the analytic solution "
+        "(conventions.md), which the paper reports as 'very good agreement'."),
     FigureSpec(
-        "furrow_radii", "store", ("furrow", "axisymmetric"), "radii_figure", "2. Furrow",
-        "Pole radius (half the pole-to-pole distance) and furrow radius (radius at the equator) against time for "
-        "the contractile ring of Eq. 59, one panel per (p, zeta_hat). Dots: 3D runs; black lines: the "
-        "axisymmetric reference where it exists (p = 8, zeta_hat = 1: paper Fig. 5A). The p = 4 panels match "
-        "paper Figs. 7A (zeta_hat = 1) and 8A (zeta_hat = 3); no reference data are shipped for them. Store: "
-        "``results/aggregate/furrow.nc``."),
+        "convergence", "store", ("convergence",), "convergence_figure", _SPHERE,
+        "Paper Figs. 2F,G and 3F,G: the relative velocity error eps_rel (Eq. 58) against the number of nodes N, "
+        "for the paper's one-ring quadratic fit and the two-ring quartic fit. The paper reports both systems "
+        "converging inversely to N; dotted and dashed lines are N^-1 and N^-2 guides. Store: "
+        "``results/aggregate/convergence.nc``."),
     FigureSpec(
-        "velocity_profiles", "runs", ("furrow", "axisymmetric"), "profiles_figure", "2. Furrow",
-        "Tangential speed ``|v_t|`` (left of each pair) and normal velocity v_n (right, positive outward) at the "
-        "nodes against their height z, at the configured times, one column pair per furrow run (paper Figs. "
-        "5B-G for p = 8, 7B-G and 8B-G for p = 4). Black lines: the axisymmetric reference profile (p = 8, "
-        "zeta_hat = 1 at t = 0.1, 1.5, 3). Panels past a run's end time are left empty. Normals are those of "
-        "the fitted surface, as in the solver.",
+        "furrow_pictures", "runs", ("furrow",), "snapshots_figure", _SHAPES,
+        "Paper Figs. 4A-C (p = 8, zeta_hat = 1) and 6A-E (p = 4, zeta_hat = 1 and 3): the contractile ring of Eq. 59 "
+        "on the initial sphere, the initial flow (inward at the ring, outward at the poles) and the final shape, "
+        "where no normal flow remains and a tangential flow runs toward the ring.",
+        options=("picture_times",)),
+    FigureSpec(
+        "furrow_radii", "store", ("furrow", "axisymmetric"), "radii_figure", _FURROW,
+        "Paper Figs. 5A, 7A, 8A: pole radius (half the pole-to-pole distance) and furrow radius (at the equator) "
+        "against time. Dots: the 3D runs; black lines: the axisymmetric solution of the same scene (model: "
+        "axisymmetric, with the scene's own bending viscosity; converged to ~1e-12 R0). The paper shows 'excellent "
+        "agreement' with its axisymmetric code; the table gives the deviations. Stores: "
+        "``results/aggregate/furrow.nc``, ``results/aggregate/axisymmetric.nc``."),
+    FigureSpec(
+        "velocity_profiles", "runs", ("furrow", "axisymmetric"), "profiles_figure", _FURROW,
+        "Paper Figs. 5B-G, 7B-G, 8B-G: tangential speed ``|v_t|`` (left of each pair) and normal velocity v_n (right, "
+        "positive outward) at the nodes against their height z, at t = 0.1, 1.5 and 3, one column pair per furrow "
+        "run; black lines: the axisymmetric solution of the same scene. The tangential flow grows while the "
+        "normal flow decays as the shape settles, as in the paper.",
         options=("profile_times",)),
     FigureSpec(
-        "reference_check", "store", ("axisymmetric",), "reference_check_figure", "2. Furrow",
+        "reference_check", "store", ("axisymmetric",), "reference_check_figure", _FURROW,
         "Cross-check of the axisymmetric solver with an independent code: the external reference run shipped in "
         "``cortex_ti/data/axisym`` (the authors' axisymmetric code, p = 8, zeta_hat = 1, a tiny bending moment "
         "instead of the bending viscosity). Left: pole and furrow radius; right: their deviation from it, for the "
         "reference's problem (no bending viscosity; within its own time error, ~1e-4) and for the scene with its "
         "bending viscosity (what the 3D runs are compared with: up to ~6e-4 early on)."),
     FigureSpec(
-        "fold_depth", "store", ("fold",), "fold_figure", "3. Fold",
-        "Fold formation (paper Fig. 9): the equatorial radius across the stripe of higher tension (solid) and "
-        "beside it (dashed), and the fold depth (their difference) against time, for the narrow (zeta_hat = 3.5, "
-        "sigma_phi = 200) and broad (zeta_hat = 4.5, sigma_phi = 12) stripes. Store: ``results/aggregate/fold.nc``."),
+        "fold_depth", "store", ("fold",), "fold_figure", _FOLD,
+        "Paper Fig. 9: a stripe of higher tension through both poles (zeta_hat = 3.5, sigma_phi = 200, narrow; "
+        "zeta_hat = 4.5, sigma_phi = 12, broad) pulls in a fold. The equatorial radius across the stripe (solid) "
+        "and beside it (dashed), and the fold depth (their difference) against time; the paper shows the fold "
+        "forming with an in-plane flow from the poles toward it. Store: ``results/aggregate/fold.nc``."),
     FigureSpec(
-        "snapshots_fold", "runs", ("fold",), "snapshots_figure", "3. Fold",
-        "Fold formation in 3D (paper Fig. 9): the active stress on the initial sphere, then the shape coloured "
-        "by the speed ``|v|`` with velocity arrows at the configured times up to the end of the run.",
+        "snapshots_fold", "runs", ("fold",), "snapshots_figure", _FOLD,
+        "Paper Fig. 9A-F in 3D: the active stress on the initial sphere, then the shape coloured by the speed "
+        "``|v|`` with velocity arrows at the configured times and at the end of the run.",
         options=("snapshot_times",)),
     FigureSpec(
-        "orientation", "store", ("reorientation",), "orientation_figure", "4. Sheared cortex",
-        "The sheared cortex (paper Figs. 10-12): angle between the long axis of the surface (principal axis of "
-        "its second-moment tensor) and the pattern axis against time (left), and the pole and furrow radius "
-        "measured along the current long axis (right), for each initial shear gamma and pattern tilt. The "
-        "untilted runs turn back toward the pattern axis (Figs. 10, 12); the tilted run keeps its orientation "
-        "(Fig. 11). Store: ``results/aggregate/reorientation.nc``."),
+        "orientation", "store", ("reorientation",), "orientation_figure", _SHEAR,
+        "Paper Figs. 10-12: a cortex sheared at the start (x -> x + gamma z) turns its long axis back toward the "
+        "pattern's axis before the furrow closes (Figs. 10, 12); with the pattern tilted toward the shear it keeps "
+        "its orientation (Fig. 11). Left: the angle between the long axis (second-moment tensor) and the pattern "
+        "axis; right: pole and furrow radius along the current long axis. Store: "
+        "``results/aggregate/reorientation.nc``."),
     FigureSpec(
-        "snapshots_reorientation", "runs", ("reorientation",), "snapshots_figure", "4. Sheared cortex",
-        "The sheared cortex in 3D (paper Figs. 10-12): per run the active stress on the sheared start, then "
-        "``|v|`` with velocity arrows at the configured times (those before the run's end) and at its end.",
+        "snapshots_reorientation", "runs", ("reorientation",), "snapshots_figure", _SHEAR,
+        "Paper Figs. 10-12 B-E in 3D: per run the active stress on the sheared start, then ``|v|`` with velocity "
+        "arrows at t = 3.5e-3, 3.5e-2, 8.7e-2 and 3.5 t_a (the paper's times).",
         options=("snapshot_times",)),
     FigureSpec(
-        "accuracy_cost", "store", ("cost",), "accuracy_cost_figure", "5. Accuracy and cost",
-        "What accuracy costs in time: the largest deviation of pole and furrow radius from the axisymmetric "
-        "reference (p = 8, zeta_hat = 1) over the run, against the wall time of the run, one point per (N, fit, "
-        "time scheme, tension treatment, dt): colour = N, marker = scheme, filled = semi-implicit tension, open = "
-        "the paper's explicit step. The line joins the Pareto front (no other configuration is both cheaper and "
-        "more accurate). Red crosses: configurations that went unstable (the reason is in their summary). Times "
-        "are wall-clock seconds of one job on the machine that ran the workflow, start-up included."),
+        "accuracy_cost", "store", ("cost",), "accuracy_cost_figure", _COST,
+        "Not in the paper: what accuracy costs in time. The largest deviation of pole and furrow radius from the "
+        "axisymmetric solution of the same scene over the run, against the run's wall time, one point per (N, fit, "
+        "time scheme, tension treatment, dt): colour = N, marker = scheme, filled = semi-implicit tension. The "
+        "dashed line joins the Pareto front (no other run is both cheaper and more accurate), tabulated beside "
+        "it; red crosses: runs that went unstable (the reason is in their summary). Times are wall-clock seconds "
+        "of one job on the machine that ran the workflow, start-up included."),
 )
 
 #: The figures by name (results/figures/<name>.<format>).
@@ -150,7 +173,7 @@ TABLES: dict[str, tuple[str, str]] = {
                            "summaries), and the error against the axisymmetric reference where one exists. "
                            "Store: ``results/aggregate/cost.nc``."),
 }
-TABLE_CATEGORY = "5. Accuracy and cost"
+TABLE_CATEGORY = _COST
 
 
 def figure_names() -> list[str]:

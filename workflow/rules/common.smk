@@ -110,6 +110,10 @@ def figure_inputs(wildcards):
     spec = FIGURES[wildcards.name]
     if spec.source == "store":
         return [f"results/aggregate/{store}.nc" for store in spec.data]
+    if spec.source == "static":
+        nodes = int(spec.data[0]) if int(spec.data[0]) in STATIC["nodes"] else max(STATIC["nodes"])
+        fit = spec.data[1] if spec.data[1] in STATIC["fit"] else STATIC["fit"][0]
+        return [f"results/runs/static/{s}/N{nodes}_{fit}/trajectory.h5" for s in STATIC["scenes"]]
     return [f for study in spec.data for f in study_files("results/runs/{study}/{params}/trajectory.h5", study)]
 
 

@@ -4,9 +4,12 @@
 
 rule figure:
     input:
-        figure_inputs,
+        data=figure_inputs,
+        cost="results/aggregate/cost.nc",
     output:
-        [figure_report(fmt) for fmt in FORMATS],
+        figures=[figure_report(fmt) for fmt in FORMATS],
+        numbers=report("results/figures/{name}_numbers.html", caption="../report/numbers.rst",
+                       category=lambda wc: FIGURES[wc.name].category),
     params:
         caption=lambda wc: FIGURES[wc.name].caption,
         rows=figure_rows,

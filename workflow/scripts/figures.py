@@ -9,6 +9,7 @@ import xarray as xr  # noqa: E402
 from cortex_ti.io.files import atomic_path  # noqa: E402
 from cortex_ti.plotting import save_figure  # noqa: E402
 from cortex_ti.studies import figures  # noqa: E402
+from cortex_ti.studies.numbers import figure_numbers, numbers_html  # noqa: E402
 
 sm = snakemake  # noqa: F821
 if sm.rule == "table":
@@ -16,6 +17,12 @@ if sm.rule == "table":
     tmp.write_text(figures.cost_table_html(xr.load_dataset(sm.input[0], engine="h5netcdf")))
     tmp.replace(out)
 else:
-    fig = figures.draw_figure(sm.wildcards.name, list(sm.input), sm.params.options, sm.params.rows)
-    for path in sm.output:
+    name, data = sm.wildcards.name, list(sm.input.data)
+    fig = figures.draw_figure(name, data, sm.params.options, sm.params.rows)
+    for path in sm.output.figures:
         save_figure(fig, path)
+    numbers, cost = figure_numbers(name, data, sm.params.options, sm.params.rows,
+                                   xr.load_dataset(sm.input.cost, engine="h5netcdf"))
+    out, tmp = atomic_path(sm.output.numbers)
+    tmp.write_text(numbers_html(name, numbers, cost))
+    tmp.replace(out)

@@ -1,0 +1,235 @@
+"""The numbers to compare, figure by figure, and what the runs behind each figure cost.
+
+For every registered figure (:data:`cortex_ti.studies.registry.FIGURES`) the workflow writes,
+beside the picture, a small HTML table: the quantities a reader compares with the paper or with
+a truth (an analytic solution, the axisymmetric solution of the same scene), and the cost of
+the runs the figure is drawn from (from the cost store). :func:`figure_numbers` dispatches on
+the figure's drawing function; a figure without numbers of its own gets only the cost.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+from ..io.trajectory import Trajectory
+from .registry import FIGURES
+
+__all__ = ["figure_numbers", "numbers_html"]
+
+
+def _convergence(stores) -> pd.DataFrame:
+    ds = stores[0]
+    rows = []
+    for scene in ds["scene"].values:
+        for fit in ds["fit"].values:
+            e = ds["eps_rel"].sel(scene=scene, fit=fit).values
+            n = ds["nodes"].values.astype(float)
+            ok = np.isfinite(e)
+            order = np.polyfit(np.log(n[ok]), np.log(e[ok]), 1)[0] if ok.sum() > 1 else np.nan
+            rows.append({"scene": scene, "fit": fit, **{f"eps_rel N={int(k)}": f"{v:.2e}" for k, v in zip(n, e)},
+                         "slope d log eps / d log N": f"{order:.2f}", "paper": "eps ~ 1/N (slope -1)"})
+    return pd.DataFrame(rows)
+
+
+def _sphere_flows(paths) -> pd.DataFrame:
+    from ..analysis.analytic import error_measures, scene_solution
+
+    rows = []
+    for path in paths:
+        with Trajectory(path, lazy=True) as tr:
+            x, v = tr.ds["points"].isel(time=0).values, tr.ds["velocity"].isel(time=0).values
+            eps, eps_rel = error_measures(v, scene_solution(tr.settings, x))
+            rows.append({"scene": tr.settings.name, "nodes": x.shape[0], "fit": tr.settings.numerics.fit,
+                         "eps (Eq. 57)": f"{eps:.2e}", "eps_rel (Eq. 58)": f"{eps_rel:.2e}",
+                         "max |v| analytic": f"{np.linalg.norm(scene_solution(tr.settings, x), axis=1).max():.4f}"})
+    return pd.DataFrame(rows)
+
+
+def _furrow_pictures(runs) -> pd.DataFrame:
+    from ..analysis.sphere_exact import sphere_flow
+
+    rows = []
+    for label, path in runs:
+        with Trajectory(path, lazy=True) as tr:
+            s = tr.settings
+            x0, v0, n0 = tr.ds["points"].isel(time=0).values, tr.ds["velocity"].isel(time=0).values, tr.normals(0)
+            ring = s.patterns[0]
+            vis = s.viscosity
+
+            def zeta(p, ring=ring):
+                th = np.arccos(np.clip(p[:, 2] / np.linalg.norm(p, axis=1), -1, 1))
+                return ring["zeta0"] + ring["amplitude"] * np.exp(-ring["sigma"] * np.abs(th - np.pi / 2) ** ring["p"])
+
+            poles = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+            exact, _, _ = sphere_flow(zeta, poles, eta_s=vis.shear, eta_b=vis.bulk, eta_bar=vis.bending,
+                                      eta_bar_b=vis.bending_bulk, axis=(0, 0, 1), lmax=240)
+            top = int(np.argmax(x0[:, 2]))
+            rows.append({"run": label, "v_n at the north pole, t = 0": f"{float(v0[top] @ n0[top]):.4f}",
+                         "exact (sphere_exact, with the scene's bending viscosity)": f"{exact[0, 2]:.4f}",
+                         "t_end": f"{tr.times[-1]:g}", "final pole radius": f"{tr.ds['pole_radius'].values[-1]:.5f}",
+                         "final furrow radius": f"{tr.ds['furrow_radius'].values[-1]:.5f}"})
+    return pd.DataFrame(rows)
+
+
+def _furrow_radii(stores) -> pd.DataFrame:
+    from .figures import _twin_index
+
+    ds, axisym = stores
+    twins = _twin_index(axisym)
+    rows = []
+    for i in range(ds.sizes["run"]):
+        key = (str(ds["scene"].values[i]), float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+        j = twins.get(key)
+        row = {"run": str(ds["label"].values[i])}
+        for name in ("pole_radius", "furrow_radius"):
+            v = ds[name].values[i]
+            ok = np.isfinite(v)
+            row[f"{name} at t = {ds['time'].values[ok][-1]:g}"] = f"{v[ok][-1]:.5f}"
+            if j is not None:
+                a = np.interp(ds["time"].values[ok], axisym["time"].values, axisym[name].values[j])
+                row[f"axisymmetric {name}"] = f"{a[-1]:.5f}"
+                row[f"max |3D - axisymmetric| {name}"] = f"{np.max(np.abs(v[ok] - a)):.2e}"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _velocity_profiles(runs, times, twins=()) -> pd.DataFrame:
+    from ..axisymmetric.compare import compare
+
+    rows = []
+    for row, path in runs:
+        r = compare(path, times)
+        for t in times:
+            if f"profile_{t:g}" in r:
+                a, b, c, d, sn, st = r[f"profile_{t:g}"]
+                rows.append({"scene": row.get("scene"), "nodes": row.get("nodes"), "t": t,
+                             "max / rms |dv_n|": f"{a:.1e} / {b:.1e}", "max / rms |d|v_t||": f"{c:.1e} / {d:.1e}",
+                             "scale v_n, |v_t|": f"{sn:.3f}, {st:.3f}"})
+    return pd.DataFrame(rows)
+
+
+def _fold(stores) -> pd.DataFrame:
+    ds = stores[0]
+    t = ds["time"].values
+    rows = []
+    for i in range(ds.sizes["run"]):
+        depth = ds["fold_depth"].values[i]
+        ok = np.isfinite(depth)
+        row = {"run": str(ds["label"].values[i])}
+        for tq in (0.1, 0.5, 1.0, 3.5):
+            if tq <= t[ok][-1] + 1e-9:
+                row[f"fold depth t = {tq:g}"] = f"{depth[np.argmin(np.abs(t - tq))]:.3f}"
+        row["radius across / beside the stripe at the end"] = (f"{ds['radius_stripe'].values[i][ok][-1]:.3f} / "
+                                                               f"{ds['radius_off_stripe'].values[i][ok][-1]:.3f}")
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _orientation(stores) -> pd.DataFrame:
+    ds = stores[0]
+    t = ds["time"].values
+    rows = []
+    for i in range(ds.sizes["run"]):
+        a = ds["orientation_angle"].values[i]
+        ok = np.isfinite(a)
+        row = {"run": str(ds["label"].values[i])}
+        for tq in (0.0, 0.09, 0.5, 1.0, 3.5):
+            if tq <= t[ok][-1] + 1e-9:
+                row[f"angle t = {tq:g} (deg)"] = f"{a[np.argmin(np.abs(t - tq))]:.1f}"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _reference_check(stores) -> pd.DataFrame:
+    from ..analysis import reference
+    from ..axisymmetric.run import AxisymmetricRun
+    from ..scene import load_scene
+    from .figures import REFERENCE_PROBLEM, _twin_index
+
+    ref = reference.load_radii()
+    res = AxisymmetricRun(load_scene("furrow_p8_a1", REFERENCE_PROBLEM)).simulate()
+    rows = [{"axisymmetric run": "no bending viscosity (the reference's problem)",
+             **{f"max |dev| {k} (t <= 3)": f"{reference.radii_deviation(res.t, res.pole_radius, res.furrow_radius)[k]:.2e}"
+                for k in ("pole", "furrow")}}]
+    axisym = stores[0]
+    j = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
+    if j is not None:
+        d = reference.radii_deviation(axisym["time"].values, axisym["pole_radius"].values[j],
+                                      axisym["furrow_radius"].values[j])
+        rows.append({"axisymmetric run": "with the scene's bending viscosity",
+                     **{f"max |dev| {k} (t <= 3)": f"{d[k]:.2e}" for k in ("pole", "furrow")}})
+    rows.append({"axisymmetric run": "the reference's own time error (its README)",
+                 "max |dev| pole (t <= 3)": "~8e-5", "max |dev| furrow (t <= 3)": "~8e-5"})
+    del ref
+    return pd.DataFrame(rows)
+
+
+def _accuracy(stores) -> pd.DataFrame:
+    ds = stores[0]
+    sel = np.flatnonzero(ds["study"].values == "accuracy")
+    cols = ["nodes", "fit", "scheme", "implicit_tension", "dt", "status"]
+    out = ds.isel(run=sel).reset_coords()[cols + ["wall_s", "steps", "error"]].to_dataframe().reset_index(drop=True)
+    out["wall_s"] = out["wall_s"].map(lambda v: f"{v:.1f}")
+    out["error"] = out["error"].map(lambda v: f"{v:.2e}")
+    return out
+
+
+_NUMBERS = {"convergence_figure": _convergence, "sphere_flows_figure": _sphere_flows, "radii_figure": _furrow_radii,
+            "profiles_figure": _velocity_profiles, "fold_figure": _fold, "orientation_figure": _orientation,
+            "reference_check_figure": _reference_check, "accuracy_cost_figure": _accuracy}
+
+
+def _cost(name: str, cost: xr.Dataset) -> pd.DataFrame:
+    """Runs, wall time, steps and peak memory of the studies a figure is drawn from."""
+    spec = FIGURES[name]
+    behind = {"convergence": "static", "cost": "accuracy"}     # the runs behind a store that is not a study's
+    studies = ("static",) if spec.source == "static" else tuple(behind.get(d, d) for d in spec.data)
+    rows = []
+    for study in studies:
+        sel = np.flatnonzero(cost["study"].values == study)
+        if not sel.size:
+            continue
+        c = cost.isel(run=sel)
+        rows.append({"study": study, "runs": int(sel.size), "failed": int((c["status"].values != "ok").sum()),
+                     "wall time, sum (s)": f"{np.nansum(c['wall_s'].values):.0f}",
+                     "wall time, largest (s)": f"{np.nanmax(c['wall_s'].values):.0f}",
+                     "steps, sum": int(np.nansum(c["steps"].values)),
+                     "peak memory, largest (MB)": f"{np.nanmax(c['max_rss_mb'].values):.0f}"})
+    return pd.DataFrame(rows)
+
+
+def figure_numbers(name: str, inputs: Sequence, options: Mapping, rows: Mapping, cost: xr.Dataset | None):
+    """``(numbers, cost)`` DataFrames of the figure ``name`` (inputs as for
+    :func:`cortex_ti.studies.figures.draw_figure`); ``numbers`` is None for a figure without."""
+    spec = FIGURES[name]
+    func = _NUMBERS.get(spec.draw)
+    numbers = None
+    if spec.draw == "snapshots_figure" and spec.data == ("furrow",):
+        from .stores import short_labels
+
+        main = list(zip(rows["furrow"], inputs))
+        numbers = _furrow_pictures(list(zip(short_labels([r for r, _ in main]), [p for _, p in main])))
+    elif func is not None:
+        if spec.source == "store":
+            numbers = func([xr.load_dataset(p, engine="h5netcdf") for p in inputs])
+        elif spec.source == "static":
+            numbers = func(list(inputs))
+        else:
+            first = spec.data[0]
+            numbers = func(list(zip(rows[first], inputs[: len(rows[first])])), [options[k] for k in spec.options][0])
+    return numbers, (_cost(name, cost) if cost is not None else None)
+
+
+def numbers_html(name: str, numbers: pd.DataFrame | None, cost: pd.DataFrame | None) -> str:
+    """The numbers and the cost of a figure as one small HTML page (for the report)."""
+    parts = [f"<h3>{name}: the numbers to compare</h3>"]
+    parts.append(numbers.to_html(index=False, border=0) if numbers is not None and len(numbers)
+                 else "<p>(the figure itself is the result: see its caption)</p>")
+    if cost is not None and len(cost):
+        parts += ["<h3>what the runs behind it cost</h3>", cost.to_html(index=False, border=0)]
+    return ("<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
+            "border-bottom:1px solid #ddd}</style></head><body>" + "".join(parts) + "</body></html>")
