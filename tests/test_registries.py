@@ -11,7 +11,7 @@ import yaml
 from cortex_ti.dynamics.schemes import SCHEMES
 from cortex_ti.errors import SceneError
 from cortex_ti.physics.model import EFFECTS
-from cortex_ti.physics.patterns import PATTERN_SCHEMAS, PATTERNS, register_pattern
+from cortex_ti.physics.patterns import PATTERNS, pattern_schemas, register_pattern
 from cortex_ti.physics.terms import TERMS
 from cortex_ti.scene import full_schema, load_scene, scene_from_dict
 from cortex_ti.solve.factorizations import FACTORIZATIONS
@@ -34,7 +34,7 @@ def test_scene_schema_enums_are_the_registries():
     assert props["time"]["properties"]["scheme"]["enum"] == list(SCHEMES)
     assert props["solver"]["properties"]["backend"]["enum"] == ["auto", *FACTORIZATIONS]
     assert schema["$defs"]["pattern"]["properties"]["type"]["enum"] == list(PATTERNS)
-    assert all(schema["$defs"][name] == PATTERN_SCHEMAS[name] for name in PATTERNS)
+    assert all(schema["$defs"][name] == pattern_schemas()[name] for name in PATTERNS)
 
 
 def test_config_schema_vocabularies_agree_with_the_registries():
@@ -88,4 +88,3 @@ def test_a_registered_pattern_is_a_valid_scene_pattern():
             scene_from_dict(bad)    # and its own schema checks its parameters
     finally:
         PATTERNS.pop("test_cosine")
-        PATTERN_SCHEMAS.pop("test_cosine")

@@ -64,17 +64,6 @@ def matches_reference(settings) -> bool:
         for k, want in REFERENCE_RING.items() if k != "type")
 
 
-def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
-    """:func:`radii_deviation` of a trajectory file, or None if its scene is not the reference's."""
-    from ..io.trajectory import Trajectory
-
-    with Trajectory(path, lazy=True) as tr:
-        if not matches_reference(tr.settings):
-            return None
-        ds = tr.ds
-        return radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values, ref_path)
-
-
 def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
     """Largest |3D - reference| of pole and furrow radius at the frame times (R0).
 
@@ -108,21 +97,3 @@ def profile_deviation(points, velocity, normals, t: float, path=None) -> dict[st
     return {"vn_max": float(np.abs(vn - vn_ref).max()), "vn_rms": float(np.sqrt(np.mean((vn - vn_ref) ** 2))),
             "vt_max": float(np.abs(vt - vt_ref).max()), "vt_rms": float(np.sqrt(np.mean((vt - vt_ref) ** 2))),
             "vn_scale": float(np.abs(ref["vn"]).max()), "vt_scale": float(np.abs(ref["abs_vt"]).max())}
-
-
-def twin_deviation(path, twin_path) -> dict[str, float]:
-    """Largest |3D - axisymmetric| of pole and furrow radius over the frames of a run, against
-    its axisymmetric twin (the same scene solved with ``model: axisymmetric``; its frames
-    interpolated in time, linearly, to the run's frame times up to the twin's end)."""
-    from ..io.trajectory import Trajectory
-
-    with Trajectory(path, lazy=True) as run, Trajectory(twin_path, lazy=True) as twin:
-        t, ta = run.times, twin.times
-        ok = t <= ta[-1] + 1e-9
-        out = {}
-        for name in ("pole_radius", "furrow_radius"):
-            d = np.abs(run.ds[name].values[ok] - np.interp(t[ok], ta, twin.ds[name].values))
-            out[name.split("_")[0]] = float(np.max(d)) if d.size else float("nan")
-            out["t_" + name.split("_")[0]] = float(t[ok][np.argmax(d)]) if d.size else float("nan")
-        out["frames"] = int(ok.sum())
-        return out

@@ -7,3 +7,7 @@ per physical term (``terms/``, registry :data:`~cortex_ti.physics.terms.TERMS`) 
 composition of the switched-on terms into one sparse system (``assembly``). May import
 ``surface`` and ``solve.system`` (the system it produces); not scenes, dynamics or I/O.
 """
+
+# the pattern types register themselves on import: the built-in ones (patterns) and the user's
+# field and python patterns (user_patterns), before anything reads the registry
+from . import patterns, user_patterns  # noqa: E402,F401

@@ -30,7 +30,7 @@ Pattern types (registry :data:`PATTERNS`, extensible with :func:`register_patter
     ``cortex-ti check``).  From Python, ``function`` may also be the callable itself.
 
 Each pattern type registers its parameters as a JSON-schema fragment
-(:data:`PATTERN_SCHEMAS`); the scene schema's pattern section is built from this registry
+(:func:`pattern_schemas`); the scene schema's pattern section is built from this registry
 (:mod:`cortex_ti.scene.schema`), so a registered pattern is a valid scene pattern.
 
 :func:`integrate_patterns` and :func:`mean_over_sphere` integrate patterns over the unit
@@ -51,7 +51,7 @@ from .spherical import direction_angles, integrate_over_sphere, real_sph_harm
 
 __all__ = [
     "PATTERNS",
-    "PATTERN_SCHEMAS",
+    "pattern_schemas",
     "PER_NODE_PATTERNS",
     "evaluate_active_stress",
     "harmonic_terms",
@@ -83,9 +83,12 @@ PER_NODE_PATTERNS: set[str] = set()
 of position: they cannot be evaluated at other points (e.g. quadrature points)."""
 
 
-PATTERN_SCHEMAS: dict[str, dict] = {}
-"""Registry ``type name -> JSON-schema fragment of its parameters`` (the scene schema's
-``$defs/<name>``; built into the schema by :mod:`cortex_ti.scene.schema`)."""
+def pattern_schemas() -> dict[str, dict]:
+    """``type name -> JSON-schema fragment of its parameters`` of every registered pattern (the
+    scene schema's ``$defs/<name>``, built into it by :mod:`cortex_ti.scene.schema`); the
+    fragment travels with the function in :data:`PATTERNS` (``func.pattern_schema``), so the
+    two cannot disagree."""
+    return {name: func.pattern_schema for name, func in PATTERNS.items()}
 
 _OPEN_SCHEMA = {"type": "object", "required": ["type"],
                 "description": "A pattern registered without a schema: its parameters are checked against "
@@ -112,8 +115,8 @@ def register_pattern(name: str, *, per_node: bool = False, schema: dict | None =
         old = PATTERNS.get(name)
         if old is not None and (old.__module__, old.__qualname__) != (func.__module__, func.__qualname__):
             raise ValueError(f"active-stress pattern type {name!r} is already registered ({old.__module__}.{old.__qualname__})")
+        func.pattern_schema = schema if schema is not None else dict(_OPEN_SCHEMA)
         PATTERNS[name] = func
-        PATTERN_SCHEMAS[name] = schema if schema is not None else dict(_OPEN_SCHEMA)
         if per_node:
             PER_NODE_PATTERNS.add(name)
         else:
@@ -410,5 +413,3 @@ def mean_over_sphere(patterns: list[dict], order: int | None = None) -> float:
     """
     return float(integrate_patterns(patterns, order=order)) / (4.0 * np.pi)
 
-
-from . import user_patterns  # noqa: E402,F401  (registers the field and python patterns)

@@ -121,7 +121,7 @@ class Scene:
     @cached_property
     def settings(self) -> RunSettings:
         """The scene's settings resolved once, typed (:class:`~cortex_ti.scene.settings.RunSettings`)."""
-        return RunSettings.from_scene(self)
+        return RunSettings.from_data(self.data)
 
     def __hash__(self) -> int:
         return hash(self.to_yaml())

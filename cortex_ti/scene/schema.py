@@ -6,7 +6,7 @@ registry that defines them, when the schema is built: ``numerics.fit`` from
 :data:`cortex_ti.surface.fits.FIT_SCHEMES`, ``time.scheme`` from
 :data:`cortex_ti.dynamics.schemes.SCHEMES`, ``solver.backend`` from
 :data:`cortex_ti.solve.factorizations.FACTORIZATIONS` (plus ``auto``), and the active-stress
-pattern types with their parameters from :data:`cortex_ti.physics.patterns.PATTERN_SCHEMAS`.
+pattern types with their parameters from :func:`cortex_ti.physics.patterns.pattern_schemas`.
 :func:`full_schema` gives the complete schema (``cortex-ti schema`` prints it).
 
 This module also validates a raw scene against it (:func:`validate_schema`, one message naming
@@ -26,7 +26,7 @@ import jsonschema
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
-from ..physics.patterns import PATTERN_SCHEMAS
+from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES
 
@@ -46,21 +46,22 @@ def full_schema() -> dict:
     props["numerics"]["properties"]["fit"]["enum"] = list(FIT_SCHEMES)
     props["time"]["properties"]["scheme"]["enum"] = list(SCHEMES)
     props["solver"]["properties"]["backend"]["enum"] = backend_names()
-    schema["$defs"] = {"pattern": _pattern_schema(), **copy.deepcopy(PATTERN_SCHEMAS)}
+    fragments = pattern_schemas()
+    schema["$defs"] = {"pattern": _pattern_schema(list(fragments)), **copy.deepcopy(fragments)}
     return schema
 
 
-def _pattern_schema() -> dict:
+def _pattern_schema(names: list[str]) -> dict:
     """One active-stress pattern: its ``type`` one of the registered patterns, its other keys
     checked by that pattern's own fragment (``$defs/<type>``)."""
     return {
         "description": "One active-stress pattern; the keys allowed depend on its type "
-                       "(cortex_ti.physics.patterns.PATTERN_SCHEMAS).",
+                       "(cortex_ti.physics.patterns.pattern_schemas).",
         "type": "object",
         "required": ["type"],
-        "properties": {"type": {"enum": list(PATTERN_SCHEMAS)}},
+        "properties": {"type": {"enum": names}},
         "allOf": [{"if": {"properties": {"type": {"const": name}}, "required": ["type"]},
-                   "then": {"$ref": f"#/$defs/{name}"}} for name in PATTERN_SCHEMAS],
+                   "then": {"$ref": f"#/$defs/{name}"}} for name in names],
     }
 
 
@@ -70,7 +71,7 @@ _BUILT: dict = {}
 def current_schema() -> dict:
     """The schema for the registries as they are now (built again after a registration)."""
     key = (tuple(FIT_SCHEMES), tuple(SCHEMES), tuple(backend_names()),
-           tuple((name, id(fragment)) for name, fragment in PATTERN_SCHEMAS.items()))
+           tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()))
     if _BUILT.get("key") != key:
         schema = full_schema()
         _BUILT.update(key=key, schema=schema, validator=jsonschema.Draft202012Validator(schema))
@@ -229,7 +230,7 @@ def _schema_message(err: jsonschema.ValidationError) -> str:
 
 
 def _pattern_types() -> list[str]:
-    return list(PATTERN_SCHEMAS)
+    return list(pattern_schemas())
 
 
 # --------------------------------------------------------------------------------------

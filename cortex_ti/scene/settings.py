@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,9 +22,6 @@ from ..dynamics.schemes import SCHEMES
 from ..physics.model import Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .loader import Scene
 
 __all__ = ["RunSettings", "MeshSettings", "ViscositySettings", "NumericsSettings", "SolverSettings",
            "TimeSettings", "AxisymmetricSettings"]
@@ -129,8 +125,8 @@ class RunSettings:
     axisymmetric: AxisymmetricSettings
 
     @classmethod
-    def from_scene(cls, scene: "Scene") -> "RunSettings":
-        data = scene.data
+    def from_data(cls, data: dict) -> "RunSettings":
+        """The settings of a validated scene's data (:attr:`cortex_ti.scene.Scene.data`)."""
         effects = frozenset(data["effects"])
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
         dynamic = "shape_evolution" in effects

@@ -21,12 +21,13 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, fold_radii
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
 from .registry import STUDIES
 
-__all__ = ["study_dataset", "cost_dataset", "run_label", "short_labels"]
+__all__ = ["study_dataset", "cost_dataset", "run_label", "short_labels", "trajectory_deviation", "twin_deviation"]
 
 _TIME_DECIMALS = 9
 
@@ -189,3 +190,28 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
                       attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
                                             "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
                                             "run summaries; error against the axisymmetric reference where one exists."})
+
+
+def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
+    """:func:`radii_deviation` of a trajectory file, or None if its scene is not the reference's."""
+    with Trajectory(path, lazy=True) as tr:
+        if not reference.matches_reference(tr.settings):
+            return None
+        ds = tr.ds
+        return reference.radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values, ref_path)
+
+
+def twin_deviation(path, twin_path) -> dict[str, float]:
+    """Largest |3D - axisymmetric| of pole and furrow radius over the frames of a run, against
+    its axisymmetric twin (the same scene solved with ``model: axisymmetric``; its frames
+    interpolated in time, linearly, to the run's frame times up to the twin's end)."""
+    with Trajectory(path, lazy=True) as run, Trajectory(twin_path, lazy=True) as twin:
+        t, ta = run.times, twin.times
+        ok = t <= ta[-1] + 1e-9
+        out = {}
+        for name in ("pole_radius", "furrow_radius"):
+            d = np.abs(run.ds[name].values[ok] - np.interp(t[ok], ta, twin.ds[name].values))
+            out[name.split("_")[0]] = float(np.max(d)) if d.size else float("nan")
+            out["t_" + name.split("_")[0]] = float(t[ok][np.argmax(d)]) if d.size else float("nan")
+        out["frames"] = int(ok.sum())
+        return out

@@ -6,10 +6,14 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 
 from pathlib import Path  # noqa: E402
 
-from cortex_ti.analysis.reference import trajectory_deviation, twin_deviation  # noqa: E402
 from cortex_ti.io import write_dataset  # noqa: E402
 from cortex_ti.studies.convergence import convergence_dataset  # noqa: E402
-from cortex_ti.studies.stores import cost_dataset, study_dataset  # noqa: E402
+from cortex_ti.studies.stores import (  # noqa: E402
+    cost_dataset,
+    study_dataset,
+    trajectory_deviation,
+    twin_deviation,
+)
 
 sm = snakemake  # noqa: F821
 if sm.rule == "convergence":
