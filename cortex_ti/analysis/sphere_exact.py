@@ -611,46 +611,12 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     """
     t0 = time.perf_counter()
     R = float(radius)
-    if not (R > 0 and eta_s > 0 and eta_b >= 0 and eta_bar >= 0 and eta_bar_b >= 0):
-        raise ValueError("need radius > 0, eta_s > 0 and eta_b, eta_bar, eta_bar_b >= 0")
-    if system not in ("full", "tangential"):
-        raise ValueError(f"system must be 'full' or 'tangential', got {system!r}")
-    if on_unconverged not in ("raise", "warn", "ignore"):
-        raise ValueError("on_unconverged must be 'raise', 'warn' or 'ignore'")
-    if l1 not in ("auto", "raise", "lsq", "drop"):
-        raise ValueError("l1 must be 'auto', 'raise', 'lsq' or 'drop'")
-    p = np.atleast_2d(np.asarray(points, dtype=float))
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise ValueError(f"points must have shape (N, 3), got {p.shape}")
-    rad = np.linalg.norm(p, axis=1)
-    if p.shape[0] and np.max(np.abs(rad - R)) > check_radius * R:
-        raise ValueError(f"points are not on the sphere of radius {R} (max | |x| - R | = "
-                         f"{np.max(np.abs(rad - R)):.3g})")
-    u = p / rad[:, None] if p.shape[0] else p.copy()
-
+    u = _check_flow_input(points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_unconverged, l1, check_radius)
     if isinstance(lmax, str):
-        if lmax != "auto":
-            raise ValueError("lmax must be an int or 'auto'")
-        if spectrum is not None:
-            raise ValueError("lmax='auto' needs the callable, not a spectrum")
-        Qf = frame_matrix(axis)
-        if axisymmetric is None and axis is not None:
-            zt, _ = gauss_legendre(96)
-            axisymmetric = _check_axisymmetric(zeta, Qf, zt) <= 1e-12
-        top = 1024 if axisymmetric else 256
-        L = 32
-        while True:
-            try:
-                return sphere_flow(zeta, points, radius=radius, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar,
-                                   eta_bar_b=eta_bar_b, system=system, axis=axis,
-                                   axisymmetric=bool(axisymmetric), lmax=L, tol=tol,
-                                   on_unconverged="raise" if L < top else on_unconverged, l1=l1,
-                                   l1_weight=l1_weight, l1_rtol=l1_rtol, check_radius=check_radius)
-            except NotConvergedError:
-                if L >= top:
-                    raise
-                L *= 2
-
+        return _flow_auto_lmax(zeta, points, lmax, spectrum, axis, axisymmetric, on_unconverged,
+                               dict(radius=radius, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b,
+                                    system=system, tol=tol, l1=l1, l1_weight=l1_weight, l1_rtol=l1_rtol,
+                                    check_radius=check_radius))
     t1 = time.perf_counter()
     spec = spectrum if spectrum is not None else expand(zeta, int(lmax), axis=axis, axisymmetric=axisymmetric)
     lmax = spec.lmax
@@ -659,42 +625,8 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     norms = spec.degree_norms
     zbar = spec.mean
     zscale = max(abs(zbar), float(np.sqrt(np.sum(norms[1:] ** 2) / FOUR_PI)), 1e-300)
-
-    # degree 1
-    l1info = {"zeta_1_vector": spec.l1_vector() if lmax >= 1 else np.zeros(3), "treatment": "none"}
-    if lmax >= 1:
-        sup1 = math.sqrt(3.0 / FOUR_PI) * norms[1]
-        l1info["zeta_1_sup"] = sup1
-        present = sup1 > l1_rtol * zscale
-        a1, b1, exact, rt, rn = l1_coefficients(radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar,
-                                               eta_bar_b=eta_bar_b, system=system, weight=l1_weight)
-        l1info.update(exact_solution_exists=exact)
-        if not present:
-            l1info["treatment"] = "negligible (dropped)"
-        elif l1 == "drop":
-            l1info["treatment"] = "dropped"
-        elif l1 == "raise" or (l1 == "auto" and not exact):
-            raise L1Error(
-                f"the tension has a degree-1 part (sup {sup1:.3g}, gradient vector "
-                f"{l1info['zeta_1_vector']}) and the {system} system"
-                + (" with bending viscosity" if system == "full" and eta_bar > 0 else "")
-                + " has no exact solution satisfying the zero-total-velocity gauge; pass "
-                  "l1='lsq' for the gauge-constrained least-squares answer or l1='drop'")
-        else:
-            alpha[1], beta[1] = a1, b1
-            l1info["treatment"] = "exact" if exact else f"least squares (normal weight {l1_weight})"
-            l1info["residual_tangential"] = abs(rt) * sup1 / R if not exact else 0.0
-            l1info["residual_normal"] = abs(rn) * sup1 if not exact else 0.0
-            l1info["alpha_1"], l1info["beta_1"] = a1, b1
-
-    # truncation estimate
-    lv = np.arange(lmax + 1)
-    Lv = lv * (lv + 1.0)
-    amp = np.sqrt((2 * lv + 1) / FOUR_PI) * (np.abs(beta) + np.abs(alpha) * np.sqrt(Lv) / R)
-    B = amp * norms
-    noise = amp * 1e-15 * float(np.sqrt(np.sum(norms ** 2)))
-    trunc, change_half = _truncation(B, noise) if lmax >= 4 else (math.inf, math.inf)
-    vrms = float(np.sqrt(np.sum((norms * beta) ** 2 + (norms * alpha) ** 2 * Lv / R ** 2) / FOUR_PI))
+    l1info = _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, system, l1, l1_weight, l1_rtol)
+    trunc, change_half, vrms, B = _truncation_estimate(norms, alpha, beta, R, lmax)
 
     out = _synthesize_chunked(spec, beta, alpha / R, u, half=lmax // 2)
     v = out["vn"][:, None] * u + out["g"]
@@ -722,3 +654,92 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
         if on_unconverged == "warn":
             warnings.warn(msg, RuntimeWarning, stacklevel=2)
     return v, P, info
+
+
+def _check_flow_input(points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_unconverged, l1,
+                      check_radius) -> np.ndarray:
+    """The points' unit directions, after checking every argument of :func:`sphere_flow`."""
+    if not (R > 0 and eta_s > 0 and eta_b >= 0 and eta_bar >= 0 and eta_bar_b >= 0):
+        raise ValueError("need radius > 0, eta_s > 0 and eta_b, eta_bar, eta_bar_b >= 0")
+    if system not in ("full", "tangential"):
+        raise ValueError(f"system must be 'full' or 'tangential', got {system!r}")
+    if on_unconverged not in ("raise", "warn", "ignore"):
+        raise ValueError("on_unconverged must be 'raise', 'warn' or 'ignore'")
+    if l1 not in ("auto", "raise", "lsq", "drop"):
+        raise ValueError("l1 must be 'auto', 'raise', 'lsq' or 'drop'")
+    p = np.atleast_2d(np.asarray(points, dtype=float))
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {p.shape}")
+    rad = np.linalg.norm(p, axis=1)
+    if p.shape[0] and np.max(np.abs(rad - R)) > check_radius * R:
+        raise ValueError(f"points are not on the sphere of radius {R} (max | |x| - R | = "
+                         f"{np.max(np.abs(rad - R)):.3g})")
+    return p / rad[:, None] if p.shape[0] else p.copy()
+
+
+def _flow_auto_lmax(zeta, points, lmax, spectrum, axis, axisymmetric, on_unconverged, kw):
+    """``lmax = "auto"``: :func:`sphere_flow` with lmax doubled from 32 until converged (up to 1024
+    for an axisymmetric pattern, 256 otherwise)."""
+    if lmax != "auto":
+        raise ValueError("lmax must be an int or 'auto'")
+    if spectrum is not None:
+        raise ValueError("lmax='auto' needs the callable, not a spectrum")
+    if axisymmetric is None and axis is not None:
+        zt, _ = gauss_legendre(96)
+        axisymmetric = _check_axisymmetric(zeta, frame_matrix(axis), zt) <= 1e-12
+    top = 1024 if axisymmetric else 256
+    L = 32
+    while True:
+        try:
+            return sphere_flow(zeta, points, axis=axis, axisymmetric=bool(axisymmetric), lmax=L,
+                               on_unconverged="raise" if L < top else on_unconverged, **kw)
+        except NotConvergedError:
+            if L >= top:
+                raise
+            L *= 2
+
+
+def _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, system, l1, l1_weight,
+                l1_rtol) -> dict:
+    """The treatment of a degree-1 part of the tension (``alpha[1]``, ``beta[1]`` set in place), as
+    :func:`sphere_flow`'s ``l1`` asks; what was done, as the ``info["l1"]`` dict."""
+    lmax, norms = spec.lmax, spec.degree_norms
+    l1info = {"zeta_1_vector": spec.l1_vector() if lmax >= 1 else np.zeros(3), "treatment": "none"}
+    if lmax < 1:
+        return l1info
+    sup1 = math.sqrt(3.0 / FOUR_PI) * norms[1]
+    l1info["zeta_1_sup"] = sup1
+    present = sup1 > l1_rtol * zscale
+    a1, b1, exact, rt, rn = l1_coefficients(radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar,
+                                           eta_bar_b=eta_bar_b, system=system, weight=l1_weight)
+    l1info.update(exact_solution_exists=exact)
+    if not present:
+        l1info["treatment"] = "negligible (dropped)"
+    elif l1 == "drop":
+        l1info["treatment"] = "dropped"
+    elif l1 == "raise" or (l1 == "auto" and not exact):
+        raise L1Error(
+            f"the tension has a degree-1 part (sup {sup1:.3g}, gradient vector "
+            f"{l1info['zeta_1_vector']}) and the {system} system"
+            + (" with bending viscosity" if system == "full" and eta_bar > 0 else "")
+            + " has no exact solution satisfying the zero-total-velocity gauge; pass "
+              "l1='lsq' for the gauge-constrained least-squares answer or l1='drop'")
+    else:
+        alpha[1], beta[1] = a1, b1
+        l1info["treatment"] = "exact" if exact else f"least squares (normal weight {l1_weight})"
+        l1info["residual_tangential"] = abs(rt) * sup1 / R if not exact else 0.0
+        l1info["residual_normal"] = abs(rn) * sup1 if not exact else 0.0
+        l1info["alpha_1"], l1info["beta_1"] = a1, b1
+    return l1info
+
+
+def _truncation_estimate(norms, alpha, beta, R, lmax):
+    """``(estimated sup error, bound on the change from lmax / 2, rms velocity, per-degree sup bounds)``."""
+    lv = np.arange(lmax + 1)
+    Lv = lv * (lv + 1.0)
+    amp = np.sqrt((2 * lv + 1) / FOUR_PI) * (np.abs(beta) + np.abs(alpha) * np.sqrt(Lv) / R)
+    B = amp * norms
+    noise = amp * 1e-15 * float(np.sqrt(np.sum(norms ** 2)))
+    trunc, change_half = _truncation(B, noise) if lmax >= 4 else (math.inf, math.inf)
+    vrms = float(np.sqrt(np.sum((norms * beta) ** 2 + (norms * alpha) ** 2 * Lv / R ** 2) / FOUR_PI))
+    return trunc, change_half, vrms, B
