@@ -140,9 +140,9 @@ def _check(args) -> int:
         # checks one finite value per node, imports and calls python patterns
         active_tension(mesh, settings)
         print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {effects})")
+        print(f"  numerics: {settings.describe_numerics()}")
     if settings.dynamic:
-        w = settings.numerics.fit_residual_weight
-        print(f"  time: {settings.time.describe()}; fit-residual rows {'off' if not w else f'at {w:g}'}")
+        print(f"  time: {settings.time.describe()}")
     return 0
 
 

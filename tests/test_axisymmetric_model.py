@@ -159,19 +159,21 @@ def test_trajectory_has_the_3d_layout_and_plots(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_3d_furrow_converges_to_the_axisymmetric_solution(tmp_path):
-    """furrow_p4_a1 to t = 0.3, 3D (quadratic fit; the fit-residual rows at 642 nodes, where the paper's
-    method is unresolved) against its axisymmetric twin. Measured (benchmarks/axisym_vs_3d.py): largest
-    radius error 4.96e-3 R0 at 642 nodes, 7.42e-4 at 2562 (ratio 6.7; 1.05e-3 / 1.38e-3 for the whole
-    run to t = 3 at 2562). Bounds: those errors plus 30 %, and at least the second-order ratio 4."""
+    """furrow_p4_a1 to t = 0.3 in 3D (the default formulation, rayleigh_p1; Euler, dt = 5e-3) against
+    its axisymmetric twin. Measured: largest radius error over the run 2.54e-3 R0 at 642 nodes and
+    6.36e-4 at 2562 (ratio 4.0: the furrow radius of the initial polyhedron, whose equatorial
+    section lies inside the sphere by O(h^2)); pole radius at t = 0.3 1.14e-3 and 6.15e-4 (at 2562
+    half of it is the time error of the step: 3.0e-4 with dt = 1e-3). Bounds: those plus 10 %."""
     from cortex_ti.axisymmetric.compare import compare
 
-    errors = {}
-    for nodes, extra in ((642, ["--set", "numerics.fit_residual_weight=1e-3"]), (2562, [])):
+    errors, pole = {}, {}
+    for nodes in (642, 2562):
         out = tmp_path / f"p4_{nodes}.h5"
         assert main(["run", "furrow_p4_a1", "-o", str(out), "--set", f"mesh.nodes={nodes}", "--set", "time.t_end=0.3",
-                     *extra]) == 0
+                     "--set", "time.scheme=euler", "--set", "time.dt=5e-3"]) == 0
         r = compare(str(out))
         errors[nodes] = max(r["pole_radius"][0], r["furrow_radius"][0])
-    assert errors[642] <= 1.3 * 4.96e-3
-    assert errors[2562] <= 1.3 * 7.42e-4
-    assert errors[642] / errors[2562] >= 4.0
+        pole[nodes] = r["pole_radius"][2]
+    assert errors[642] <= 1.1 * 2.54e-3 and errors[2562] <= 1.1 * 6.36e-4
+    assert errors[642] / errors[2562] >= 3.5
+    assert pole[642] <= 1.1 * 1.14e-3 and pole[2562] <= 1.1 * 6.15e-4

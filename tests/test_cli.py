@@ -213,19 +213,23 @@ def test_run_refuses_bulk_viscosity_only(tmp_path, capsys):
 def test_check_valid_scene(capsys):
     rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", "mesh.nodes=162"], capsys)
     assert rc == 0, stderr
-    line = stdout.strip().splitlines()[-1]
-    assert line == ("sphere_y20_full: valid (162 nodes, effects: active_stress, bulk_viscosity, "
-                    "incompressibility, normal_balance, shear_viscosity)")
+    lines = stdout.strip().splitlines()
+    assert lines[-2] == ("sphere_y20_full: valid (162 nodes, effects: active_stress, bulk_viscosity, "
+                         "incompressibility, normal_balance, shear_viscosity)")
+    assert lines[-1] == "  numerics: formulation paper, quartic fit; fit-residual rows off"
 
 
 def test_check_says_how_a_dynamic_scene_steps(capsys):
     rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162"], capsys)
     assert rc == 0
-    assert stdout.strip().splitlines()[-1] == ("  time: adaptive_euler from dt = 0.0005 to t = 3.5, semi-implicit "
-                                               "tension; fit-residual rows off")
+    assert stdout.strip().splitlines()[-2:] == [
+        "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov",
+        "  time: adaptive_euler from dt = 0.0005 to t = 3.5, semi-implicit tension"]
     rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162", "--set", "time.scheme=heun",
-                         "--set", "numerics.fit_residual_weight=1e-3"], capsys)
-    assert stdout.strip().splitlines()[-1].endswith("explicit tension; fit-residual rows at 0.001")
+                         "--set", "numerics.formulation=paper", "--set", "numerics.fit_residual_weight=1e-3"], capsys)
+    assert stdout.strip().splitlines()[-2:] == [
+        "  numerics: formulation paper, quadratic fit; fit-residual rows at 0.001",
+        "  time: heun from dt = 0.0005 to t = 3.5, explicit tension"]
 
 
 def test_check_rejects_bad_scene(capsys):

@@ -16,6 +16,8 @@ from cortex_ti.physics.terms import TERMS
 from cortex_ti.scene import full_schema, load_scene, scene_from_dict
 from cortex_ti.solve.factorizations import FACTORIZATIONS
 from cortex_ti.studies.registry import FIGURES, STORES, STUDIES
+from cortex_ti.physics.formulations import FORMULATIONS
+from cortex_ti.physics.galerkin import PRESSURE_WEIGHTS
 from cortex_ti.surface.fits import FIT_SCHEMES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,6 +33,8 @@ def test_scene_schema_enums_are_the_registries():
     schema = full_schema()
     props = schema["properties"]
     assert props["numerics"]["properties"]["fit"]["enum"] == list(FIT_SCHEMES)
+    assert props["numerics"]["properties"]["formulation"]["enum"] == list(FORMULATIONS)
+    assert props["numerics"]["properties"]["pressure_weights"]["enum"] == list(PRESSURE_WEIGHTS)
     assert props["time"]["properties"]["scheme"]["enum"] == list(SCHEMES)
     assert props["solver"]["properties"]["backend"]["enum"] == ["auto", *FACTORIZATIONS]
     assert schema["$defs"]["pattern"]["properties"]["type"]["enum"] == list(PATTERNS)
@@ -41,7 +45,10 @@ def test_config_schema_vocabularies_agree_with_the_registries():
     defs = CONFIG_SCHEMA["$defs"]
     assert _enum(defs["scheme"]) == list(SCHEMES)
     assert _enum(defs["fit"]) == list(FIT_SCHEMES)
-    assert CONFIG_SCHEMA["properties"]["static"]["properties"]["fit"]["items"]["enum"] == list(FIT_SCHEMES)
+    assert _enum(defs["formulation"]) == list(FORMULATIONS)
+    methods = CONFIG_SCHEMA["properties"]["static"]["properties"]["methods"]
+    assert methods["propertyNames"]["enum"] == list(FORMULATIONS)
+    assert methods["additionalProperties"]["items"]["enum"] == list(FIT_SCHEMES)
     # every study of the registry has its section, and no section is unknown to it
     sections = set(CONFIG_SCHEMA["properties"]) - {"threads", "static", "figures"}
     configured = {name for name, s in STUDIES.items() if not s.twin_of}    # the others are derived
@@ -59,8 +66,8 @@ def test_every_term_declares_a_known_effect():
 def test_every_store_and_figure_source_is_registered():
     assert set(STORES) >= {"convergence", "cost"} | {n for n, s in STUDIES.items() if s.has_store}
     for spec in FIGURES.values():
-        if spec.source == "static":     # the static runs at (nodes, fit)
-            assert int(spec.data[0]) > 0 and spec.data[1] in FIT_SCHEMES, spec.name
+        if spec.source == "static":     # the static runs at (nodes, fit, formulation)
+            assert int(spec.data[0]) > 0 and spec.data[1] in FIT_SCHEMES and spec.data[2] in FORMULATIONS, spec.name
             continue
         assert set(spec.data) <= (set(STORES) if spec.source == "store" else set(STUDIES)), spec.name
     from cortex_ti.studies import figures

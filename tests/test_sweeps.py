@@ -116,7 +116,8 @@ def test_the_implicit_tension_column_says_what_runs():
 
 
 def test_the_residual_column_gives_the_weight_that_runs():
-    rows = expand_runs("accuracy", [{"scene": "furrow_p8_a1", "nodes": 642, "residual": [0, 1e-3]},
-                                    {"scene": "furrow_p8_a1", "nodes": 642}])
+    rows = expand_runs("accuracy", [{"scene": "furrow_p8_a1", "nodes": 642, "formulation": "paper",
+                                     "residual": [0, 1e-3]},
+                                    {"scene": "furrow_p8_a1", "nodes": 642, "formulation": "paper"}])
     assert [r["residual"] for r in rows] == ["0", "0.001"]     # the scene's default (null) is 0
     assert load_scene(rows[1]["scene"], scene_overrides(rows[1]))["numerics.fit_residual_weight"] == 1e-3

@@ -43,7 +43,8 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     from cortex_ti.studies.registry import STUDIES
     from cortex_ti.studies.sweeps import expand_runs, twin_rows
 
-    n_static = np.prod([len(config["static"][k]) for k in ("scenes", "nodes", "fit")])
+    n_methods = sum(len(fits) for fits in config["static"]["methods"].values())
+    n_static = len(config["static"]["scenes"]) * len(config["static"]["nodes"]) * n_methods
     n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation"))
     n_accuracy = len(expand_runs("accuracy", config["accuracy"]["runs"]))
     # plus one axisymmetric twin per distinct axisymmetric problem of the furrow and accuracy runs
@@ -89,8 +90,9 @@ def test_tiny_configuration_end_to_end(tmp_path):
     open_store = lambda name: xr.load_dataset(tmp_path / f"results/aggregate/{name}.nc", engine="h5netcdf")  # noqa: E731
 
     conv = open_store("convergence")
-    assert set(conv.dims) == {"scene", "fit", "nodes"}
+    assert set(conv.dims) == {"scene", "formulation", "fit", "nodes"}
     assert conv["nodes"].values.tolist() == [162, 642]
+    assert conv["formulation"].values.tolist() == ["paper", "rayleigh_p1"]
     assert conv["eps_rel"].attrs["units"] == "1"
     assert np.all(conv["eps_rel"].isel(nodes=1) < conv["eps_rel"].isel(nodes=0))   # converges with N
 
@@ -115,7 +117,7 @@ def test_tiny_configuration_end_to_end(tmp_path):
         assert angle[-1] < angle[0]                              # turning back toward the pattern axis
 
     cost = open_store("cost")
-    n_runs = 4 + 1 + 1 + 2 + 3 + 1          # + the axisymmetric twin of furrow_p8_a1 (both studies run it)
+    n_runs = 8 + 1 + 1 + 2 + 4 + 1          # + the axisymmetric twin of furrow_p8_a1 (both studies run it)
     assert cost.sizes["run"] == n_runs
     twin = cost["study"].values == "axisymmetric"
     assert twin.sum() == 1 and cost["model"].values[twin][0] == "axisymmetric" and cost["wall_s"].values[twin][0] > 0
@@ -124,7 +126,9 @@ def test_tiny_configuration_end_to_end(tmp_path):
     assert failed.sum() == 1 and cost["nodes"].values[failed][0] == 642
     acc_ok = (cost["study"].values == "accuracy") & ~failed
     err = cost["error"].values[acc_ok]
-    assert err.size == 2 and np.all((err > 0) & (err < 5e-3))    # against the axisymmetric solution of the scene
+    assert err.size == 3 and np.all((err > 0) & (err < 5e-3))    # against the axisymmetric solution of the scene
+    assert sorted(cost["formulation"].values[acc_ok].tolist()) == ["paper", "rayleigh_p1", "rayleigh_p1"]
+    assert cost["formulation"].values[failed][0] == "paper"
     assert np.isnan(cost["error"].values[cost["study"].values == "static"]).all()
 
     import matplotlib.image as mpimg

@@ -2,7 +2,9 @@
 
 Owns the time schemes (``schemes``, registry :data:`~cortex_ti.dynamics.schemes.SCHEMES`, with
 the rules that belong to a scheme as class properties), the stability guard (``guard``), the
-integration loop with its frame times (``integrate``) and the stiffness of the linearised
-normal dynamics (``spectrum``). Works on any ``evaluate(points, dt)`` callable: imports
-numpy, :mod:`cortex_ti.errors` and the shape diagnostics of ``analysis``, never the solver.
+integration loop with its frame times (``integrate``) and the spectrum of the linearised
+normal dynamics (``spectrum``). The loop works on any ``evaluate(points, dt)`` callable; the
+spectrum linearises a simulation's own system (it asks it for ``shape_geometry`` and
+``system``) and factorises with :mod:`cortex_ti.solve`. Imports numpy, scipy,
+:mod:`cortex_ti.errors`, ``solve`` and the shape diagnostics of ``analysis``, never a scene.
 """

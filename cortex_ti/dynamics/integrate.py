@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import SolverError
 from .guard import StabilityGuard
 
 __all__ = ["RunStats", "integrate"]
@@ -58,7 +59,13 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
         on the controller's step, which varies smoothly, not on where the frames fall)."""
         return dt if implicit else 0.0
 
-    ev = evaluate(x, planned(dt))
+    def solve(points, t_now, step):
+        try:
+            return evaluate(points, planned(step))
+        except SolverError as exc:
+            raise _which_solve(exc, t_now, step, implicit) from None
+
+    ev = solve(x, t, dt)
     stats.solves += 1
     if write_first:
         on_frame(t, ev, dt, final=False)
@@ -72,7 +79,10 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             stats.stopped = "steady"
             break
         h = min(dt, t_end - t, next_save - t)
-        res = scheme.step(ev, h)
+        try:
+            res = scheme.step(ev, h)
+        except SolverError as exc:
+            raise _which_solve(exc, t, h, True) from None
         stats.solves += res.solves
         if not res.accepted:
             stats.rejected += 1
@@ -85,7 +95,7 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             # keep the controller's proposal, not the step shortened to reach a frame time
             dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
             dt = min(dt, scheme.dt_cap)
-        ev = evaluate(x, planned(dt))
+        ev = solve(x, t, dt)
         stats.solves += 1
         if t >= next_save - eps or t >= t_end - eps:
             on_frame(t, ev, dt, final=t >= t_end - eps)
@@ -93,3 +103,11 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
     stats.wall = _time.perf_counter() - start
     stats.t = t
     return stats
+
+
+def _which_solve(exc: SolverError, t: float, step: float, with_step: bool) -> SolverError:
+    """The solver's message, prefixed with the solve that failed (and what to change when the
+    step is in the matrix: the semi-implicit tension puts ``dt`` into it)."""
+    what = f"the solve at t = {t:.4g}" + (f" for a step dt = {step:.3g}" if with_step else "")
+    hint = " (the semi-implicit tension puts dt into the matrix: try a smaller time.dt)" if with_step and step > 1.0 else ""
+    return SolverError(f"{what} failed: {exc}{hint}")

@@ -32,9 +32,9 @@ log = logging.getLogger(__name__)
 
 __all__ = ["SCHEMES", "Scheme", "Evaluation", "StepResult", "register_scheme", "make_scheme", "RESOLUTION_HINT"]
 
-#: how to get out of a resolution problem (the rows may already be on: then only more nodes help)
-RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562), or on a coarse mesh the stabilising rows "
-                   "numerics.fit_residual_weight=1e-3 if they are not on already")
+#: how to get out of a resolution problem
+RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562); with numerics.formulation=paper, switch to "
+                   "numerics.formulation=rayleigh_p1 (the default), which has no growing spurious modes")
 
 
 @dataclass

@@ -1,30 +1,260 @@
-"""The stiffness of the shape dynamics: the normal modes of the linearised normal velocity."""
+r"""The spectrum of the linearised normal dynamics: which normal modes of a shape grow.
+
+The shape moves by normal advection, ``dX_i/dt = v_n,i(X) n_i(X)`` (paper Eq. 60). A normal
+displacement ``s`` (one number per node) of the nodes evolves, to first order, with the
+Jacobian
+
+.. math:: J s = \frac{d v_n}{dX}[s\,n], \qquad v_{n,i} = n_i \cdot v_i .
+
+A mode with ``Re lambda > 0`` grows whatever the time step; explicit Euler is stable for
+``dt < 2 / |lambda|`` on the modes with ``lambda < 0``.
+
+How ``J`` is built (no power iteration, no random start, so the answer is deterministic):
+on a fixed shape the velocity is the solution of a linear system, the KKT conditions
+``F(X, z) = 0`` of the formulation (the constrained least squares of the paper's strong form,
+or the constrained stationary point of the Rayleighian, :mod:`cortex_ti.physics.galerkin`),
+``z`` = velocity unknowns, pressure and multipliers. Hence
+
+.. math:: \frac{dz}{dX} = -F_z^{-1} F_X ,
+
+``F_z`` is the matrix the solver has just factorised and ``F_X`` is *local*: moving node j
+changes the rows of the nodes whose geometry, fit or stencil sees node j, a few rings only.
+``F_X`` is computed by central finite differences of ``F`` at fixed ``z``, perturbing at once
+all nodes of one colour of a distance colouring (nodes far enough apart that their rings of
+influence do not overlap), so its cost is a few hundred assemblies, not one solve per node;
+each changed entry is attributed to the perturbed node whose ring it lies in (what falls
+outside every ring is measured and reported as ``leak``). Then
+
+* dense ``J`` (up to a few thousand nodes): one multi-right-hand-side solve with the
+  factorisation, and all eigenvalues by LAPACK;
+* larger meshes: ``J`` as a matrix-free operator (one back-substitution per product) for
+  ARPACK (``scipy.sparse.linalg.eigs(which='LR')``).
+
+The scalar rows of ``F`` (the pressure row of the least squares, the dense constraint rows)
+are sums over nodes; the formulations return them per node so that each node's share can be
+attributed like the rest.
+"""
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
+
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+import scipy.sparse.linalg as spla
 
-__all__ = ["stiffest_normal_mode"]
+from ..solve.constrained import ConstrainedLeastSquares
+
+__all__ = ["normal_spectrum", "normal_jacobian", "Spectrum", "NormalJacobian", "distance_colouring"]
 
 
-def stiffest_normal_mode(evaluate, points: np.ndarray, iterations: int = 30, eps: float = 1e-7,
-                         seed: int = 0) -> tuple[float, np.ndarray]:
-    """The most strongly growing or decaying normal mode of the shape dynamics at ``points``.
+def adjacency(ring: np.ndarray) -> sp.csr_matrix:
+    """Node adjacency of a mesh from its padded one-ring array."""
+    n = ring.shape[0]
+    mask = ring >= 0
+    rows = np.repeat(np.arange(n), mask.sum(1))
+    adj = sp.csr_matrix((np.ones(rows.size), (rows, ring[mask])), shape=(n, n))
+    return ((adj + adj.T) > 0).astype(np.float64).tocsr()
 
-    The shape moves by ``dX/dt = v_n(X) n``; a normal perturbation ``s`` (one number per node)
-    evolves with the Jacobian ``J s = d v_n / dX [s n]``. Power iteration with finite
-    differences (``iterations`` + 1 solves) returns ``(lambda, s)``: the eigenvalue of largest
-    magnitude and its unit mode. ``lambda < 0``: explicit Euler is stable for
-    ``dt < 2 / |lambda|``; ``lambda > 0``: the discrete problem has a growing mode that no time
-    step removes (for instance spurious normal modes the bending viscosity cannot hold down).
+
+def distance_colouring(adj: sp.csr_matrix, separation: int) -> np.ndarray:
+    """Greedy colouring such that two nodes of one colour are at least ``separation`` edges apart
+    (deterministic: nodes in index order, smallest free colour)."""
+    n = adj.shape[0]
+    reach = sp.identity(n, format="csr")
+    step = (adj + sp.identity(n)).tocsr()
+    for _ in range(separation - 1):
+        reach = (reach @ step).tocsr()
+        reach.data[:] = 1.0
+    colour = np.full(n, -1, dtype=np.int64)
+    indptr, indices = reach.indptr, reach.indices
+    for i in range(n):
+        used = colour[indices[indptr[i]:indptr[i + 1]]]
+        used = np.unique(used[used >= 0])
+        c = 0
+        for u in used:
+            if u != c:
+                break
+            c += 1
+        colour[i] = c
+    return colour
+
+
+def influence_radius(sim) -> int:
+    """Graph radius within which moving one node changes the KKT conditions (see module doc):
+    three stencil radii (the node's fit, the fits of its stencil nodes' normals, the transpose)."""
+    return 3 * int(np.max(sim.stencils.level))
+
+
+@dataclass
+class NormalJacobian:
+    """``J = d v_n / dX [s n]`` at one shape; build with :func:`normal_jacobian`."""
+
+    n_nodes: int
+    normal: np.ndarray                 # (N, 3) at the base shape
+    basis: np.ndarray                  # (N, nb, 3)
+    fx: sp.csr_matrix                  # F_X on the unknowns, (n_unknowns, N)
+    fs: np.ndarray                     # F_X on the scalar rows, (q, N)
+    dn: sp.csr_matrix                  # (dn_i/dX [s n]) . v_i, (N, N)
+    solver: ConstrainedLeastSquares
+    velocity: np.ndarray               # (N, 3) at the base shape
+    leak: float                        # relative size of the entries outside every ring (should be ~1e-12)
+    seconds: dict = field(default_factory=dict)
+
+    def _vn(self, x: np.ndarray) -> np.ndarray:
+        nb = self.basis.shape[1]
+        proj = np.einsum("nbc,nc->nb", self.basis, self.normal)          # (N, nb)
+        if x.ndim == 1:
+            return (x.reshape(-1, nb) * proj).sum(1)
+        return (x.reshape(self.n_nodes, nb, -1) * proj[:, :, None]).sum(1)
+
+    def matvec(self, s: np.ndarray) -> np.ndarray:
+        dz = self.solver.kkt_solve(-(self.fx @ s), -(self.fs @ s))
+        return self._vn(dz) + self.dn @ s
+
+    def dense(self) -> np.ndarray:
+        dz = self.solver.kkt_solve(-self.fx.toarray(), -self.fs)
+        return self._vn(dz) + self.dn.toarray()
+
+    def operator(self) -> spla.LinearOperator:
+        return spla.LinearOperator((self.n_nodes, self.n_nodes), matvec=self.matvec, dtype=float)
+
+
+def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None = None,
+                    backend: str = "auto") -> NormalJacobian:
+    """Linearise the normal dynamics of ``sim``'s formulation at the shape ``points``.
+
+    ``dt > 0``: the velocity a step of that length is solved for (the semi-implicit tension),
+    i.e. ``J`` of the step map's rate. ``eps``: finite-difference displacement (default
+    1e-5 of the mean edge length; central differences, so the truncation error is ~1e-10).
     """
-    ev0 = evaluate(points)
-    n, vn0 = ev0.normal, ev0.normal_speed
-    s = np.random.default_rng(seed).standard_normal(len(points))
-    s /= np.linalg.norm(s)
-    lam = 0.0
-    for _ in range(iterations):
-        js = (evaluate(points + eps * s[:, None] * n).normal_speed - vn0) / eps
-        lam = float(s @ js)
-        s = js / np.linalg.norm(js)
-    return lam, s
+    t0 = time.perf_counter()
+    x0 = np.asarray(points, dtype=float)
+    solver = ConstrainedLeastSquares(backend, reuse=False)
+    geo = sim.shape_geometry(x0)
+    system = sim.system(geo, dt)
+    unknowns, pressure, _ = solver.solve(system, x0)
+    multipliers = solver.last_solution
+    velocity = system.velocity(unknowns)
+    normal, basis = geo.normal.copy(), system.basis.copy()
+    n = x0.shape[0]
+    nb = basis.shape[1]
+    if eps is None:
+        eps = 1e-5 * float(np.mean(geo.edge_length))
+    t1 = time.perf_counter()
+
+    def parts(pts):
+        g = sim.shape_geometry(pts)
+        sysm = sim.system(g, dt)
+        if sysm.basis.shape != basis.shape:
+            raise RuntimeError("the unknowns changed under a perturbation")
+        vec, sc = sysm.kkt_parts(unknowns, pressure, multipliers)
+        return vec, sc, g.normal
+
+    adj = adjacency(sim.topology.ring)
+    radius = influence_radius(sim)
+    colour = distance_colouring(adj, 2 * radius + 1)
+    rows_x, cols_x, vals_x = [], [], []
+    rows_n, cols_n, vals_n = [], [], []
+    fs = None
+    leak2, total2 = 0.0, 0.0
+    for c in range(int(colour.max()) + 1):
+        src = np.flatnonzero(colour == c)
+        dist, _, owner = csgraph.dijkstra(adj, directed=False, indices=src, unweighted=True, limit=radius + 0.5,
+                                          min_only=True, return_predecessors=True)
+        owner = np.where(np.isfinite(dist), owner, -1)
+        d = np.zeros(n)
+        d[src] = eps
+        vp, sp_, np_ = parts(x0 + d[:, None] * normal)
+        vm, sm_, nm_ = parts(x0 - d[:, None] * normal)
+        dvec = (vp - vm) / (2 * eps)
+        dsc = (sp_ - sm_) / (2 * eps)
+        dnv = np.einsum("nc,nc->n", (np_ - nm_) / (2 * eps), velocity)
+        if fs is None:
+            fs = np.zeros((dsc.shape[0], n))
+        node_of = np.arange(dvec.size) // nb
+        own = owner[node_of]
+        inside = own >= 0
+        nz = inside & (dvec != 0.0)
+        rows_x.append(np.flatnonzero(nz))
+        cols_x.append(own[nz])
+        vals_x.append(dvec[nz])
+        leak2 += float(np.sum(dvec[~inside] ** 2)) + float(np.sum(dsc[:, owner < 0] ** 2))
+        total2 += float(np.sum(dvec ** 2)) + float(np.sum(dsc ** 2))
+        ins = owner >= 0
+        np.add.at(fs, (slice(None), owner[ins]), dsc[:, ins])
+        nzn = ins & (dnv != 0.0)
+        rows_n.append(np.flatnonzero(nzn))
+        cols_n.append(owner[nzn])
+        vals_n.append(dnv[nzn])
+    fx = sp.csr_matrix((np.concatenate(vals_x), (np.concatenate(rows_x), np.concatenate(cols_x))),
+                       shape=(n * nb, n))
+    dn = sp.csr_matrix((np.concatenate(vals_n), (np.concatenate(rows_n), np.concatenate(cols_n))), shape=(n, n))
+    t2 = time.perf_counter()
+    return NormalJacobian(n_nodes=n, normal=normal, basis=basis, fx=fx, fs=fs, dn=dn, solver=solver,
+                          velocity=velocity, leak=float(np.sqrt(leak2 / max(total2, 1e-300))),
+                          seconds={"solve": t1 - t0, "linearise": t2 - t1, "colours": int(colour.max()) + 1})
+
+
+@dataclass
+class Spectrum:
+    """Eigenvalues of the linearised normal dynamics, largest real part first."""
+
+    eigenvalues: np.ndarray
+    n_nodes: int
+    method: str
+    leak: float = 0.0
+    seconds: dict = field(default_factory=dict)
+    modes: np.ndarray | None = None
+
+    @property
+    def largest_real(self) -> float:
+        return float(self.eigenvalues.real[0])
+
+    def count_above(self, threshold: float = 1.0) -> int:
+        return int(np.sum(self.eigenvalues.real > threshold))
+
+    @property
+    def stiffest(self) -> complex:
+        """The eigenvalue of largest magnitude (what explicit Euler must resolve)."""
+        return complex(self.eigenvalues[np.argmax(np.abs(self.eigenvalues))])
+
+
+def _deterministic_start(n: int) -> np.ndarray:
+    v = np.cos(0.7 * np.arange(n)) + 0.5 * np.sin(1.3 * np.arange(n) + 0.2)
+    return v / np.linalg.norm(v)
+
+
+def normal_spectrum(sim, points: np.ndarray | None = None, dt: float = 0.0, k: int = 12,
+                    dense: bool | None = None, modes: bool = False, tol: float = 1e-8,
+                    ncv: int | None = None, maxiter: int | None = None, which: str = "LR") -> Spectrum:
+    """Eigenvalues of ``J`` (largest real part first): all of them with ``dense`` (default up to
+    3000 nodes), else ``k`` of them by ARPACK with a deterministic start vector: those of
+    largest real part (``which='LR'``, the growing modes) or of largest magnitude
+    (``which='LM'``, the stiffest mode, which sets the explicit step limit)."""
+    x = sim.mesh.points if points is None else points
+    jac = normal_jacobian(sim, x, dt)
+    n = jac.n_nodes
+    dense = n <= 3000 if dense is None else dense
+    t0 = time.perf_counter()
+    vecs = None
+    if dense:
+        jd = jac.dense()
+        if modes:
+            w, vecs = np.linalg.eig(jd)
+        else:
+            w = np.linalg.eigvals(jd)
+        method = "dense"
+    else:
+        op = jac.operator()
+        res = spla.eigs(op, k=k, which=which, v0=_deterministic_start(n), tol=tol,
+                        ncv=ncv or max(2 * k + 1, 40), maxiter=maxiter or 20 * n, return_eigenvectors=modes)
+        w, vecs = (res if modes else (res, None))
+        method = f"arpack {which}"
+    order = np.argsort(-w.real)
+    seconds = dict(jac.seconds)
+    seconds["eig"] = time.perf_counter() - t0
+    return Spectrum(eigenvalues=w[order], n_nodes=n, method=method, leak=jac.leak, seconds=seconds,
+                    modes=None if vecs is None else vecs[:, order])

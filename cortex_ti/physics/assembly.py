@@ -28,7 +28,7 @@ from ..surface.geometry import Geometry
 from .model import Physics
 from .terms import AssemblyContext, active_terms
 
-__all__ = ["assemble", "velocity_basis", "fit_residual_rows"]
+__all__ = ["assemble", "check_inputs", "velocity_basis", "fit_residual_rows"]
 
 i64_1 = ti.types.ndarray(dtype=ti.i64, ndim=1)
 
@@ -89,8 +89,10 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     The force balance sees the velocity only through each node's fitted derivatives; a
     pattern the local fit does not reproduce (its residual ``(I - D F)(v_a - v_i)`` on the
     stencil) is invisible to it, and on coarse or sheared meshes such patterns couple to the
-    normal motion as spurious modes that grow (:func:`cortex_ti.dynamics.spectrum.stiffest_normal_mode`
-    measures them: lambda = +1.2e5 /t_a for a uniform tension on a 642-node sphere). These rows
+    normal motion as spurious modes that grow (:func:`cortex_ti.dynamics.spectrum.normal_spectrum`
+    measures them: largest Re lambda = +1.2e5 /t_a for a uniform tension on a 642-node sphere).
+    They shift those modes but do not remove them (with the rows at 1e-3, 287 modes still grow,
+    the largest +862): formulation ``rayleigh_p1`` has none to remove. These rows
     add ``weight * eta_s^2 / h_i^4 * |(I - D F)(v_a - v_i)|^2`` to the least squares, per node and
     Cartesian component, ``h_i`` the node's mean edge length, i.e. the same scale as the force
     rows. They vanish for any velocity the fit reproduces exactly, so the discretisation stays
@@ -128,14 +130,10 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n * k * 3, n * nb))
 
 
-def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0,
-             implicit_dt: float = 0.0) -> LinearSystem:
-    """Build the least-squares system of the effects in ``physics`` on this shape.
-
-    ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`;
-    ``implicit_dt > 0`` evaluates the active tension's curvature at the end of a step of
-    that length (:mod:`cortex_ti.physics.terms.implicit_tension`).
-    """
+def check_inputs(physics: Physics, zeta, implicit_dt: float) -> np.ndarray:
+    """What every formulation needs before it assembles: shear viscosity (else the force balance
+    has no unique solution), a finite active tension (returned as a contiguous float64 array)
+    and a finite step >= 0; one :class:`~cortex_ti.errors.SolverError` naming what is wrong."""
     if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
         raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
                           "viscosity.shear > 0): without it every area-preserving flow is a solution")
@@ -146,6 +144,18 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
                           f"value {zeta[bad[0]]})")
     if not (np.isfinite(implicit_dt) and implicit_dt >= 0.0):
         raise SolverError(f"implicit_dt must be a finite step >= 0, got {implicit_dt}")
+    return zeta
+
+
+def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0,
+             implicit_dt: float = 0.0) -> LinearSystem:
+    """Build the least-squares system of the effects in ``physics`` on this shape.
+
+    ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`;
+    ``implicit_dt > 0`` evaluates the active tension's curvature at the end of a step of
+    that length (:mod:`cortex_ti.physics.terms.implicit_tension`).
+    """
+    zeta = check_inputs(physics, zeta, implicit_dt)
     ctx = AssemblyContext(geometry, physics, zeta, implicit_dt=float(implicit_dt))
     terms = [t for t in active_terms(physics) if t.applies(ctx)]
     for term in terms:
@@ -179,8 +189,10 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
         pcol = np.zeros(n * nrow)
         pcol[2::nrow] = -1.0 / geometry.edge_length
     rhs = rhs.ravel()
+    row_node = np.repeat(np.arange(n), nrow)
     if fit_residual_weight > 0.0:
         extra = fit_residual_rows(geometry, basis, fit_residual_weight, physics.eta_s)
+        row_node = np.concatenate([row_node, np.arange(extra.shape[0]) // (extra.shape[0] // n)])
         matrix = sp.vstack([matrix, extra], format="csr")
         rhs = np.concatenate([rhs, np.zeros(extra.shape[0])])
         if pcol is not None:
@@ -194,4 +206,4 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
              for c in ctx.constraints for k in range(c.rows.shape[0])]
     return LinearSystem(matrix=matrix, rhs=rhs, pressure_column=pcol,
                         constraints=gmat, constraint_names=names, basis=basis,
-                        terms=[t.name for t in terms])
+                        terms=[t.name for t in terms], row_node=row_node)

@@ -244,9 +244,17 @@ def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
 
 
 def scene_from_yaml(text: str) -> Scene:
-    """The scene stored as YAML text (``Scene.to_yaml``, the ``scene`` attribute of a trajectory)."""
+    """The scene stored as YAML text (``Scene.to_yaml``, the ``scene`` attribute of a trajectory).
+
+    A stored scene is complete (its defaults were filled in when it was written), so a
+    ``numerics`` section without ``formulation`` was written before that key existed, when
+    the paper's formulation was the only one: it reads back as ``formulation: paper``, not as
+    today's default, so a resumed or re-analysed old run keeps the method it ran with."""
     try:
         data = load_yaml(text)
     except yaml.YAMLError as exc:
         raise SceneError(f"the stored scene is not valid YAML: {yaml_problem(exc)}") from None
+    numerics = data.get("numerics") if isinstance(data, dict) else None
+    if isinstance(numerics, dict) and "fit" in numerics and "formulation" not in numerics:
+        numerics["formulation"] = "paper"
     return scene_from_dict(data)

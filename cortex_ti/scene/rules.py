@@ -7,9 +7,10 @@ import difflib
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
+from ..physics.formulations import FORMULATIONS
 from ..physics.model import EFFECTS
 from ..surface.mesh import icosphere_sizes
-from .schema import fmt_value
+from .schema import current_schema, fmt_value
 
 __all__ = ["check_rules", "VALID_NODE_COUNTS"]
 
@@ -29,8 +30,25 @@ def check_rules(data: dict) -> None:
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
     _check_patterns(data["active_stress"], effects)
+    _check_formulation_keys(data["numerics"])
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
+
+
+def _check_formulation_keys(numerics: dict) -> None:
+    """A key that only one formulation reads (:attr:`Formulation.keys`) is not set to anything but
+    its default under another formulation: it would be silently ignored."""
+    chosen = numerics["formulation"]
+    defaults = current_schema()["properties"]["numerics"]["properties"]
+    for name, form in FORMULATIONS.items():
+        if name == chosen:
+            continue
+        for key in form.keys:
+            value = numerics.get(key)
+            if value not in (None, defaults[key]["default"]):
+                raise SceneError(
+                    f"numerics.{key} = {fmt_value(value)} applies to numerics.formulation = {name} only, not "
+                    f"{chosen}: remove it or set numerics.formulation: {name}")
 
 
 def _check_mesh_source(mesh: dict) -> None:

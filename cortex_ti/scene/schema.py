@@ -3,7 +3,9 @@
 The JSON file (draft 2020-12) holds every key of a scene, its type, default and meaning. The
 values of the keys that name a registered thing are not written in it but taken from the one
 registry that defines them, when the schema is built: ``numerics.fit`` from
-:data:`cortex_ti.surface.fits.FIT_SCHEMES`, ``time.scheme`` from
+:data:`cortex_ti.surface.fits.FIT_SCHEMES`, ``numerics.formulation`` from
+:data:`cortex_ti.physics.formulations.FORMULATIONS` (``numerics.pressure_weights`` from
+:data:`cortex_ti.physics.galerkin.PRESSURE_WEIGHTS`), ``time.scheme`` from
 :data:`cortex_ti.dynamics.schemes.SCHEMES`, ``solver.backend`` from
 :data:`cortex_ti.solve.factorizations.FACTORIZATIONS` (plus ``auto``), and the active-stress
 pattern types with their parameters from :func:`cortex_ti.physics.patterns.pattern_schemas`.
@@ -26,6 +28,8 @@ import jsonschema
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
+from ..physics.formulations import FORMULATIONS
+from ..physics.galerkin import PRESSURE_WEIGHTS
 from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES
@@ -44,6 +48,8 @@ def full_schema() -> dict:
                         .read_text(encoding="utf-8"))
     props = schema["properties"]
     props["numerics"]["properties"]["fit"]["enum"] = list(FIT_SCHEMES)
+    props["numerics"]["properties"]["formulation"]["enum"] = list(FORMULATIONS)
+    props["numerics"]["properties"]["pressure_weights"]["enum"] = list(PRESSURE_WEIGHTS)
     props["time"]["properties"]["scheme"]["enum"] = list(SCHEMES)
     props["solver"]["properties"]["backend"]["enum"] = backend_names()
     fragments = pattern_schemas()
@@ -70,7 +76,7 @@ _BUILT: dict = {}
 
 def current_schema() -> dict:
     """The schema for the registries as they are now (built again after a registration)."""
-    key = (tuple(FIT_SCHEMES), tuple(SCHEMES), tuple(backend_names()),
+    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(backend_names()),
            tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()))
     if _BUILT.get("key") != key:
         schema = full_schema()

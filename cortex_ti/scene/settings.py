@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.schemes import SCHEMES
+from ..physics.formulations import FORMULATIONS
 from ..physics.model import Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
@@ -60,10 +61,24 @@ class ViscositySettings:
 
 @dataclass(frozen=True)
 class NumericsSettings:
-    """The discretisation: the fit scheme and the weight of the fit-residual rows (0: off)."""
+    """The discretisation: the formulation (:data:`cortex_ti.physics.formulations.FORMULATIONS`),
+    the fit scheme, and the keys of one formulation: the weight of the fit-residual rows
+    (``paper``; 0: off) and how the pressure enters (``rayleigh_p1``)."""
 
+    formulation: str
     fit: str
     fit_residual_weight: float
+    pressure_weights: str
+
+    @property
+    def formulation_entry(self):
+        """The formulation's registry entry (builds the system of a shape)."""
+        return FORMULATIONS[self.formulation]
+
+    @property
+    def uses_fit_residual(self) -> bool:
+        """Whether the geometry must carry the fit residuals (the fit-residual rows are on)."""
+        return self.formulation_entry.uses_fit_residual(self)
 
 
 @dataclass(frozen=True)
@@ -73,6 +88,7 @@ class SolverSettings:
     backend: str
     reuse: bool
     rtol: float
+    refine: bool
 
 
 @dataclass(frozen=True)
@@ -143,9 +159,11 @@ class RunSettings:
                               transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform)),
             viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),
             patterns=tuple(copy.deepcopy(data["active_stress"])) if "active_stress" in effects else (),
-            numerics=NumericsSettings(fit=num["fit"], fit_residual_weight=float(num["fit_residual_weight"] or 0.0)),
+            numerics=NumericsSettings(formulation=num["formulation"], fit=num["fit"],
+                                      fit_residual_weight=float(num["fit_residual_weight"] or 0.0),
+                                      pressure_weights=num["pressure_weights"]),
             solver=SolverSettings(backend=choose_factorization(sol["backend"]).name, reuse=bool(sol["reuse"]),
-                                  rtol=float(sol["rtol"])),
+                                  rtol=float(sol["rtol"]), refine=bool(sol["refine"])),
             time=TimeSettings(dt=float(tim["dt"]), t_end=float(tim["t_end"]), scheme=tim["scheme"],
                               save_every=float(tim["save_every"]), steady_tol=float(tim["steady_tol"]),
                               tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
@@ -179,5 +197,8 @@ class RunSettings:
         if self.model == "axisymmetric":
             a = self.axisymmetric
             return f"axisymmetric model: {a.n} meridian points, Radau rtol {a.rtol:g}"
-        w = self.numerics.fit_residual_weight
-        return f"{self.numerics.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}"
+        num = self.numerics
+        if num.formulation == "paper":
+            w = num.fit_residual_weight
+            return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}"
+        return f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}"

@@ -1,9 +1,9 @@
 """One scene ready to solve: its mesh, topology, active tension and solver, and the velocity on
 any shape of that mesh.
 
-The flow of one solve: shape -> geometry (:mod:`cortex_ti.surface.geometry`) -> the terms of the
-enabled effects (:mod:`cortex_ti.physics.assembly`) -> constrained least squares
-(:mod:`cortex_ti.solve.constrained`) -> velocity. :meth:`Simulation.run` writes the scene's
+The flow of one solve: shape -> geometry (:mod:`cortex_ti.surface.geometry`) -> the system of
+the scene's formulation (:data:`cortex_ti.physics.formulations.FORMULATIONS`: the terms of the
+enabled effects) -> constrained solve (:mod:`cortex_ti.solve.constrained`) -> velocity. :meth:`Simulation.run` writes the scene's
 trajectory (:mod:`cortex_ti.simulation.run`): a static scene (no ``shape_evolution``) solves once
 and writes one frame; it never enters a time loop.
 """
@@ -17,7 +17,6 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.schemes import Evaluation
-from ..physics.assembly import assemble
 from ..scene.loader import Scene
 from ..solve.constrained import ConstrainedLeastSquares, SolveInfo
 from ..surface.fits import StencilChooser
@@ -72,18 +71,28 @@ class Simulation:
         self.zeta = active_tension(undeformed, self.settings)
         self.mesh = initial_shape(undeformed, self.settings)
         s = self.settings.solver
-        self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol)
+        self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
         self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
 
     @property
-    def fit_residual_weight(self) -> float:
-        return self.settings.numerics.fit_residual_weight
+    def formulation(self) -> str:
+        """The discretisation of the force balance (``numerics.formulation``)."""
+        return self.settings.numerics.formulation
 
     @property
     def stats(self):
         """Steps, solves and time of the last dynamic :meth:`run` (None before one)."""
         return None if self.report is None else self.report.stats
+
+    def shape_geometry(self, points: np.ndarray):
+        """Frames, areas and fit operators of the shape ``points`` (what the formulation needs)."""
+        return compute_geometry(points, self.topology, self.stencils, residual=self.settings.numerics.uses_fit_residual)
+
+    def system(self, geometry, dt: float = 0.0):
+        """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step)."""
+        num = self.settings.numerics
+        return num.formulation_entry.system(geometry, self.physics, self.zeta, self.mesh.faces, num, dt)
 
     def solve(self, points: np.ndarray | None = None, dt: float = 0.0) -> Solution:
         """Velocity and pressure on the shape ``points`` (default: the initial shape).
@@ -91,11 +100,10 @@ class Simulation:
         ``dt > 0``: the velocity of a step of that length with the semi-implicit tension
         (:mod:`cortex_ti.physics.terms.implicit_tension`); 0 is the instantaneous velocity."""
         x = self.mesh.points if points is None else points
-        weight = self.fit_residual_weight
         t0 = time.perf_counter()
-        geometry = compute_geometry(x, self.topology, self.stencils, residual=weight > 0)
+        geometry = self.shape_geometry(x)
         t1 = time.perf_counter()
-        system = assemble(geometry, self.physics, self.zeta, weight, implicit_dt=dt)
+        system = self.system(geometry, dt)
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()

@@ -156,6 +156,7 @@ def run_summary(sim: "Simulation") -> dict:
            "solves": solves, "t_reached": st.t if st is not None else 0.0,
            "stopped": st.stopped if st is not None else "static",
            "implicit_tension": s.time.implicit_tension,
+           "formulation": s.numerics.formulation,
            "fit_residual_weight": s.numerics.fit_residual_weight}
     out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
     return out

@@ -28,11 +28,24 @@ always; PARDISO through ``pypardiso`` when installed). With ``reuse=True`` a
 factorisation of an earlier, nearby matrix is kept and the new bordered system is
 solved by GMRES preconditioned with the old exact bordered inverse; it is
 refactored when GMRES needs more than ``max_iter`` iterations.
+
+An :class:`~cortex_ti.solve.system.EnergySystem` (a discrete Rayleighian) goes through the same
+steps with its own ``K`` (already symmetric positive semidefinite, no ``M^T M``), no separate
+pressure unknown (the pressure is the multiplier of the volume row), and possibly other rows
+for the multipliers' forces than for the constraints (the border is then ``[[K_s, U], [V^T, D]]``).
+
+After a fresh factorisation one step of iterative refinement (``refine=True``, the default)
+corrects the solution with the residual of the *unsquared* problem, ``M^T (r - M x - p P)``
+(corrected semi-normal equations): without it the rounding of ``M^T M`` (condition ~h^-4)
+limits the quartic fit at >= 10242 nodes. A factorisation that fails (singular or indefinite
+matrix, e.g. from an absurd time step or viscosity) is a one-line
+:class:`~cortex_ti.errors.SolverError`, whatever the backend's exception.
 """
 
 from __future__ import annotations
 
 import logging
+import re
 import time
 from dataclasses import dataclass, field
 
@@ -43,7 +56,9 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 from .factorizations import choose_factorization
-from .system import LinearSystem, rigid_motion_rows
+from .system import EnergySystem, LinearSystem, rigid_motion_rows
+
+System = LinearSystem | EnergySystem
 
 log = logging.getLogger(__name__)
 
@@ -98,55 +113,73 @@ def pin_rows(points: np.ndarray, basis: np.ndarray, nodes: np.ndarray) -> sp.csr
 
 @dataclass
 class _BorderedSystem:
-    """The bordered normal equations ``[[K_s, U], [U^T, D]] z = rhs`` of one solve (steps 1-2).
+    """The bordered equations ``[[K_s, U], [V^T, D]] z = rhs`` of one solve (steps 1-2).
 
-    ``z = [x, P (if any), lambda (one per constraint), w (one per pin row)]``."""
+    ``z = [x, P (if a separate unknown), lambda (one per constraint), w (one per pin row)]``;
+    ``V = U`` except for an energy system whose multipliers push along other rows than the
+    constraints they enforce (Petrov-Galerkin: ``U`` holds those force rows, ``V`` the
+    constraints)."""
 
     ks: sp.csr_matrix      # K + Q^T Q
-    border: np.ndarray     # U = [k, G^T (scaled), Q^T]
+    border: np.ndarray     # U = [k, F^T (scaled), Q^T]
+    rows: np.ndarray       # V = [k, G^T (scaled), Q^T]
     dblock: np.ndarray     # D = diag(kappa, 0, I)
-    rhs: np.ndarray        # [M^T r, p^T r, 0, 0]
+    rhs: np.ndarray        # [f, g, 0, 0]
     n: int                 # number of velocity unknowns
     has_pressure: bool
     gscale: np.ndarray     # norms of the constraint rows (to measure their violation)
+    fscale: np.ndarray     # norms of the force rows (to unscale the multipliers)
+    scale: float           # mean diagonal of K (the border is scaled to it)
+    npin: int
 
     def matvec(self, z: np.ndarray) -> np.ndarray:
         x, y = z[: self.n], z[self.n:]
-        return np.concatenate([self.ks @ x + self.border @ y, self.border.T @ x + self.dblock @ y])
+        return np.concatenate([self.ks @ x + self.border @ y, self.rows.T @ x + self.dblock @ y])
+
+    def split(self, sol: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+        """``(x, P, lambda)`` of a solution, the multipliers those of the unscaled rows."""
+        k = 1 if self.has_pressure else 0
+        x = sol[: self.n]
+        y = sol[self.n + k: self.n + k + self.gscale.size]
+        return x, (float(sol[self.n]) if self.has_pressure else 0.0), np.sqrt(self.scale) / self.fscale * y
 
 
 class _BorderedInverse:
-    """Exact inverse of the bordered matrix ``[[K_s, U], [U^T, D]]`` from one factorisation.
+    """Exact inverse of the bordered matrix ``[[K_s, U], [V^T, D]]`` from one factorisation.
 
     ``first_rhs`` (optional) is solved together with the border columns, in one call.
     """
 
-    def __init__(self, factor, border: np.ndarray, dblock: np.ndarray, first_rhs: np.ndarray | None = None):
+    def __init__(self, factor, border: np.ndarray, rows: np.ndarray, dblock: np.ndarray,
+                 first_rhs: np.ndarray | None = None):
         self.factor = factor
         self.border = border
+        self.rows = rows
         self.n = border.shape[0]
         cols = border if first_rhs is None else np.column_stack([first_rhs, border])
         z = factor.solve(cols) if cols.shape[1] else np.zeros_like(cols)
         z = z.reshape(self.n, -1)
         self.z_first = None if first_rhs is None else z[:, 0]
         self.z_border = z if first_rhs is None else z[:, 1:]
-        schur = dblock - border.T @ self.z_border
+        schur = dblock - rows.T @ self.z_border
         self.schur = sla.lu_factor(schur)
 
     def solve_first(self, g: np.ndarray) -> np.ndarray:
         """:meth:`solve` for the right-hand side ``[first_rhs, g]`` given at construction."""
-        y = sla.lu_solve(self.schur, g - self.border.T @ self.z_first)
+        y = sla.lu_solve(self.schur, g - self.rows.T @ self.z_first)
         return np.concatenate([self.z_first - self.z_border @ y, y])
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """The solution for ``rhs`` (one column, or several as a 2-D array)."""
         f, g = rhs[: self.n], rhs[self.n:]
-        zf = self.factor.solve(f)
-        y = sla.lu_solve(self.schur, g - self.border.T @ zf)
+        zf = self.factor.solve(f).reshape(f.shape)
+        y = sla.lu_solve(self.schur, g - self.rows.T @ zf)
         return np.concatenate([zf - self.z_border @ y, y])
 
 
 class ConstrainedLeastSquares:
-    """Solve :class:`~cortex_ti.solve.system.LinearSystem` (see the module docstring).
+    """Solve a :class:`~cortex_ti.solve.system.LinearSystem` or
+    :class:`~cortex_ti.solve.system.EnergySystem` (see the module docstring).
 
     Parameters
     ----------
@@ -154,23 +187,29 @@ class ConstrainedLeastSquares:
     reuse : keep the factorisation and use it to precondition later, nearby systems.
     rtol : GMRES tolerance when reusing (relative to the right-hand side).
     max_iter : GMRES iterations above which the matrix is refactored.
+    refine : after each fresh factorisation, one step of iterative refinement whose residual
+        is formed from the unsquared system (corrected semi-normal equations for the least
+        squares): it removes the rounding floor of ``M^T M`` at fine meshes.
     """
 
-    def __init__(self, backend: str = "auto", reuse: bool = False, rtol: float = 1e-10, max_iter: int = 30):
+    def __init__(self, backend: str = "auto", reuse: bool = False, rtol: float = 1e-10, max_iter: int = 30,
+                 refine: bool = True):
         self.factor_cls = choose_factorization(backend)
         self._factor = self.factor_cls()
         self.reuse = reuse
         self.rtol = rtol
         self.max_iter = max_iter
+        self.refine = refine
         self._pre: _BorderedInverse | None = None
         self._pin_nodes = None  # (N, node indices) of the sparse pin, chosen once per mesh
+        self._last: tuple[_BorderedSystem, np.ndarray] | None = None  # the last exact solve (for kkt_solve)
         self.n_factorizations = 0
 
     @property
     def backend(self) -> str:
         return self.factor_cls.name
 
-    def solve(self, system: LinearSystem, points: np.ndarray) -> tuple[np.ndarray, float, SolveInfo]:
+    def solve(self, system: System, points: np.ndarray) -> tuple[np.ndarray, float, SolveInfo]:
         """Return velocity unknowns ``x``, pressure ``P`` (0 without it) and diagnostics."""
         t0 = time.perf_counter()
         bordered = self._bordered_system(system, points)
@@ -180,52 +219,61 @@ class ConstrainedLeastSquares:
         refactored = sol is None
         if refactored:
             sol = self._factor_and_solve(bordered)
+            if self.refine:
+                sol = sol + self._pre.solve(self._refinement_rhs(system, bordered, sol))
         t3 = time.perf_counter()
         if not np.all(np.isfinite(sol)):
-            raise SolverError("the linear solve produced non-finite values (singular or badly scaled system)")
-        x = sol[: bordered.n]
-        pressure = float(sol[bordered.n]) if bordered.has_pressure else 0.0
-        info = self._info(system, bordered, sol, x, pressure, iterations, refactored,
+            raise SolverError("the linear solve produced non-finite values (singular or badly scaled system): "
+                              "check the viscosities, the time step and the mesh")
+        x, pressure, multipliers = bordered.split(sol)
+        if isinstance(system, EnergySystem):
+            pressure = system.pressure(multipliers)
+        self._last = (bordered, multipliers) if refactored else None
+        info = self._info(system, bordered, sol, x, pressure, multipliers, iterations, refactored,
                           {"normal_equations": t1 - t0, "iterate": t2 - t1, "factor_solve": t3 - t2})
         return x, pressure, info
 
-    def _bordered_system(self, system: LinearSystem, points: np.ndarray) -> _BorderedSystem:
-        """Steps 1-2 of the module docstring: ``K = M^T M``, the pin and the border."""
-        m = system.matrix
-        mt = m.T.tocsr()
-        kmat = (mt @ m).tocsr()
-        f = mt @ system.rhs
-        has_p = system.pressure_column is not None
-        cols, g = [], []
-        if has_p:
-            p = system.pressure_column
-            cols.append((mt @ p)[:, None])
-            g.append(float(p @ system.rhs))
+    def _bordered_system(self, system: System, points: np.ndarray) -> _BorderedSystem:
+        """Steps 1-2 of the module docstring: ``K`` (``M^T M`` for the least squares), the pin
+        and the border."""
+        ne = system.normal_equations()
+        kmat = ne.stiffness
+        has_p = ne.pressure_column is not None
+        cols = [ne.pressure_column[:, None]] if has_p else []
         gmat = system.constraints
         if self._pin_nodes is None or self._pin_nodes[0] != points.shape[0]:
             self._pin_nodes = (points.shape[0], _farthest_points(points, min(PIN_NODES, points.shape[0])))
         scale = float(np.mean(kmat.diagonal()))
+        if not (np.isfinite(scale) and scale > 0.0):
+            raise SolverError(f"the force-balance matrix is not usable (mean diagonal {scale:.3g}): check that the "
+                              "viscosities are positive and finite and that the mesh is well shaped")
         pin = pin_rows(points, system.basis, nodes=self._pin_nodes[1]) * np.sqrt(scale)
-        gscale = np.linalg.norm(gmat, axis=1, keepdims=True)
-        gscale[gscale == 0] = 1.0
-        gn = gmat / gscale * np.sqrt(scale)   # scaled constraint rows, same magnitude as K
-        border = np.hstack(cols + [gn.T, pin.T.toarray()])
+        gscale = _row_norms(gmat)
+        pin_cols = pin.T.toarray()
+        rows = np.hstack(cols + [(gmat / gscale[:, None] * np.sqrt(scale)).T, pin_cols])
+        frows = system.force_rows
+        if frows is None:
+            border, fscale = rows, gscale
+        else:
+            fscale = _row_norms(frows)
+            border = np.hstack(cols + [(frows / fscale[:, None] * np.sqrt(scale)).T, pin_cols])
         q = border.shape[1]
         dblock = np.zeros((q, q))
         if has_p:
-            dblock[0, 0] = float(p @ p)
+            dblock[0, 0] = ne.pressure_diagonal
         npin = pin.shape[0]
         dblock[q - npin:, q - npin:] = np.eye(npin)
-        rhs = np.concatenate([f, g, np.zeros(gmat.shape[0] + npin)])
+        rhs = np.concatenate([ne.rhs, [ne.pressure_rhs] if has_p else [], np.zeros(gmat.shape[0] + npin)])
         # the last block row is Q x + w = 0, so K_s x + Q^T w = K x
-        return _BorderedSystem(ks=(kmat + pin.T @ pin).tocsr(), border=border, dblock=dblock, rhs=rhs,
-                               n=f.size, has_pressure=has_p, gscale=gscale[:, 0])
+        return _BorderedSystem(ks=(kmat + pin.T @ pin).tocsr(), border=border, rows=rows, dblock=dblock, rhs=rhs,
+                               n=ne.rhs.size, has_pressure=has_p, gscale=gscale, fscale=fscale, scale=scale,
+                               npin=npin)
 
     def _reuse(self, b: _BorderedSystem) -> tuple[np.ndarray | None, int]:
         """GMRES on the new bordered system, preconditioned by the last exact bordered inverse;
         ``(None, iterations)`` when there is none or it does not converge in ``max_iter``."""
         pre = self._pre
-        if pre is None or pre.n != b.n or pre.border.shape != b.border.shape:
+        if pre is None or pre.n != b.n or pre.border.shape != b.border.shape or pre.rows.shape != b.rows.shape:
             return None, 0
         size = b.rhs.size
         op = spla.LinearOperator((size, size), matvec=b.matvec, dtype=float)
@@ -243,28 +291,83 @@ class ConstrainedLeastSquares:
         """Step 3: factorise ``K_s`` and solve the bordered system by its Schur complement."""
         try:
             self._factor.factorize(b.ks)
-        except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
+        except Exception as exc:  # SuperLU: "Factor is exactly singular"; PARDISO: "error code -4" (zero pivot)
             raise SolverError(
-                "the force balance has no unique solution (singular matrix): check that the scene has "
-                f"shear viscosity and a closed, well-shaped mesh ({exc})"
+                f"the sparse factorisation of the force balance failed ({_describe(exc)}): the matrix is singular "
+                "or not positive definite; check that the viscosities are positive and finite (viscosity.*), "
+                "that time.dt is not absurdly large and that the mesh is closed and well shaped"
             ) from None
         f = b.rhs[: b.n]
-        self._pre = _BorderedInverse(self._factor, b.border, b.dblock, first_rhs=f)
+        self._pre = _BorderedInverse(self._factor, b.border, b.rows, b.dblock, first_rhs=f)
         self.n_factorizations += 1
         return self._pre.solve_first(b.rhs[b.n:])
 
-    def _info(self, system, b: _BorderedSystem, sol, x, pressure, iterations, refactored, seconds) -> SolveInfo:
+    def _refinement_rhs(self, system: System, b: _BorderedSystem, sol: np.ndarray) -> np.ndarray:
+        """The residual of the bordered system at ``sol``, its first block formed from the
+        unsquared system (``M^T (r - M x - p P)``, not ``M^T r - (M^T M) x``)."""
+        x, y = sol[: b.n], sol[b.n:]
+        k = 1 if b.has_pressure else 0
+        pressure = float(sol[b.n]) if b.has_pressure else 0.0
+        first, prow = system.unsquared_residual(x, pressure)
+        pin = b.border[:, -b.npin:]
+        qxw = pin.T @ x + y[-b.npin:]                      # Q x + w
+        mid = slice(k, y.size - b.npin)
+        out = [first - b.border[:, mid] @ y[mid] - pin @ qxw]
+        if b.has_pressure:
+            out.append([prow])
+        out += [-(b.rows[:, mid].T @ x), -qxw]
+        return np.concatenate(out)
+
+    def kkt_solve(self, b_x: np.ndarray, b_scalar: np.ndarray) -> np.ndarray:
+        """Velocity part of the solution of the last solve's optimality conditions (unscaled
+        multipliers) for the right-hand side ``[b_x; b_scalar]``; ``b_scalar``: the pressure row
+        (if the pressure is a separate unknown), then one entry per constraint row. ``b_x`` may
+        have several columns. Needs the factorisation of that very system: the last solve must
+        have factorised (``reuse=False``)."""
+        if self._last is None:
+            raise SolverError("kkt_solve needs the factorisation of the last solve (solve with reuse=False)")
+        b, _ = self._last
+        bx = np.asarray(b_x, dtype=float)
+        two = bx.ndim == 2
+        bx = bx if two else bx[:, None]
+        bs = np.asarray(b_scalar, dtype=float).reshape(-1, bx.shape[1])
+        k = 1 if b.has_pressure else 0
+        cscale = np.sqrt(b.scale) / b.gscale
+        parts = [bx] + ([bs[:1]] if k else []) + [cscale[:, None] * bs[k:], np.zeros((b.npin, bx.shape[1]))]
+        out = self._pre.solve(np.concatenate(parts, axis=0))[: b.n]
+        return out if two else out[:, 0]
+
+    @property
+    def last_solution(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The multipliers of the last solve that factorised (None otherwise)."""
+        return None if self._last is None else self._last[1]
+
+    def _info(self, system, b: _BorderedSystem, sol, x, pressure, multipliers, iterations, refactored,
+              seconds) -> SolveInfo:
         """What the solve achieved, measured on the solution."""
-        res = system.residual(x, pressure)
+        res, rhs_norm = system.measure(x, pressure, multipliers)
         kkt = b.matvec(sol) - b.rhs
         viol = np.abs(system.constraints @ x) / (b.gscale * max(np.linalg.norm(x), 1e-300))
         return SolveInfo(
             backend=self.backend,
-            lsq_residual=float(np.linalg.norm(res)),
-            rhs_norm=float(np.linalg.norm(system.rhs)),
+            lsq_residual=res,
+            rhs_norm=rhs_norm,
             constraint_violation=float(viol.max()) if viol.size else 0.0,
             kkt_residual=float(np.linalg.norm(kkt) / max(np.linalg.norm(b.rhs), 1e-300)),
             iterations=iterations,
             refactored=refactored,
             seconds=seconds,
         )
+
+
+def _row_norms(rows: np.ndarray) -> np.ndarray:
+    norms = np.linalg.norm(rows, axis=1)
+    norms[norms == 0] = 1.0
+    return norms
+
+
+def _describe(exc: Exception) -> str:
+    """One short phrase for a factorisation backend's exception (its first line, or its error code)."""
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else "no message"
+    code = re.search(r"error code (-?\d+)", text)
+    return f"{type(exc).__name__} {'error code ' + code.group(1) if code else text}"

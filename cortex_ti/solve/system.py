@@ -1,9 +1,20 @@
-"""The problem the solve layer solves: a sparse least-squares system with dense constraints.
+"""The problems the solve layer solves: sparse systems with a few dense constraint rows.
 
-:class:`LinearSystem` is what :func:`cortex_ti.physics.assembly.assemble` produces and
-:class:`cortex_ti.solve.constrained.ConstrainedLeastSquares` solves; :func:`rigid_motion_rows`
-gives the rows of zero total velocity and angular momentum (the gauge of the force balance,
-also used to pin the factorised matrix).
+Two kinds, one per family of formulations (:data:`cortex_ti.physics.formulations.FORMULATIONS`):
+
+* :class:`LinearSystem`, the paper's strong form: ``min |M x + p P - r|^2`` subject to
+  ``G x = 0`` (:func:`cortex_ti.physics.assembly.assemble`);
+* :class:`EnergySystem`, a discrete Rayleighian: ``K x + F^T lambda = f``, ``G x = 0`` with
+  ``K`` symmetric positive semidefinite given directly (:func:`cortex_ti.physics.galerkin.assemble_p1`);
+  the multipliers act on the rows ``F`` (``G`` unless given: Petrov-Galerkin), the pressure is
+  one of them.
+
+Both give the solver (:class:`cortex_ti.solve.constrained.ConstrainedLeastSquares`) the same
+things: the symmetric block ``K``, its right-hand side, the pressure column if the pressure is a
+separate unknown, the constraint rows, and the residual of the unsquared problem (for iterative
+refinement); and, for :mod:`cortex_ti.dynamics.spectrum`, their optimality conditions split node
+by node (``kkt_parts``). :func:`rigid_motion_rows` gives the rows of zero total velocity and
+angular momentum (the gauge of the force balance, also used to pin the factorised matrix).
 """
 
 from __future__ import annotations
@@ -13,24 +24,25 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["LinearSystem", "rigid_motion_rows"]
+__all__ = ["LinearSystem", "EnergySystem", "NormalEquations", "rigid_motion_rows"]
 
 
 @dataclass
-class LinearSystem:
-    """``min |M x + p P - r|^2`` subject to ``G x = 0`` (see module docstring)."""
+class NormalEquations:
+    """The symmetric part of a system as the solver borders it: ``[[K, k], [k^T, kappa]]
+    [x; P] = [f; g]`` (``k``, ``kappa``, ``g`` only with a separate pressure unknown)."""
 
-    matrix: sp.csr_matrix             # M, (rows, unknowns)
-    rhs: np.ndarray                   # r
-    pressure_column: np.ndarray | None  # p, or None without the pressure unknown
-    constraints: np.ndarray           # G, (m, unknowns), dense
-    constraint_names: list[str]
-    basis: np.ndarray                 # (N, nb, 3): v_i = sum_b x[nb i + b] basis[i, b]
-    terms: list[str] = field(default_factory=list)
+    stiffness: sp.csr_matrix          # K (unknowns, unknowns)
+    rhs: np.ndarray                   # f
+    pressure_column: np.ndarray | None = None  # k = M^T p
+    pressure_diagonal: float = 0.0    # kappa = p^T p
+    pressure_rhs: float = 0.0         # g = p^T r
 
-    @property
-    def n_unknowns(self) -> int:
-        return self.matrix.shape[1]
+
+class _Unknowns:
+    """Nodal velocities from the unknowns and back (``basis``: (N, nb, 3))."""
+
+    basis: np.ndarray
 
     def velocity(self, x: np.ndarray) -> np.ndarray:
         """Cartesian nodal velocities ``(N, 3)`` from the unknowns."""
@@ -41,11 +53,120 @@ class LinearSystem:
         """Project Cartesian velocities onto the unknowns (inverse of :meth:`velocity`)."""
         return np.einsum("nc,nbc->nb", velocity, self.basis).ravel()
 
+    def _constraint_parts(self, x: np.ndarray) -> np.ndarray:
+        """``G x`` split per node: (m, N), row sums = ``G x``."""
+        n, nb = self.basis.shape[0], self.basis.shape[1]
+        return (self.constraints.reshape(-1, n, nb) * x.reshape(n, nb)[None]).sum(-1)
+
+
+@dataclass
+class LinearSystem(_Unknowns):
+    """``min |M x + p P - r|^2`` subject to ``G x = 0`` (see module docstring)."""
+
+    matrix: sp.csr_matrix             # M, (rows, unknowns)
+    rhs: np.ndarray                   # r
+    pressure_column: np.ndarray | None  # p, or None without the pressure unknown
+    constraints: np.ndarray           # G, (m, unknowns), dense
+    constraint_names: list[str]
+    basis: np.ndarray                 # (N, nb, 3): v_i = sum_b x[nb i + b] basis[i, b]
+    terms: list[str] = field(default_factory=list)
+    row_node: np.ndarray | None = None  # (rows,) the node each row of M belongs to
+    force_rows = None                 # the multipliers act on the constraint rows themselves
+
+    @property
+    def n_unknowns(self) -> int:
+        return self.matrix.shape[1]
+
+    def normal_equations(self) -> NormalEquations:
+        """``K = M^T M``, ``f = M^T r`` and the pressure's border ``M^T p``, ``p^T p``, ``p^T r``."""
+        mt = self.matrix.T.tocsr()
+        ne = NormalEquations(stiffness=(mt @ self.matrix).tocsr(), rhs=mt @ self.rhs)
+        p = self.pressure_column
+        if p is not None:
+            ne.pressure_column = mt @ p
+            ne.pressure_diagonal = float(p @ p)
+            ne.pressure_rhs = float(p @ self.rhs)
+        return ne
+
+    def unsquared_residual(self, x: np.ndarray, pressure: float) -> tuple[np.ndarray, float]:
+        """``(M^T rho, p^T rho)`` with ``rho = r - M x - p P`` formed from ``M`` itself, so that
+        a correction step is not limited by the rounding of ``M^T M`` (corrected semi-normal
+        equations)."""
+        rho = -self.residual(x, pressure)
+        prow = float(self.pressure_column @ rho) if self.pressure_column is not None else 0.0
+        return self.matrix.T @ rho, prow
+
+    def measure(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[float, float]:
+        """``(|M x + p P - r|, |r|)``: the least-squares residual the solve leaves."""
+        return float(np.linalg.norm(self.residual(x, pressure))), float(np.linalg.norm(self.rhs))
+
+    def kkt_parts(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The optimality conditions at ``(x, P, lambda)`` split so that every entry belongs to
+        one node (for :mod:`cortex_ti.dynamics.spectrum`): ``M^T rho + G^T lambda`` with
+        ``rho = M x + p P - r`` (one entry per unknown), and the scalar rows per node, ``(1 + m, N)``
+        (``p^T rho``, if there is a pressure unknown, then ``G x``) whose row sums are those rows."""
+        rho = self.residual(x, pressure)
+        vec = self.matrix.T @ rho + self.constraints.T @ multipliers
+        per_node = self._constraint_parts(x)
+        if self.pressure_column is not None:
+            n = self.basis.shape[0]
+            pp = np.bincount(self.row_node, weights=self.pressure_column * rho, minlength=n)
+            per_node = np.vstack([pp[None], per_node])
+        return vec, per_node
+
     def residual(self, x: np.ndarray, pressure: float = 0.0) -> np.ndarray:
         res = self.matrix @ x - self.rhs
         if self.pressure_column is not None:
             res += self.pressure_column * pressure
         return res
+
+
+@dataclass
+class EnergySystem(_Unknowns):
+    """``K x + F^T lambda = f``, ``G x = 0`` (see module docstring): the stationary point of a
+    discrete Rayleighian ``x^T K x / 2 - f^T x`` under the constraints ``G x = 0``, whose
+    multipliers push along ``F`` (``G`` if ``force_rows`` is None). The pressure is
+    ``pressure_sign * lambda[pressure_index]``."""
+
+    stiffness: sp.csr_matrix          # K, symmetric positive semidefinite
+    rhs: np.ndarray                   # f
+    constraints: np.ndarray           # G, (m, unknowns), dense
+    constraint_names: list[str]
+    basis: np.ndarray                 # (N, nb, 3)
+    pressure_index: int | None = None
+    pressure_sign: float = -1.0
+    terms: list[str] = field(default_factory=list)
+    force_rows: np.ndarray | None = None   # F, if not G (Petrov-Galerkin)
+    pressure_column = None            # the pressure is a multiplier, not a separate unknown
+
+    @property
+    def n_unknowns(self) -> int:
+        return self.stiffness.shape[0]
+
+    def normal_equations(self) -> NormalEquations:
+        return NormalEquations(stiffness=self.stiffness, rhs=self.rhs)
+
+    def pressure(self, multipliers: np.ndarray) -> float:
+        """The pressure from the multipliers (0 without a volume constraint)."""
+        if self.pressure_index is None:
+            return 0.0
+        return float(self.pressure_sign * multipliers[self.pressure_index])
+
+    def residual(self, x: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
+        """``K x + F^T lambda - f``."""
+        rows = self.constraints if self.force_rows is None else self.force_rows
+        return self.stiffness @ x + rows.T @ multipliers - self.rhs
+
+    def unsquared_residual(self, x: np.ndarray, pressure: float) -> tuple[np.ndarray, float]:
+        return self.rhs - self.stiffness @ x, 0.0
+
+    def measure(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[float, float]:
+        """``(|K x + F^T lambda - f|, |f|)``: the force balance the solve leaves unbalanced."""
+        return float(np.linalg.norm(self.residual(x, multipliers))), float(np.linalg.norm(self.rhs))
+
+    def kkt_parts(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """As :meth:`LinearSystem.kkt_parts`: ``K x + F^T lambda - f`` and ``G x`` per node."""
+        return self.residual(x, multipliers), self._constraint_parts(x)
 
 
 def rigid_motion_rows(points: np.ndarray, weight: np.ndarray) -> np.ndarray:

@@ -18,32 +18,33 @@ def run_errors(path) -> dict:
         points = tr.ds["points"].isel(time=0).values
         velocity = tr.ds["velocity"].isel(time=0).values
     eps, eps_rel = error_measures(velocity, scene_solution(settings, points))
-    return {"scene": settings.name, "nodes": points.shape[0], "fit": settings.numerics.fit, "eps": eps,
-            "eps_rel": eps_rel}
+    return {"scene": settings.name, "nodes": points.shape[0], "formulation": settings.numerics.formulation,
+            "fit": settings.numerics.fit, "eps": eps, "eps_rel": eps_rel}
 
 
 def convergence_dataset(paths: Iterable) -> xr.Dataset:
-    """``eps(scene, fit, nodes)`` and ``eps_rel(scene, fit, nodes)`` with units and descriptions."""
+    """``eps(scene, formulation, fit, nodes)`` and ``eps_rel(...)`` with units and descriptions
+    (NaN for a combination that did not run, e.g. a fit the config does not ask of a formulation)."""
     rows = [run_errors(p) for p in paths]
-    scenes = sorted({r["scene"] for r in rows})
-    fits = sorted({r["fit"] for r in rows})
-    nodes = sorted({r["nodes"] for r in rows})
-    shape = (len(scenes), len(fits), len(nodes))
+    dims = ("scene", "formulation", "fit", "nodes")
+    values = {d: sorted({r[d] for r in rows}) for d in dims}
+    shape = tuple(len(values[d]) for d in dims)
     eps = np.full(shape, np.nan)
     eps_rel = np.full(shape, np.nan)
     for r in rows:
-        idx = (scenes.index(r["scene"]), fits.index(r["fit"]), nodes.index(r["nodes"]))
+        idx = tuple(values[d].index(r[d]) for d in dims)
         eps[idx], eps_rel[idx] = r["eps"], r["eps_rel"]
     return xr.Dataset(
         {
-            "eps": (("scene", "fit", "nodes"), eps, {
+            "eps": (dims, eps, {
                 "units": "R0/t_a", "long_name": "mean velocity error",
                 "description": "paper Eq. 57: (1/N) sum over nodes of |v - v_an|"}),
-            "eps_rel": (("scene", "fit", "nodes"), eps_rel, {
+            "eps_rel": (dims, eps_rel, {
                 "units": "1", "long_name": "relative rms velocity error",
                 "description": "paper Eq. 58: sqrt(mean over nodes of |v - v_an|^2) / max over nodes of |v_an|"}),
         },
-        coords={"scene": scenes, "fit": fits, "nodes": ("nodes", nodes, {"long_name": "number of mesh nodes N"})},
+        coords={"scene": values["scene"], "formulation": values["formulation"], "fit": values["fit"],
+                "nodes": ("nodes", values["nodes"], {"long_name": "number of mesh nodes N"})},
         attrs={"description": "Static sphere scenes (paper Figs. 2F,G and 3F,G) against the analytic solutions of "
                               "conventions.md"},
     )

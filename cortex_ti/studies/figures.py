@@ -18,6 +18,7 @@ from matplotlib.ticker import NullFormatter
 from ..analysis import reference
 from ..dynamics.schemes import SCHEMES
 from ..io.trajectory import Trajectory, open_trajectory
+from ..physics.formulations import FORMULATIONS
 from ..surface.fits import FIT_SCHEMES
 from .registry import FIGURES
 
@@ -39,13 +40,21 @@ def convergence_figure(ds: xr.Dataset) -> Figure:
     axes = fig.subplots(1, 2, sharey=True)
     systems = {"full": axes[0], "tangential": axes[1]}
     markers = _markers(FIT_SCHEMES)
+    styles = {name: ("-", "--", "-.", ":")[i % 4] for i, name in enumerate(FORMULATIONS)}
+    colours: dict[str, str] = {}
     for scene in ds["scene"].values:
         ax = systems["tangential" if "tangential" in str(scene) else "full"]
-        for fit in ds["fit"].values:
-            e = ds["eps_rel"].sel(scene=scene, fit=fit)
-            ok = np.isfinite(e.values)
-            ax.loglog(ds["nodes"].values[ok], e.values[ok], marker=markers.get(str(fit), "^"),
-                      label=f"{str(scene).split('_')[1].upper()} {fit}")
+        harmonic = str(scene).split("_")[1].upper()
+        for form in ds["formulation"].values:
+            for fit in ds["fit"].values:
+                e = ds["eps_rel"].sel(scene=scene, formulation=form, fit=fit)
+                ok = np.isfinite(e.values)
+                if not ok.any():
+                    continue
+                colour = colours.setdefault(harmonic, f"C{len(colours)}")
+                ax.loglog(ds["nodes"].values[ok], e.values[ok], styles.get(str(form), "-"), color=colour,
+                          marker=markers.get(str(fit), "^"), mfc=colour if form == "paper" else "none",
+                          label=f"{harmonic} {form} {fit}")
     n = ds["nodes"].values.astype(float)
     for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only")):
         for power, style in ((1, ":"), (2, "--")):
@@ -275,47 +284,59 @@ def pareto_front(cost: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     """What accuracy costs: the error of the radii against the axisymmetric solution of the same
-    scene versus the wall time of the run, one point per run of the accuracy study (colour: N,
-    marker: time scheme, filled: semi-implicit tension), the Pareto front as a dashed line and,
-    beside the plot, a table of the runs on it; runs that failed are crosses along the top; the
-    axisymmetric solution's own wall time as a vertical line."""
+    scene versus the wall time of the run, one panel per formulation, one point per run of the
+    accuracy study (colour: N, marker: time scheme, filled: semi-implicit tension); the Pareto
+    front over all runs as a dashed line in every panel and, beside the plot, a table of the runs
+    on it; runs that failed are crosses along the top; the axisymmetric solution's own wall time
+    as a vertical line."""
     study = ds["study"].values
     sel = ds.isel(run=np.flatnonzero(study == "accuracy")) if "accuracy" in set(study) else ds
-    fig = Figure(figsize=(11.5, 4.8), layout="constrained")
-    ax, tab = fig.subplots(1, 2, width_ratios=[1.35, 1])
+    forms = sorted(set(sel["formulation"].values.astype(str)), key=lambda f: (f != "rayleigh_p1", f)) or ["-"]
+    fig = Figure(figsize=(5.2 * len(forms) + 5.5, 4.8), layout="constrained")
+    axes = fig.subplots(1, len(forms) + 1, width_ratios=[1.0] * len(forms) + [0.95])
+    panels, tab = axes[:-1], axes[-1]
     wall, err = sel["wall_s"].values, sel["error"].values
     ok = np.asarray(sel["status"].values == "ok") & np.isfinite(err)
     markers = _markers(SCHEMES)
     implicit = sel["implicit_tension"].values.astype(bool)
     nodes = sel["nodes"].values.astype(int)
+    form_of = sel["formulation"].values.astype(str)
     colours = {n: f"C{i}" for i, n in enumerate(sorted(set(nodes)))}
-    for i in np.flatnonzero(ok):
-        c = colours[nodes[i]]
-        ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=c,
-                  mfc=c if implicit[i] else "none", zorder=3)
     front = pareto_front(np.where(ok, wall, np.nan), np.where(ok, err, np.nan))
-    if front.size:
-        ax.loglog(wall[front], err[front], "k--", lw=1.5, zorder=2, label="Pareto front")
     top = np.nanmax(err[ok]) * 2.5 if ok.any() else 1.0
-    failed = np.flatnonzero(~ok)
-    if failed.size:
-        ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8, label=f"failed ({failed.size}; see the cost table)")
     twin_wall = ds["wall_s"].values[(study == "axisymmetric")] if "axisymmetric" in set(study) else []
-    if len(twin_wall):
-        ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
-                   label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
+    for ax, form in zip(panels, forms):
+        mine = form_of == form
+        for i in np.flatnonzero(ok & mine):
+            c = colours[nodes[i]]
+            ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=c,
+                      mfc=c if implicit[i] else "none", zorder=3)
+        if front.size:
+            ax.loglog(wall[front], err[front], "k--", lw=1.2, zorder=2, label="Pareto front (all runs)")
+        failed = np.flatnonzero(~ok & mine)
+        if failed.size:
+            ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8,
+                      label=f"failed ({failed.size}; see the cost table)")
+        if len(twin_wall):
+            ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
+                       label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
+        ax.set_title(f"formulation {form}", fontsize=9)
+        ax.set_xlabel("wall time of the run (s, one job, start-up included)")
     for n, c in colours.items():
-        ax.plot([], [], "s", color=c, label=f"N = {n}")
+        panels[0].plot([], [], "s", color=c, label=f"N = {n}")
     for name, m in markers.items():
         if name in set(sel["scheme"].values):
-            ax.plot([], [], m, color="0.4", mfc="none", label=name)
-    ax.plot([], [], "o", color="0.4", label="filled: semi-implicit tension")
-    ax.set_xlabel("wall time of the run (s, one job, start-up included)")
-    ax.set_ylabel(r"max |radius - axisymmetric| / $R_0$")
+            panels[0].plot([], [], m, color="0.4", mfc="none", label=name)
+    panels[0].plot([], [], "o", color="0.4", label="filled: semi-implicit tension")
+    panels[0].set_ylabel(r"max |radius - axisymmetric| / $R_0$")
+    if len(panels) > 1:
+        for ax in panels[1:]:
+            ax.sharey(panels[0])
+            ax.sharex(panels[0])
     scenes = ", ".join(sorted({m.group(1) for m in map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
                                if m}))
-    ax.set_title(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=9)
-    ax.legend(fontsize=7, loc="lower left")
+    fig.suptitle(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=10)
+    panels[0].legend(fontsize=7, loc="lower left")
     _pareto_table(tab, sel, front)
     return fig
 
@@ -323,13 +344,13 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
 def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
     """The runs on the Pareto front as a table: what each costs and what it gets."""
     ax.axis("off")
-    rows = [[str(int(sel["nodes"].values[i])), str(sel["scheme"].values[i]),
+    rows = [[str(sel["formulation"].values[i]), str(int(sel["nodes"].values[i])), str(sel["scheme"].values[i]),
              "semi-impl." if bool(sel["implicit_tension"].values[i]) else "explicit", f"{sel['dt'].values[i]:g}",
              f"{sel['wall_s'].values[i]:.0f}", f"{sel['error'].values[i]:.1e}"] for i in front]
     if not rows:
         ax.text(0.5, 0.5, "no run finished", ha="center", va="center")
         return
-    table = ax.table(cellText=rows, colLabels=["N", "scheme", "tension", "dt", "wall (s)", "error (R0)"],
+    table = ax.table(cellText=rows, colLabels=["formulation", "N", "scheme", "tension", "dt", "wall (s)", "error (R0)"],
                      loc="upper center", cellLoc="center")
     table.auto_set_font_size(False)
     table.set_fontsize(7)

@@ -36,7 +36,7 @@ class FigureSpec:
 
     name: str
     source: str            # "store": from results/aggregate/<data>.nc; "runs": from the trajectories of studies <data>;
-                           # "static": from the static runs at nodes data[0] with fit data[1]
+                           # "static": from the static runs at nodes data[0], fit data[1], formulation data[2]
     data: tuple[str, ...]
     draw: str              # the function of cortex_ti.studies.figures that draws it
     category: str          # the report's section
@@ -45,22 +45,22 @@ class FigureSpec:
 
 
 _STUDIES = (
-    Study("furrow", ("scene", "zeta_hat", "p", "nodes", "fit", "scheme", "dt", "t_end"),
+    Study("furrow", ("scene", "zeta_hat", "p", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
           "Furrow formation under a contractile ring (paper Eq. 59, Figs. 4-8): pole radius (half the "
           "pole-to-pole distance along the pattern axis) and furrow radius (mean radius of the section in the "
           "ring's plane) against time, one run per parameter set.",
           variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed")),
-    Study("fold", ("scene", "zeta_hat", "nodes", "fit", "scheme", "dt", "t_end"),
+    Study("fold", ("scene", "zeta_hat", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
           "Fold formation under a stripe of higher tension (paper Sec. 4.3, Fig. 9): equatorial radii across "
           "and beside the stripe and the fold depth against time.",
           variables=("pole_radius", "volume", "area", "max_normal_speed")),
-    Study("reorientation", ("scene", "gamma", "tilt", "nodes", "fit", "scheme", "dt", "t_end"),
+    Study("reorientation", ("scene", "gamma", "tilt", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
           "A cortex sheared at the start (x -> x + gamma z) under the ring of Eq. 59 (paper Figs. 10-12): angle "
           "between the long axis of the surface and the pattern axis, and the radii along the current long "
           "axis, against time.",
           variables=("orientation_angle", "pole_radius_long_axis", "furrow_radius_long_axis", "pole_radius",
                      "furrow_radius", "volume", "max_normal_speed")),
-    Study("accuracy", ("scene", "nodes", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
+    Study("accuracy", ("scene", "nodes", "formulation", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
           "What accuracy costs: one furrow scene over resolutions, fits, time schemes and steps; each run's "
           "error against the reference and its wall time go into the cost store.",
           failures_are_data=True),
@@ -91,7 +91,7 @@ _COST = "6. What accuracy costs"
 #: of the cost of the runs behind it.
 _FIGURES = (
     FigureSpec(
-        "sphere_flows", "static", ("2562", "quadratic"), "sphere_flows_figure", _SPHERE,
+        "sphere_flows", "static", ("2562", "quadratic", "paper"), "sphere_flows_figure", _SPHERE,
         "Paper Figs. 2B-E (zeta = Y20) and 3B-E (zeta = Y21, plus a uniform part): the instantaneous flow on a static "
         "sphere of 2562 nodes with the paper's quadratic fit, for the full force balance (i: normal flow, inward at "
         "the poles and outward at the equator for Y20) and the tangential one (ii: v_n = 0, flow from the equator to "

@@ -52,7 +52,8 @@ def short_labels(rows: Sequence[Mapping]) -> list[str]:
     return [" ".join([str(r.get("scene", ""))] + [f"{k}={r[k]}" for k in varying]) for r in rows]
 
 
-def _fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
+def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
+    """Equatorial radii across and beside the fold's stripe and the fold depth, per frame."""
     ds = tr.ds
     axis = tr.settings.pattern_axis
     faces = ds["triangles"].values
@@ -94,7 +95,7 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
                     data[name] = ds[name].values.astype(float)
                     attrs[name] = {k: v for k, v in ds[name].attrs.items() if k in ("units", "long_name", "description")}
             if study == "fold":
-                data.update(_fold_series(tr))
+                data.update(fold_series(tr))
                 attrs.update(_FOLD_ATTRS)
             if "volume" in data:
                 data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
@@ -132,8 +133,8 @@ _COST_ATTRS = {
     "solves": ("1", "force-balance solves", "geometry + assembly + sparse solve, rejected steps included"),
     "ms_per_step": ("ms", "wall time per step", "run wall time (cortex-ti's own) divided by the steps"),
     "ms_geometry_per_solve": ("ms", "geometry per solve", "local frames and parabolic fits"),
-    "ms_assembly_per_solve": ("ms", "assembly per solve", "Taichi kernels writing the force balance rows"),
-    "ms_solve_per_solve": ("ms", "sparse solve per solve", "factorisation and solve of the constrained least squares"),
+    "ms_assembly_per_solve": ("ms", "assembly per solve", "building the formulation's sparse system"),
+    "ms_solve_per_solve": ("ms", "sparse solve per solve", "factorisation and solve of the constrained system"),
     "t_reached": ("t_a", "time reached", "end time of the run (earlier than t_end if it failed or became steady)"),
     "error": ("R0", "error of the radii against the axisymmetric solution of the same scene",
               "largest |3D - axisymmetric| of pole and furrow radius over the run's frames, against its axisymmetric "
@@ -149,7 +150,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     ``summary`` (path or None) and optionally ``params`` (the sweep row) and ``error`` (float)."""
     n = len(entries)
     data = {k: np.full(n, np.nan) for k in _COST_ATTRS}
-    status, studies, labels, nodes, scheme, fit, dt, implicit, residual, model = ([] for _ in range(10))
+    status, studies, labels, nodes, scheme, fit, dt, implicit, residual, model, formulation = ([] for _ in range(11))
     for i, e in enumerate(entries):
         b = read_benchmark(e["benchmark"])
         data["wall_s"][i] = b.get("s", np.nan)
@@ -165,6 +166,9 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         data["error_external"][i] = float(e.get("error_external", np.nan))
         status.append(s.get("status", "ok") if s else "ok")
         model.append(str(s.get("model", "3d")))
+        # a summary written before numerics.formulation existed is the paper's formulation's
+        formulation.append("-" if s.get("model") == "axisymmetric"
+                           else str(s.get("formulation", e.get("params", {}).get("formulation", "paper"))))
         studies.append(e["study"])
         labels.append(e["run"])
         p = e.get("params", {})
@@ -184,6 +188,9 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
               "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
                                    {"long_name": "semi-implicit active tension (time.implicit_tension)"}),
               "model": ("run", obj(model), {"long_name": "3d or axisymmetric"}),
+              "formulation": ("run", obj(formulation),
+                              {"long_name": "discretisation of the 3D force balance (numerics.formulation; - for "
+                                            "the axisymmetric model)"}),
               "fit_residual_weight": ("run", np.asarray(residual),
                                       {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"})}
     return xr.Dataset(variables, coords=coords,

@@ -11,24 +11,25 @@ itself, so the table says exactly what ran); :func:`scene_overrides` turns a row
 
 Parameters (columns) and the scene values they set:
 
-=========  =================================  =====================================
-column     scene key                          meaning
-=========  =================================  =====================================
-scene      (the base scene)                   built-in scene name or YAML file
-nodes      ``mesh.nodes``                     icosphere node count N
-fit        ``numerics.fit``                   quadratic (one ring) or quartic
-scheme     ``time.scheme``                    euler, heun, adaptive, adaptive_euler
-implicit   ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
-                                              is resolved for the row's scheme)
-residual   ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)
-dt         ``time.dt``                        (first) time step, t_a
-t_end      ``time.t_end``                     end time, t_a
-zeta_hat   ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
-p          ``active_stress.0.p``              exponent of Eq. 59
-gamma      ``mesh.shear``                     initial simple shear x -> x + gamma z
-tilt       ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
-                                              about +y, toward +x (the shear direction)
-=========  =================================  =====================================
+===========  =================================  =====================================
+column       scene key                          meaning
+===========  =================================  =====================================
+scene        (the base scene)                   built-in scene name or YAML file
+nodes        ``mesh.nodes``                     icosphere node count N
+formulation  ``numerics.formulation``           rayleigh_p1 (the default) or paper
+fit          ``numerics.fit``                   quadratic (one ring) or quartic
+scheme       ``time.scheme``                    euler, heun, adaptive, adaptive_euler
+implicit     ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
+                                                is resolved for the row's scheme)
+residual     ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)
+dt           ``time.dt``                        (first) time step, t_a
+t_end        ``time.t_end``                     end time, t_a
+zeta_hat     ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
+p            ``active_stress.0.p``              exponent of Eq. 59
+gamma        ``mesh.shear``                     initial simple shear x -> x + gamma z
+tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
+                                                about +y, toward +x (the shear direction)
+===========  =================================  =====================================
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ __all__ = ["PARAMETERS", "expand_runs", "twin_rows", "twin_key", "scene_override
 #: Column -> scene key it sets (``tilt`` is special: it sets the pattern axis).
 PARAMETERS: dict[str, str] = {
     "nodes": "mesh.nodes",
+    "formulation": "numerics.formulation",
     "fit": "numerics.fit",
     "scheme": "time.scheme",
     "implicit": "time.implicit_tension",
@@ -103,7 +105,7 @@ def _settings_value(settings, column: str):
         return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
     if column == "model":
         return settings.model
-    section, key = {"nodes": ("mesh", "nodes"), "fit": ("numerics", "fit"), "scheme": ("time", "scheme"),
+    section, key = {"nodes": ("mesh", "nodes"), "formulation": ("numerics", "formulation"), "fit": ("numerics", "fit"), "scheme": ("time", "scheme"),
                     "implicit": ("time", "implicit_tension"), "residual": ("numerics", "fit_residual_weight"),
                     "dt": ("time", "dt"), "t_end": ("time", "t_end"), "gamma": ("mesh", "shear")}[column]
     return getattr(getattr(settings, section), key)

@@ -7,6 +7,7 @@ from pathlib import Path
 import pandas as pd
 from snakemake.utils import Paramspace
 
+from cortex_ti.physics.formulations import FORMULATIONS
 from cortex_ti.studies.registry import FIGURES, STORES, STUDIES, TABLE_CATEGORY, TABLES
 from cortex_ti.studies.sweeps import expand_runs, job_resources as estimate_resources, scene_overrides, twin_key, twin_rows
 
@@ -26,7 +27,10 @@ SPACES.update({
 })
 FORMATS = config["figures"].get("formats", ["png", "pdf"])
 STATIC = config["static"]
-STATIC_RUNS = [(s, n, f) for s in STATIC["scenes"] for n in STATIC["nodes"] for f in STATIC["fit"]]
+# (scene, nodes, formulation, fit): the fits each formulation is asked for (config static.methods)
+STATIC_RUNS = [(s, n, form, f) for s in STATIC["scenes"] for n in STATIC["nodes"]
+               for form, fits in STATIC["methods"].items() for f in fits]
+STATIC_RUN = "results/runs/static/{scene}/{formulation}/N{nodes}_{fit}"
 
 STORE_FILES = expand("results/aggregate/{store}.nc", store=STORES)
 FIGURE_FILES = expand("results/figures/{name}.{fmt}", name=list(FIGURES), fmt=FORMATS)
@@ -40,6 +44,7 @@ wildcard_constraints:
     scene=r"[^/]+",
     nodes=r"\d+",
     fit=r"[a-z_]+",
+    formulation="|".join(FORMULATIONS),
 
 
 def run_rows(study):
@@ -58,7 +63,7 @@ def study_files(pattern, study):
 
 def static_files(pattern):
     """``pattern`` (run_static's output) for every static run."""
-    return [pattern.format(scene=s, nodes=n, fit=f) for s, n, f in STATIC_RUNS]
+    return [pattern.format(scene=s, nodes=n, formulation=form, fit=f) for s, n, form, f in STATIC_RUNS]
 
 
 def twin_trajectory(study, row):
@@ -75,8 +80,9 @@ def twin_trajectory(study, row):
 def cost_runs():
     """Every run of the workflow as (study, label, parameters, summary file, twin trajectory or
     None), for the cost store."""
-    out = [("static", f"{s} N={n} {f}", {"scene": s, "nodes": n, "fit": f},
-            f"results/runs/static/{s}/N{n}_{f}/summary.json", None) for s, n, f in STATIC_RUNS]
+    out = [("static", f"{s} N={n} {form} {f}", {"scene": s, "nodes": n, "formulation": form, "fit": f},
+            STATIC_RUN.format(scene=s, nodes=n, formulation=form, fit=f) + "/summary.json", None)
+           for s, n, form, f in STATIC_RUNS]
     for study in STUDIES:
         for pattern, row in zip(SPACES[study].instance_patterns, run_rows(study)):
             out.append((study, pattern, row, f"results/runs/{study}/{pattern}/summary.json",
@@ -111,9 +117,13 @@ def figure_inputs(wildcards):
     if spec.source == "store":
         return [f"results/aggregate/{store}.nc" for store in spec.data]
     if spec.source == "static":
+        # the registered resolution and method if the config runs them, else the nearest it has
         nodes = int(spec.data[0]) if int(spec.data[0]) in STATIC["nodes"] else max(STATIC["nodes"])
-        fit = spec.data[1] if spec.data[1] in STATIC["fit"] else STATIC["fit"][0]
-        return [f"results/runs/static/{s}/N{nodes}_{fit}/trajectory.h5" for s in STATIC["scenes"]]
+        methods = STATIC["methods"]
+        form = spec.data[2] if spec.data[2] in methods else next(iter(methods))
+        fit = spec.data[1] if spec.data[1] in methods[form] else methods[form][0]
+        return [STATIC_RUN.format(scene=s, nodes=nodes, formulation=form, fit=fit) + "/trajectory.h5"
+                for s in STATIC["scenes"]]
     return [f for study in spec.data for f in study_files("results/runs/{study}/{params}/trajectory.h5", study)]
 
 

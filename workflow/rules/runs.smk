@@ -5,12 +5,12 @@
 
 rule run_static:
     output:
-        trajectory="results/runs/static/{scene}/N{nodes}_{fit}/trajectory.h5",
-        summary="results/runs/static/{scene}/N{nodes}_{fit}/summary.json",
+        trajectory=STATIC_RUN + "/trajectory.h5",
+        summary=STATIC_RUN + "/summary.json",
     log:
-        "results/runs/static/{scene}/N{nodes}_{fit}/run.log",
+        STATIC_RUN + "/run.log",
     benchmark:
-        "results/runs/static/{scene}/N{nodes}_{fit}/benchmark.tsv"
+        STATIC_RUN + "/benchmark.tsv"
     threads: config["threads"]
     resources:
         mem_mb=lambda wc: job_resources("static", int(wc.nodes))["mem_mb"],
@@ -18,7 +18,8 @@ rule run_static:
     shell:
         "CORTEX_TI_THREADS={threads} OMP_NUM_THREADS={threads} MKL_NUM_THREADS={threads} "
         "cortex-ti -v run {wildcards.scene} -o {output.trajectory} --summary {output.summary} "
-        "--set mesh.nodes={wildcards.nodes} --set numerics.fit={wildcards.fit} > {log} 2>&1"
+        "--set mesh.nodes={wildcards.nodes} --set numerics.formulation={wildcards.formulation} "
+        "--set numerics.fit={wildcards.fit} > {log} 2>&1"
 
 
 rule run_dynamic:

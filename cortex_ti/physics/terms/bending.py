@@ -56,13 +56,20 @@ def hessian_weights(geometry, beta: np.ndarray) -> np.ndarray:
     return w
 
 
-def bending_weights(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
-    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n itself."""
+def bending_tensors(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
+    """``beta^cd`` (N, 2, 2) and ``beta_0`` (N,) of the module docstring: the normal force
+    ``beta^cd nabla_c nabla_d v_n + beta_0 v_n`` at each node."""
     gi = geometry.metric_inv
     _, cup, ctr, c2, c3 = curvature_invariants(geometry)
     beta = -2.0 * eta_bar * cup - (eta_bar_b - eta_bar) * ctr[:, None, None] * gi
-    w0 = 2.0 * eta_bar * (ctr * c2 - c3) - (eta_bar_b - eta_bar) * ctr * c2
-    return hessian_weights(geometry, beta), w0
+    beta0 = 2.0 * eta_bar * (ctr * c2 - c3) - (eta_bar_b - eta_bar) * ctr * c2
+    return beta, beta0
+
+
+def bending_weights(geometry, eta_bar: float, eta_bar_b: float) -> tuple[np.ndarray, np.ndarray]:
+    """Weights ``(N, 5)`` on the fitted derivatives of v_n and ``(N,)`` on v_n itself."""
+    beta, beta0 = bending_tensors(geometry, eta_bar, eta_bar_b)
+    return hessian_weights(geometry, beta), beta0
 
 
 @register

@@ -4,7 +4,7 @@ Explicit normal advection evaluates the tension's normal force ``-zeta C`` on th
 shape. A normal perturbation of wavenumber q changes C by ``q^2`` times its height, so
 the explicit step must resolve a relaxation rate that grows with q; where the discrete
 viscous operator holds such a mode only weakly (the stiff spurious modes of sheared,
-coarse meshes, :func:`cortex_ti.dynamics.spectrum.stiffest_normal_mode`) the step collapses.
+coarse meshes, :func:`cortex_ti.dynamics.spectrum.normal_spectrum`) the step collapses.
 
 The classical remedy for surface tension (the semi-implicit curvature of free-surface
 flow solvers) is to evaluate the curvature on the shape the step produces,

@@ -1,0 +1,72 @@
+"""The discretisations of the force balance a scene can choose (``numerics.formulation``).
+
+:data:`FORMULATIONS` is the one registry: the scene schema takes its names from it, the scene
+rules refuse a key that belongs to another formulation than the one chosen, and the simulation
+asks it for the system of a shape. Each entry says which ``numerics`` keys it reads and whether
+its geometry needs the fit residuals.
+
+* ``paper``: the paper's strong form (Sec. 3), the force balance at each node from the fitted
+  second derivatives, solved by constrained least squares (:mod:`cortex_ti.physics.assembly`).
+  Kept for reproduction: fourth order with the quartic fit on smooth shapes, but it has
+  grid-scale normal modes that grow unless a bending viscosity of about the mesh size squared
+  holds them down (``benchmarks/spectrum.py``).
+* ``rayleigh_p1``: the stationary point of the discrete Rayleighian with piecewise-linear
+  velocities integrated exactly over the flat triangles (:mod:`cortex_ti.physics.galerkin`):
+  symmetric positive semidefinite, the active force the exact gradient of the discrete energy,
+  so no spurious mode can grow; second order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..surface.geometry import Geometry
+from .assembly import assemble
+from .galerkin import PRESSURE_WEIGHTS, assemble_p1
+from .model import Physics
+
+__all__ = ["FORMULATIONS", "Formulation"]
+
+
+@dataclass(frozen=True)
+class Formulation:
+    """One discretisation: how it builds the system of a shape from the scene's ``numerics``."""
+
+    name: str
+    description: str
+    build: Callable            # (geometry, physics, zeta, faces, numerics, dt) -> system
+    keys: tuple[str, ...]      # the numerics keys only this formulation reads
+    uses_fit_residual: Callable = staticmethod(lambda numerics: False)
+
+    def system(self, geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray, numerics,
+               dt: float = 0.0):
+        """The linear system on one shape (``dt > 0``: the semi-implicit step of that length)."""
+        return self.build(geometry, physics, zeta, faces, numerics, dt)
+
+
+def _paper(geometry, physics, zeta, faces, numerics, dt):
+    return assemble(geometry, physics, zeta, numerics.fit_residual_weight, implicit_dt=dt)
+
+
+def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
+    return assemble_p1(geometry, physics, zeta, faces, implicit_dt=dt, pressure_weights=numerics.pressure_weights)
+
+
+#: name -> :class:`Formulation`
+FORMULATIONS: dict[str, Formulation] = {
+    "paper": Formulation(
+        "paper", "the paper's strong-form least squares with fitted second derivatives (Sec. 3), kept for "
+        "reproduction; fourth order with the quartic fit, but grid-scale normal modes grow without a mesh-sized "
+        "bending viscosity", _paper, keys=("fit_residual_weight",),
+        uses_fit_residual=lambda numerics: numerics.fit_residual_weight > 0),
+    "rayleigh_p1": Formulation(
+        "rayleigh_p1", "stationary point of the discrete Rayleighian, piecewise-linear velocities integrated "
+        "exactly on the flat triangles: symmetric positive semidefinite, no growing spurious modes; second order",
+        _rayleigh_p1, keys=("pressure_weights",)),
+}
+
+#: the choices of ``numerics.pressure_weights`` (rayleigh_p1), re-exported for the schema
+PRESSURE_WEIGHT_CHOICES = tuple(PRESSURE_WEIGHTS)
