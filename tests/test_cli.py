@@ -309,3 +309,47 @@ def test_console_script_runs(tmp_path):
     assert p_an == pytest.approx(2.0)
     assert error_measures(velocity, v_an)[1] < 0.043
     assert abs(pressure - p_an) < 0.02
+
+
+def test_a_solve_failing_mid_run_is_one_line_and_keeps_the_frames(tmp_path, capsys, monkeypatch):
+    """A failed factorisation in the middle of a run (PARDISO error -4 for an absurd step or
+    viscosity) is one line naming the solve, exit 2, and the frames written so far stay in
+    OUT.h5.partial."""
+    from cortex_ti.errors import SolverError
+    from cortex_ti.simulation import Simulation
+
+    calls = {"n": 0}
+    original = Simulation.evaluate
+
+    def failing(self, points, dt=0.0):
+        calls["n"] += 1
+        if calls["n"] > 6:
+            raise SolverError("the sparse factorisation of the force balance failed (PyPardisoError error code -4)")
+        return original(self, points, dt)
+
+    monkeypatch.setattr(Simulation, "evaluate", failing)
+    out = tmp_path / "x.h5"
+    rc, stdout, stderr = run(["run", "furrow_p4_a1", "-o", str(out), "--set", "mesh.nodes=162", "--set",
+                              "time.scheme=euler", "--set", "time.dt=1e-3", "--set", "time.save_every=1e-3"], capsys)
+    assert rc == 2
+    lines = [ln for ln in stderr.strip().splitlines() if ln.startswith("cortex-ti: error:")]
+    assert len(lines) == 1 and "the solve at t = 0.006 for a step dt = 0.001 failed" in lines[0]
+    assert not out.exists()
+    with xr.open_dataset(partial_path(out), engine="h5netcdf") as ds:
+        assert ds.sizes["time"] == 6
+
+
+@pytest.mark.parametrize("overrides, words", [
+    (["viscosity.shear=1e308"], "viscosities"),
+    (["viscosity.shear=1e308", "numerics.formulation=paper"], "viscosities"),
+    (["time.dt=1e9", "time.scheme=euler", "numerics.formulation=paper"], "time.dt"),
+])
+def test_an_impossible_solve_is_one_line(tmp_path, capsys, overrides, words):
+    """Finite but absurd input the schema lets through: the solve fails, and says which and why."""
+    args = ["run", "furrow_p4_a1", "-o", str(tmp_path / "y.h5"), "--set", "mesh.nodes=162"]
+    for o in overrides:
+        args += ["--set", o]
+    rc, stdout, stderr = run(args, capsys)
+    assert rc == 2
+    assert stderr.strip().count("\n") == 0 and stderr.startswith("cortex-ti: error: the solve at t = 0")
+    assert words in stderr

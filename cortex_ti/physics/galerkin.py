@@ -135,9 +135,11 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
     proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]          # (T, 3, 3)
     gg = grads @ grads.transpose(0, 2, 1)                                    # g_k . g_m
     outer = grads[:, :, :, None, None] * grads[:, None, None, :, :]          # [t,k,i,m,j] = g_ki g_mj
-    blk = eta_s * (gg[:, :, None, :, None] * proj[:, None, :, None, :] + outer.transpose(0, 3, 2, 1, 4))
-    blk += (eta_b - eta_s) * outer
-    return area[:, None, None] * blk.reshape(-1, 9, 9)
+    # absurd viscosities (1e308) overflow here; the solver then refuses the matrix in one line
+    with np.errstate(over="ignore", invalid="ignore"):
+        blk = eta_s * (gg[:, :, None, :, None] * proj[:, None, :, None, :] + outer.transpose(0, 3, 2, 1, 4))
+        blk += (eta_b - eta_s) * outer
+        return area[:, None, None] * blk.reshape(-1, 9, 9)
 
 
 def _normal_form(geometry: Geometry, physics: Physics, zeta: np.ndarray, implicit_dt: float,
