@@ -1,4 +1,5 @@
-"""What the two stabilisations cost and change: the fit-residual rows and the semi-implicit tension.
+"""What the two stabilisations of the paper's formulation cost and change: the fit-residual rows and
+the semi-implicit tension (formulation paper throughout; rayleigh_p1 needs no rows).
 
 For each fit scheme and fit-residual weight, on the furrow's initial sphere (``furrow_p8_a1``):
 milliseconds per solve by stage (geometry, assembly, solve; the median of ``--repeat`` solves of
@@ -29,6 +30,7 @@ SPHERES = ("sphere_y20_full", "sphere_y21_full", "sphere_y20_tangential")
 
 def stage_times(nodes: int, fit: str, weight: float, repeat: int, dt: float) -> dict[str, float]:
     sim = Simulation(load_scene("furrow_p8_a1", [f"mesh.nodes={nodes}", f"numerics.fit={fit}",
+                                                 "numerics.formulation=paper",
                                                  f"numerics.fit_residual_weight={weight}"]))
     sim.solve(dt=dt)   # warm-up: kernels compiled, symbolic analysis done
     runs = [sim.solve(dt=dt).seconds for _ in range(repeat)]
@@ -36,7 +38,7 @@ def stage_times(nodes: int, fit: str, weight: float, repeat: int, dt: float) -> 
 
 
 def sphere_error(scene_name: str, nodes: int, fit: str, weight: float) -> float:
-    scene = load_scene(scene_name, [f"mesh.nodes={nodes}", f"numerics.fit={fit}",
+    scene = load_scene(scene_name, [f"mesh.nodes={nodes}", f"numerics.fit={fit}", "numerics.formulation=paper",
                                     f"numerics.fit_residual_weight={weight}"])
     sim = Simulation(scene)
     sol = sim.solve()

@@ -1,7 +1,10 @@
-"""Do widened fit stencils keep the convergence order? Static Y20 full on icospheres whose
-valence-5 nodes get the two-ring stencil (what StencilChooser does at degenerate nodes), and on
-irregular meshes read through ``mesh.file`` (icospheres with their nodes moved tangentially at
-random by up to ``--jitter`` of the local edge length and put back on the sphere; a fixed seed).
+"""Do widened fit stencils and user meshes keep the convergence order? Static Y20 full on
+icospheres whose valence-5 nodes get the two-ring stencil (what StencilChooser does at degenerate
+nodes), and on meshes read through ``mesh.file``: a smoothly graded one (every icosphere node
+moved along the sphere by a smooth tangential field, so the node spacing varies by a factor ~2
+over the sphere, the same map at every resolution) and an irregular one (nodes moved
+tangentially at random by up to ``--jitter`` of the local edge length and put back on the
+sphere; a fixed seed; irregular at every scale, so no method keeps its order there).
 
 Usage::
 
@@ -39,6 +42,22 @@ def jittered_mesh(nodes: int, amount: float, path: str) -> None:
     meshio.write(path, meshio.Mesh(x, [("triangle", m.faces)]))
 
 
+def graded_mesh(nodes: int, path: str, strength: float = 0.35) -> None:
+    """The icosphere mapped by x -> normalise(x + strength * z * (e_z x x) + strength * (x_z^2 - 1/3) e_z):
+    smooth, so the mesh family is as regular as the icosphere's, but not uniform."""
+    import meshio
+
+    from cortex_ti.surface.mesh import icosphere
+
+    m = icosphere(nodes)
+    x = m.points
+    swirl = np.cross(np.array([0.0, 0.0, 1.0]), x) * x[:, 2:3]
+    lift = (x[:, 2:3] ** 2 - 1.0 / 3.0) * np.array([0.0, 0.0, 1.0])
+    y = x + strength * (swirl + lift)
+    y /= np.linalg.norm(y, axis=1)[:, None]
+    meshio.write(path, meshio.Mesh(y, [("triangle", m.faces)]))
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562, 10242])
@@ -55,15 +74,19 @@ def main(argv=None) -> int:
     runtime.init(threads=1)
     print("| mesh | N | fit | formulation | Y20 full eps_rel | ratio |")
     print("|---|---|---|---|---|---|")
-    for kind, form in ((k, f) for f in args.formulations for k in ("icosphere", "valence-5 widened", "jittered file")):
+    kinds = ("icosphere", "valence-5 widened", "graded file", "jittered file")
+    for kind, form in ((k, f) for f in args.formulations for k in kinds):
         prev = None
         for n in args.nodes:
             ov = [f"mesh.nodes={n}", f"numerics.fit={args.fit}", f"numerics.formulation={form}",
                   "solver.reuse=false"] + args.overrides
             tmp = None
-            if kind == "jittered file":
+            if kind.endswith("file"):
                 tmp = tempfile.NamedTemporaryFile(suffix=".ply", delete=False).name
-                jittered_mesh(n, args.jitter, tmp)
+                if kind == "jittered file":
+                    jittered_mesh(n, args.jitter, tmp)
+                else:
+                    graded_mesh(n, tmp)
                 ov.append(f"mesh.file={tmp}")
             scene = load_scene("sphere_y20_full", ov)
             sim = Simulation(scene)
