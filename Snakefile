@@ -17,6 +17,11 @@ if os.environ.get("PATH", "").split(os.pathsep)[0] != _bin:
     os.environ["PATH"] = os.pathsep.join(p for p in (_bin, os.environ.get("PATH")) if p)
 
 
+# the jobs need PATH (set above); snakemake passes it on to remote jobs
+envvars:
+    "PATH",
+
+
 # the default; --configfile FILE overrides it (paths relative to this file, so --directory works)
 configfile: os.path.join(workflow.basedir, "config", "config.yaml")
 

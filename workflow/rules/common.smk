@@ -1,6 +1,7 @@
 # Sweep tables (config -> one row per run), run folders, job resources, and the lists of stores,
 # figures and tables: everything the rules compute, in one place (the registry of studies and
 # figures is cortex_ti.studies.registry).
+import os
 import shlex
 from pathlib import Path
 
@@ -30,7 +31,9 @@ STATIC = config["static"]
 # (scene, nodes, formulation, fit): the fits each formulation is asked for (config static.methods)
 STATIC_RUNS = [(s, n, form, f) for s in STATIC["scenes"] for n in STATIC["nodes"]
                for form, fits in STATIC["methods"].items() for f in fits]
-STATIC_RUN = "results/runs/static/{scene}/{formulation}/N{nodes}_{fit}"
+# one folder per static run, and its files
+STATIC_RUN = {name: os.path.join("results", "runs", "static", "{scene}", "{formulation}", "N{nodes}_{fit}", name)
+              for name in ("trajectory.h5", "summary.json", "run.log", "benchmark.tsv")}
 
 STORE_FILES = expand("results/aggregate/{store}.nc", store=STORES)
 FIGURE_FILES = expand("results/figures/{name}.{fmt}", name=list(FIGURES), fmt=FORMATS)
@@ -81,7 +84,7 @@ def cost_runs():
     """Every run of the workflow as (study, label, parameters, summary file, twin trajectory or
     None), for the cost store."""
     out = [("static", f"{s} N={n} {form} {f}", {"scene": s, "nodes": n, "formulation": form, "fit": f},
-            STATIC_RUN.format(scene=s, nodes=n, formulation=form, fit=f) + "/summary.json", None)
+            STATIC_RUN["summary.json"].format(scene=s, nodes=n, formulation=form, fit=f), None)
            for s, n, form, f in STATIC_RUNS]
     for study in STUDIES:
         for pattern, row in zip(SPACES[study].instance_patterns, run_rows(study)):
@@ -122,7 +125,7 @@ def figure_inputs(wildcards):
         methods = STATIC["methods"]
         form = spec.data[2] if spec.data[2] in methods else next(iter(methods))
         fit = spec.data[1] if spec.data[1] in methods[form] else methods[form][0]
-        return [STATIC_RUN.format(scene=s, nodes=nodes, formulation=form, fit=fit) + "/trajectory.h5"
+        return [STATIC_RUN["trajectory.h5"].format(scene=s, nodes=nodes, formulation=form, fit=fit)
                 for s in STATIC["scenes"]]
     return [f for study in spec.data for f in study_files("results/runs/{study}/{params}/trajectory.h5", study)]
 

@@ -5,12 +5,12 @@
 
 rule run_static:
     output:
-        trajectory=STATIC_RUN + "/trajectory.h5",
-        summary=STATIC_RUN + "/summary.json",
+        trajectory=STATIC_RUN["trajectory.h5"],
+        summary=STATIC_RUN["summary.json"],
     log:
-        STATIC_RUN + "/run.log",
+        STATIC_RUN["run.log"],
     benchmark:
-        STATIC_RUN + "/benchmark.tsv"
+        STATIC_RUN["benchmark.tsv"]
     threads: config["threads"]
     resources:
         mem_mb=lambda wc: job_resources("static", int(wc.nodes))["mem_mb"],
