@@ -55,6 +55,15 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
         assert row and int(row[0][1]) == n, f"{rule}: expected {n} jobs"
 
 
+def test_lint_gives_only_the_environment_advice(tmp_path):
+    """``snakemake --lint`` finds nothing but its advice to give each rule a conda environment or a
+    container (the README says why the package's own install is the environment)."""
+    res = snakemake(tmp_path, "--lint", timeout=300)
+    lints = {line.strip()[2:].rstrip(":") for line in (res.stdout + res.stderr).splitlines()
+             if line.startswith("    * ")}
+    assert lints == {"Specify a conda environment or container for each rule."}, lints
+
+
 def test_slurm_profile_dry_runs(tmp_path):
     pytest.importorskip("snakemake_executor_plugin_slurm")
     shutil.copytree(ROOT / "profiles", tmp_path / "profiles")
