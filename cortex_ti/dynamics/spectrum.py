@@ -122,6 +122,41 @@ class NormalJacobian:
         return spla.LinearOperator((self.n_nodes, self.n_nodes), matvec=self.matvec, dtype=float)
 
 
+class _Assembled:
+    """The entries of ``F_X`` gathered colour by colour, each attributed to the perturbed node
+    whose ring it lies in (what falls outside every ring is measured as the ``leak``)."""
+
+    def __init__(self, n: int, nb: int):
+        self.n, self.nb = n, nb
+        self.x: list[tuple] = []          # (rows, owners, values) of F_X on the unknowns
+        self.normal: list[tuple] = []     # the same for (dn_i/dX [s n]) . v_i
+        self.fs = None
+        self.leak2 = self.total2 = 0.0
+
+    def add(self, owner: np.ndarray, dvec: np.ndarray, dsc: np.ndarray, dnv: np.ndarray) -> None:
+        if self.fs is None:
+            self.fs = np.zeros((dsc.shape[0], self.n))
+        own = owner[np.arange(dvec.size) // self.nb]
+        inside = own >= 0
+        nz = inside & (dvec != 0.0)
+        self.x.append((np.flatnonzero(nz), own[nz], dvec[nz]))
+        self.leak2 += float(np.sum(dvec[~inside] ** 2)) + float(np.sum(dsc[:, owner < 0] ** 2))
+        self.total2 += float(np.sum(dvec ** 2)) + float(np.sum(dsc ** 2))
+        ins = owner >= 0
+        np.add.at(self.fs, (slice(None), owner[ins]), dsc[:, ins])
+        nzn = ins & (dnv != 0.0)
+        self.normal.append((np.flatnonzero(nzn), owner[nzn], dnv[nzn]))
+
+    @staticmethod
+    def _matrix(parts, shape) -> sp.csr_matrix:
+        rows, cols, vals = (np.concatenate(k) for k in zip(*parts))
+        return sp.csr_matrix((vals, (rows, cols)), shape=shape)
+
+    def matrices(self) -> tuple[sp.csr_matrix, np.ndarray, sp.csr_matrix, float]:
+        return (self._matrix(self.x, (self.n * self.nb, self.n)), self.fs,
+                self._matrix(self.normal, (self.n, self.n)), float(np.sqrt(self.leak2 / max(self.total2, 1e-300))))
+
+
 def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None = None,
                     backend: str = "auto") -> NormalJacobian:
     """Linearise the normal dynamics of ``sim``'s formulation at the shape ``points``.
@@ -140,12 +175,11 @@ def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None 
     velocity = system.velocity(unknowns)
     normal, basis = geo.normal.copy(), system.basis.copy()
     n = x0.shape[0]
-    nb = basis.shape[1]
-    if eps is None:
-        eps = 1e-5 * float(np.mean(geo.edge_length))
+    eps = 1e-5 * float(np.mean(geo.edge_length)) if eps is None else eps
     t1 = time.perf_counter()
 
     def parts(pts):
+        """The optimality conditions at the base solution on the shape ``pts``, and its normals."""
         g = sim.shape_geometry(pts)
         sysm = sim.system(g, dt)
         if sysm.basis.shape != basis.shape:
@@ -156,45 +190,20 @@ def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None 
     adj = adjacency(sim.topology.ring)
     radius = influence_radius(sim)
     colour = distance_colouring(adj, 2 * radius + 1)
-    rows_x, cols_x, vals_x = [], [], []
-    rows_n, cols_n, vals_n = [], [], []
-    fs = None
-    leak2, total2 = 0.0, 0.0
+    gathered = _Assembled(n, basis.shape[1])
     for c in range(int(colour.max()) + 1):
         src = np.flatnonzero(colour == c)
         dist, _, owner = csgraph.dijkstra(adj, directed=False, indices=src, unweighted=True, limit=radius + 0.5,
                                           min_only=True, return_predecessors=True)
-        owner = np.where(np.isfinite(dist), owner, -1)
         d = np.zeros(n)
         d[src] = eps
-        vp, sp_, np_ = parts(x0 + d[:, None] * normal)
-        vm, sm_, nm_ = parts(x0 - d[:, None] * normal)
-        dvec = (vp - vm) / (2 * eps)
-        dsc = (sp_ - sm_) / (2 * eps)
-        dnv = np.einsum("nc,nc->n", (np_ - nm_) / (2 * eps), velocity)
-        if fs is None:
-            fs = np.zeros((dsc.shape[0], n))
-        node_of = np.arange(dvec.size) // nb
-        own = owner[node_of]
-        inside = own >= 0
-        nz = inside & (dvec != 0.0)
-        rows_x.append(np.flatnonzero(nz))
-        cols_x.append(own[nz])
-        vals_x.append(dvec[nz])
-        leak2 += float(np.sum(dvec[~inside] ** 2)) + float(np.sum(dsc[:, owner < 0] ** 2))
-        total2 += float(np.sum(dvec ** 2)) + float(np.sum(dsc ** 2))
-        ins = owner >= 0
-        np.add.at(fs, (slice(None), owner[ins]), dsc[:, ins])
-        nzn = ins & (dnv != 0.0)
-        rows_n.append(np.flatnonzero(nzn))
-        cols_n.append(owner[nzn])
-        vals_n.append(dnv[nzn])
-    fx = sp.csr_matrix((np.concatenate(vals_x), (np.concatenate(rows_x), np.concatenate(cols_x))),
-                       shape=(n * nb, n))
-    dn = sp.csr_matrix((np.concatenate(vals_n), (np.concatenate(rows_n), np.concatenate(cols_n))), shape=(n, n))
+        (vp, sp_, np_), (vm, sm_, nm_) = parts(x0 + d[:, None] * normal), parts(x0 - d[:, None] * normal)
+        gathered.add(np.where(np.isfinite(dist), owner, -1), (vp - vm) / (2 * eps), (sp_ - sm_) / (2 * eps),
+                     np.einsum("nc,nc->n", (np_ - nm_) / (2 * eps), velocity))
+    fx, fs, dn, leak = gathered.matrices()
     t2 = time.perf_counter()
     return NormalJacobian(n_nodes=n, normal=normal, basis=basis, fx=fx, fs=fs, dn=dn, solver=solver,
-                          velocity=velocity, leak=float(np.sqrt(leak2 / max(total2, 1e-300))),
+                          velocity=velocity, leak=leak,
                           seconds={"solve": t1 - t0, "linearise": t2 - t1, "colours": int(colour.max()) + 1})
 
 
