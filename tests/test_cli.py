@@ -224,12 +224,12 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     assert rc == 0
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov",
-        "  time: adaptive_euler from dt = 0.0005 to t = 3.5, semi-implicit tension"]
+        "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension"]
     rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162", "--set", "time.scheme=heun",
                          "--set", "numerics.formulation=paper", "--set", "numerics.fit_residual_weight=1e-3"], capsys)
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation paper, quadratic fit; fit-residual rows at 0.001",
-        "  time: heun from dt = 0.0005 to t = 3.5, explicit tension"]
+        "  time: heun from dt = 0.005 to t = 3.5, explicit tension"]
 
 
 def test_check_rejects_bad_scene(capsys):

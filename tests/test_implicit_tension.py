@@ -168,23 +168,23 @@ def test_the_stalled_shear_frame_is_stable_with_the_implicit_tension():
 @pytest.mark.hard
 @pytest.mark.slow
 def test_shear_075_runs_to_the_paper_end_time(tmp_path):
-    """The paper's sheared cortex (gamma = 0.75, 2562 nodes, paper parameters, the default
-    formulation rayleigh_p1, semi-implicit adaptive Euler) to t = 3.5: 181 steps. There is no
+    """The paper's sheared cortex (gamma = 0.75, 2562 nodes, paper parameters, the scene's defaults:
+    rayleigh_p1, Euler at 5e-3 with the semi-implicit tension) to t = 3.5 in 700 steps. There is no
     exact solution for a sheared cortex; checked against the scene's invariants and, as a
     cross-check of two discretisations, against the paper's formulation run with the explicit step
     up to t = 1.34, where it stalled (tests/data/shear_075_explicit_to_t1.34.csv): measured
-    largest differences 1.07 deg in the orientation (55 -> 9 deg), 7.0e-3 and 6.3e-3 R0 in the
-    furrow and pole radii."""
+    largest differences 0.82 deg in the orientation (55 -> 8.4 deg), 5.2e-3 and 5.4e-3 R0 in the
+    furrow and pole radii; volume drift 2.5e-3 (Euler's second-order term at dt = 5e-3)."""
     out = tmp_path / "shear_075.h5"
     sim = Simulation(load_scene("shear_075", ["time.save_every=0.05"]))
     sim.run(out, progress=False)
     ds = load_trajectory(out)
     t = ds["time"].values
     assert t[-1] == pytest.approx(3.5)
-    assert sim.stats.steps < 300
+    assert sim.stats.steps == 700
     ref = pd.read_csv(DATA / "shear_075_explicit_to_t1.34.csv", comment="#")
-    for col, var, tol in (("orientation_angle_deg", "orientation_angle", 1.2),
-                          ("furrow_radius", "furrow_radius", 8e-3), ("pole_radius", "pole_radius", 7e-3)):
+    for col, var, tol in (("orientation_angle_deg", "orientation_angle", 0.9),
+                          ("furrow_radius", "furrow_radius", 6e-3), ("pole_radius", "pole_radius", 6e-3)):
         ours = np.interp(ref["time"], t, ds[var].values)
         assert np.max(np.abs(ours - ref[col])) < tol, col
     angle = ds["orientation_angle"].values
@@ -193,5 +193,5 @@ def test_shear_075_runs_to_the_paper_end_time(tmp_path):
     furrow = ds["furrow_radius"].values
     assert furrow[-1] < 0.775 and furrow[-1] < furrow[len(t) // 2]  # and the furrow keeps closing
     vol = ds["volume"].values
-    assert np.max(np.abs(vol / vol[0] - 1.0)) < 2.5e-3             # measured 1.85e-3
+    assert np.max(np.abs(vol / vol[0] - 1.0)) < 3e-3               # measured 2.5e-3
     assert float(ds["min_angle_deg"].min()) > 25.0                  # measured 27.5 deg
