@@ -1,10 +1,10 @@
 """What accuracy costs in time: the four analytic sphere scenes (paper Figs. 2, 3).
 
-For every node count N and fit scheme this prints the time of the geometry, the
+For every node count N and method (formulation and fit) this prints the time of the geometry, the
 assembly and the solve, the peak memory, and the errors eps / eps_rel (paper Eqs.
 57-58) of the four sphere scenes against their analytic solutions.
 
-Each (N, scheme) runs in its own process so the peak memory is that
+Each (N, method) runs in its own process so the peak memory is that
 configuration's own (it includes the ~0.25 GB of the Python/Taichi runtime).
 Times are wall-clock seconds of one solve of a new shape:
 
@@ -37,8 +37,8 @@ from pathlib import Path
 SCENES = ("sphere_y20_full", "sphere_y20_tangential", "sphere_y21_full", "sphere_y21_tangential")
 
 
-def one(nodes: int, scheme: str, backend: str) -> list[dict]:
-    """Run the four scenes at one resolution; return one record per scene."""
+def one(nodes: int, method: str, backend: str) -> list[dict]:
+    """Run the four scenes at one resolution with one method (``formulation:fit``); one record per scene."""
     import numpy as np
 
     from cortex_ti import runtime
@@ -49,8 +49,9 @@ def one(nodes: int, scheme: str, backend: str) -> list[dict]:
     runtime.init(threads=int(os.environ.get("CORTEX_TI_THREADS", "0")) or None)
     out = []
     for name in SCENES:
-        scene = load_scene(name, [f"mesh.nodes={nodes}", f"numerics.fit={scheme}", f"solver.backend={backend}",
-                                  "solver.reuse=false"])
+        formulation, scheme = method.split(":")
+        scene = load_scene(name, [f"mesh.nodes={nodes}", f"numerics.formulation={formulation}",
+                                  f"numerics.fit={scheme}", f"solver.backend={backend}", "solver.reuse=false"])
         sim = Simulation(scene)
         cold = sim.solve()
         jitter = 1e-4 * np.random.default_rng(0).standard_normal(sim.mesh.points.shape)
@@ -58,7 +59,7 @@ def one(nodes: int, scheme: str, backend: str) -> list[dict]:
         sol = sim.solve()  # the accuracy is measured on the exact sphere
         eps, eps_rel = analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))
         out.append(dict(
-            scene=name, nodes=nodes, scheme=scheme, backend=sim.solver.backend, eps=eps, eps_rel=eps_rel,
+            scene=name, nodes=nodes, method=method, backend=sim.solver.backend, eps=eps, eps_rel=eps_rel,
             **{f"cold_{k}": v for k, v in cold.seconds.items()},
             **{f"warm_{k}": v for k, v in warm.seconds.items()},
             residual=sol.info.relative_residual, constraint=sol.info.constraint_violation,
@@ -88,35 +89,36 @@ def machine() -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562, 10242])
-    p.add_argument("--schemes", nargs="+", default=["quadratic", "quartic"])
+    p.add_argument("--methods", nargs="+", default=["paper:quadratic", "paper:quartic", "rayleigh_p1:quadratic"],
+                   help="formulation:fit pairs")
     p.add_argument("--backend", default="auto")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/static.csv"))
-    p.add_argument("--one", nargs=2, metavar=("NODES", "SCHEME"), help=argparse.SUPPRESS)
+    p.add_argument("--one", nargs=2, metavar=("NODES", "METHOD"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.one:
         print(json.dumps(one(int(args.one[0]), args.one[1], args.backend)))
         return 0
     rows = []
-    for scheme in args.schemes:
+    for method in args.methods:
         for n in args.nodes:
             t0 = time.perf_counter()
-            res = subprocess.run([sys.executable, __file__, "--one", str(n), scheme, "--backend", args.backend],
+            res = subprocess.run([sys.executable, __file__, "--one", str(n), method, "--backend", args.backend],
                                  capture_output=True, text=True)
             if res.returncode != 0:
-                print(f"# {scheme} N={n} failed: {res.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
+                print(f"# {method} N={n} failed: {res.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
                 continue
             rows += json.loads(res.stdout.strip().splitlines()[-1])
-            print(f"# {scheme} N={n} done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+            print(f"# {method} N={n} done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with open(args.out, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     print(f"Machine: {machine()}; backend {rows[0]['backend']}\n")
-    print("| fit | N | scene | eps | eps_rel | geometry s | assembly s | solve s (cold / warm) | peak MB |")
+    print("| formulation:fit | N | scene | eps | eps_rel | geometry s | assembly s | solve s (cold / warm) | peak MB |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['scheme']} | {r['nodes']} | {r['scene'].replace('sphere_', '')} | {r['eps']:.2e} | {r['eps_rel']:.2e} | "
+        print(f"| {r['method']} | {r['nodes']} | {r['scene'].replace('sphere_', '')} | {r['eps']:.2e} | {r['eps_rel']:.2e} | "
               f"{r['warm_geometry']:.3f} | {r['warm_assembly']:.3f} | {r['cold_solve']:.2f} / {r['warm_solve']:.2f} | "
               f"{r['peak_mb']:.0f} |")
     print(f"\n(csv: {args.out})")
