@@ -293,7 +293,7 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     sel = ds.isel(run=np.flatnonzero(study == "accuracy")) if "accuracy" in set(study) else ds
     forms = sorted(set(sel["formulation"].values.astype(str)), key=lambda f: (f != "rayleigh_p1", f)) or ["-"]
     fig = Figure(figsize=(5.2 * len(forms) + 5.5, 4.8), layout="constrained")
-    axes = fig.subplots(1, len(forms) + 1, width_ratios=[1.0] * len(forms) + [0.95])
+    axes = fig.subplots(1, len(forms) + 1, width_ratios=[1.0] * len(forms) + [1.1])
     panels, tab = axes[:-1], axes[-1]
     wall, err = sel["wall_s"].values, sel["error"].values
     ok = np.asarray(sel["status"].values == "ok") & np.isfinite(err)
@@ -305,6 +305,7 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     front = pareto_front(np.where(ok, wall, np.nan), np.where(ok, err, np.nan))
     top = np.nanmax(err[ok]) * 2.5 if ok.any() else 1.0
     twin_wall = ds["wall_s"].values[(study == "axisymmetric")] if "axisymmetric" in set(study) else []
+    handles = []
     for ax, form in zip(panels, forms):
         mine = form_of == form
         for i in np.flatnonzero(ok & mine):
@@ -312,33 +313,44 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
             ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=c,
                       mfc=c if implicit[i] else "none", zorder=3)
         if front.size:
-            ax.loglog(wall[front], err[front], "k--", lw=1.2, zorder=2, label="Pareto front (all runs)")
+            (h,) = ax.loglog(wall[front], err[front], "k--", lw=1.2, zorder=2, label="Pareto front (all runs)")
         failed = np.flatnonzero(~ok & mine)
         if failed.size:
-            ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8,
-                      label=f"failed ({failed.size}; see the cost table)")
+            ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8, label=f"failed ({failed.size})")
         if len(twin_wall):
-            ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
-                       label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
+            v = ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
+                           label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
         ax.set_title(f"formulation {form}", fontsize=9)
         ax.set_xlabel("wall time of the run (s, one job, start-up included)")
-    for n, c in colours.items():
-        panels[0].plot([], [], "s", color=c, label=f"N = {n}")
-    for name, m in markers.items():
-        if name in set(sel["scheme"].values):
-            panels[0].plot([], [], m, color="0.4", mfc="none", label=name)
-    panels[0].plot([], [], "o", color="0.4", label="filled: semi-implicit tension")
+        ax.grid(True, which="both", lw=0.3, alpha=0.5)
+    if front.size:
+        handles.append(h)
+    if len(twin_wall):
+        handles.append(v)
+    if (~ok).any():
+        handles.append(panels[0].plot([], [], "rx", ms=8, label="failed (see the cost table)")[0])
+    handles += [panels[0].plot([], [], "s", color=c, label=f"N = {n}")[0] for n, c in colours.items()]
+    handles += [panels[0].plot([], [], m, color="0.4", mfc="none", label=name)[0]
+                for name, m in markers.items() if name in set(sel["scheme"].values)]
+    handles.append(panels[0].plot([], [], "o", color="0.4", label="filled: semi-implicit tension")[0])
     panels[0].set_ylabel(r"max |radius - axisymmetric| / $R_0$")
-    if len(panels) > 1:
-        for ax in panels[1:]:
-            ax.sharey(panels[0])
-            ax.sharex(panels[0])
+    _common_limits(panels, np.r_[wall[np.isfinite(wall)], list(twin_wall)],
+                   np.r_[err[ok], [top] if (~ok).any() else []])
     scenes = ", ".join(sorted({m.group(1) for m in map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
                                if m}))
     fig.suptitle(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=10)
-    panels[0].legend(fontsize=7, loc="lower left")
     _pareto_table(tab, sel, front)
+    tab.legend(handles=handles, fontsize=7, loc="lower center", ncol=2, frameon=False)
     return fig
+
+
+def _common_limits(panels, xs: np.ndarray, ys: np.ndarray) -> None:
+    """The same log axes in every panel, wide enough for every point (and a factor 1.5 around)."""
+    xs, ys = xs[np.isfinite(xs) & (xs > 0)], ys[np.isfinite(ys) & (ys > 0)]
+    if xs.size and ys.size:
+        for ax in panels:
+            ax.set_xlim(xs.min() / 1.5, xs.max() * 1.5)
+            ax.set_ylim(ys.min() / 1.5, ys.max() * 1.5)
 
 
 def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
@@ -354,6 +366,7 @@ def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
                      loc="upper center", cellLoc="center")
     table.auto_set_font_size(False)
     table.set_fontsize(7)
+    table.auto_set_column_width(list(range(len(rows[0]))))
     table.scale(1.0, 1.3)
     ax.set_title("the Pareto front: nothing is both cheaper and more accurate", fontsize=9)
 
