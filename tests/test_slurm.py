@@ -111,13 +111,17 @@ def _profile(tmp_path: Path) -> Path:
 
 
 def _n_simulation_jobs(config: dict) -> int:
+    """The jobs the workflow submits for ``config``: the static runs (scenes x nodes x the fits of
+    every formulation), the configured studies' runs and their axisymmetric twins."""
     from cortex_ti.studies.registry import STUDIES
-    from cortex_ti.studies.sweeps import expand_runs
+    from cortex_ti.studies.sweeps import expand_runs, twin_rows
 
-    n_static = 1
-    for k in ("scenes", "nodes", "fit"):
-        n_static *= len(config["static"][k])
-    return n_static + sum(len(expand_runs(s, config[s]["runs"])) for s in STUDIES)
+    static = config["static"]
+    n_static = len(static["scenes"]) * len(static["nodes"]) * sum(len(f) for f in static["methods"].values())
+    rows = {s: expand_runs(s, config[s]["runs"]) for s, spec in STUDIES.items() if not spec.twin_of}
+    n_twins = sum(len(twin_rows([r for src in spec.twin_of for r in rows[src]], spec.columns))
+                  for spec in STUDIES.values() if spec.twin_of)
+    return n_static + sum(map(len, rows.values())) + n_twins
 
 
 def _sacct(run_id: str, since: str) -> list[dict[str, str]]:
