@@ -353,3 +353,16 @@ def test_an_impossible_solve_is_one_line(tmp_path, capsys, overrides, words):
     assert rc == 2
     assert stderr.strip().count("\n") == 0 and stderr.startswith("cortex-ti: error: the solve at t = 0")
     assert words in stderr
+
+
+@pytest.mark.parametrize("model", ["3d", "axisymmetric"])
+def test_frames_land_on_the_extra_save_times(tmp_path, capsys, model):
+    """``time.save_times`` adds frames at exactly those times (a figure's snapshot times), the
+    regular grid of ``save_every`` staying where it was, and nothing past ``t_end``."""
+    out = tmp_path / "x.h5"
+    rc, _, err = run(["run", "furrow_p4_a1", "-o", str(out), "--set", f"model={model}", "--set", "mesh.nodes=162",
+                      "--set", "time.scheme=euler", "--set", "time.dt=5e-3", "--set", "time.t_end=0.025",
+                      "--set", "time.save_times=[0.0035, 0.087, 0.02]"], capsys)
+    assert rc == 0, err
+    with open_output(out) as ds:
+        np.testing.assert_allclose(ds["time"].values, [0.0, 0.0035, 0.01, 0.02, 0.025], rtol=0, atol=1e-12)

@@ -91,7 +91,7 @@ def test_shipped_scene_values(name):
     # defaults filled from the schema
     assert scene["solver"] == {"backend": "auto", "reuse": True, "rtol": 1e-10, "refine": True}
     assert scene["time"] == {"dt": 5e-4, "t_end": 3.0, "scheme": "euler", "save_every": 0.01,
-                             "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05, "implicit_tension": "auto"}
+                             "save_times": [], "steady_tol": 0.0, "tol": 1e-4, "dt_max": 0.05, "implicit_tension": "auto"}
     # the scene's own method (the paper's, quartic), the other keys filled from the schema
     assert scene["numerics"] == {"formulation": "paper", "fit": "quartic", "fit_residual_weight": 0.0,   # not null
                                  "pressure_weights": "petrov"}

@@ -103,12 +103,12 @@ class AxisymmetricRun:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
     def simulate(self):
-        """The shape evolution to ``time.t_end`` with frames every ``time.save_every``
-        (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`)."""
+        """The shape evolution to ``time.t_end`` with frames every ``time.save_every`` and at
+        ``time.save_times`` (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`)."""
         s = self.settings
         st = s.time
         n_frames = int(math.floor(st.t_end / st.save_every + 1e-9))
-        times = np.append(np.arange(n_frames + 1) * st.save_every, st.t_end)
+        times = np.concatenate([np.arange(n_frames + 1) * st.save_every, st.save_times, [st.t_end]])
         times = np.unique(np.round(np.minimum(times, st.t_end), 12))
         try:
             return simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,

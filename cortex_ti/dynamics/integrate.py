@@ -1,7 +1,7 @@
 r"""Advancing a shape in time: the integration loop of every scheme.
 
-Frames are written every ``time.save_every`` (the steps are shortened to land on the frame
-times exactly), and the run stops at ``time.t_end`` or when ``max |v_n|`` falls below
+Frames are written every ``time.save_every`` and at the extra times ``time.save_times`` (the
+steps are shortened to land on the frame times exactly), and the run stops at ``time.t_end`` or when ``max |v_n|`` falls below
 ``time.steady_tol``. With ``time.implicit_tension`` (default for the first-order schemes) each
 solve is for the step about to be taken: the active tension's curvature is evaluated at the
 end of the step (:mod:`cortex_ti.physics.terms.implicit_tension`), which holds down the stiff
@@ -37,21 +37,30 @@ class RunStats:
 def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
               save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
               guard: StabilityGuard | None = None, write_first: bool = True,
-              implicit: bool = False) -> RunStats:
+              implicit: bool = False, save_times: tuple[float, ...] = ()) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
     ``evaluate(points, dt) -> Evaluation`` solves the force balance on a shape (for a step
     ``dt`` with the semi-implicit tension when ``implicit``, else always with ``dt = 0``);
     ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
-    resumed run has that frame already) and at every multiple of ``save_every``.
+    resumed run has that frame already), at every multiple of ``save_every`` and at each of
+    ``save_times`` (extra frame times, e.g. a figure's) between ``t0`` and ``t_end``.
     """
     stats = RunStats()
     start = _time.perf_counter()
     guard = guard if guard is not None else StabilityGuard()
     t, dt = t0, dt0
     x = points0
-    next_save = t0 + save_every
     eps = 1e-9 * max(save_every, 1e-12)
+    extra = sorted(float(s) for s in save_times)
+
+    def next_frame(t_now):
+        """The first frame time after ``t_now``: a multiple of ``save_every`` (counted from 0, so
+        a run resumed from an extra frame keeps the same grid) or an extra time."""
+        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
+        return min([regular] + [s for s in extra if s > t_now + eps])
+
+    next_save = next_frame(t0)
 
     def planned(dt):
         """The step the implicit solve is for: the scheme's step, not the one shortened to land on
@@ -99,7 +108,7 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
         stats.solves += 1
         if t >= next_save - eps or t >= t_end - eps:
             on_frame(t, ev, dt, final=t >= t_end - eps)
-            next_save = t0 + save_every * (math.floor((t - t0) / save_every + 0.5) + 1)
+            next_save = next_frame(t)
     stats.wall = _time.perf_counter() - start
     stats.t = t
     return stats

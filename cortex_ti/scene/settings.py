@@ -99,6 +99,7 @@ class TimeSettings:
     t_end: float
     scheme: str
     save_every: float
+    save_times: tuple[float, ...]   # extra frame times
     steady_tol: float
     tol: float
     dt_max: float
@@ -165,7 +166,8 @@ class RunSettings:
             solver=SolverSettings(backend=choose_factorization(sol["backend"]).name, reuse=bool(sol["reuse"]),
                                   rtol=float(sol["rtol"]), refine=bool(sol["refine"])),
             time=TimeSettings(dt=float(tim["dt"]), t_end=float(tim["t_end"]), scheme=tim["scheme"],
-                              save_every=float(tim["save_every"]), steady_tol=float(tim["steady_tol"]),
+                              save_every=float(tim["save_every"]),
+                              save_times=tuple(sorted(float(x) for x in tim["save_times"])), steady_tol=float(tim["steady_tol"]),
                               tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
             axisymmetric=AxisymmetricSettings(n=int(ax["n"]), rtol=float(ax["rtol"]),
                                               surface_points=int(ax["surface_points"]),

@@ -130,7 +130,8 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
     try:
         stats = integrate(sim.evaluate, points, t0, st.t_end, dt, scheme, st.save_every, on_frame,
                           steady_tol=st.steady_tol, progress=bar, write_first=state is None,
-                          implicit=st.implicit_tension, guard=StabilityGuard(faces=faces))
+                          implicit=st.implicit_tension, guard=StabilityGuard(faces=faces),
+                          save_times=st.save_times)
     except BaseException:
         writer.close_partial()
         raise

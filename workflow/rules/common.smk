@@ -96,8 +96,22 @@ def cost_runs():
 COST_RUNS = cost_runs()
 
 
-def overrides(row):
-    return " ".join(f"--set {shlex.quote(o)}" for o in scene_overrides(row))
+# The frame times a study's runs must have: every time a figure drawn from its trajectories asks
+# for (its *_times options, e.g. the paper's snapshot times 3.5e-3, 3.5e-2, 8.7e-2), so the figure
+# shows the run at that time rather than at the nearest saved frame.
+FRAME_TIMES = {
+    study: sorted({float(t) for spec in FIGURES.values() if spec.source == "runs" and study in spec.data
+                   for opt in spec.options if opt.endswith("_times") for t in config["figures"].get(opt, [])})
+    for study in STUDIES
+}
+
+
+def overrides(row, study=None):
+    """The run's ``--set`` options: its sweep values, and the frame times its figures need."""
+    sets = scene_overrides(row)
+    if FRAME_TIMES.get(study):
+        sets.append("time.save_times=[" + ", ".join(f"{t:g}" for t in FRAME_TIMES[study]) + "]")
+    return " ".join(f"--set {shlex.quote(o)}" for o in sets)
 
 
 def job_resources(study, nodes):

@@ -32,7 +32,7 @@ rule run_dynamic:
         "results/runs/{study}/{params}/benchmark.tsv"
     params:
         scene=lambda wc: run_row(wc)["scene"],
-        overrides=lambda wc: overrides(run_row(wc)),
+        overrides=lambda wc: overrides(run_row(wc), wc.study),
     threads: config["threads"]
     resources:
         mem_mb=lambda wc: job_resources(wc.study, int(run_row(wc).get("nodes", 0)))["mem_mb"],
