@@ -1,8 +1,8 @@
 r"""Advancing a shape in time: the integration loop of every scheme.
 
 Frames are written every ``time.save_every`` and at the extra times ``time.save_times`` (the
-steps are shortened to land on the frame times exactly), and the run stops at ``time.t_end`` or when ``max |v_n|`` falls below
-``time.steady_tol``. With ``time.implicit_tension`` (default for the first-order schemes) each
+steps are shortened to land on the frame times exactly), and the run stops at ``time.t_end``
+or when ``max |v_n|`` falls below ``time.steady_tol``. With ``time.implicit_tension`` (default for the first-order schemes) each
 solve is for the step about to be taken: the active tension's curvature is evaluated at the
 end of the step (:mod:`cortex_ti.physics.terms.implicit_tension`), which holds down the stiff
 high-frequency normal modes, so the step is set by accuracy rather than by the explicit
