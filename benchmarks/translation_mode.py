@@ -13,6 +13,7 @@ Usage::
 
     python benchmarks/translation_mode.py RUN.h5 1 3        # a furrow_p4_a1 run: frames t = 1, 3
     python benchmarks/translation_mode.py RUN.h5 0.5 1.35   # a shear_075 run
+    python benchmarks/translation_mode.py RUN.h5 1 3 --set translation=centroid   # the centroid held
 
 Cost (one core): about 30 s per frame at 2562 nodes.
 """
@@ -20,12 +21,14 @@ Cost (one core): about 30 s per frame at 2562 nodes.
 from __future__ import annotations
 
 import argparse
+import copy
 import sys
 
 import numpy as np
 
 from cortex_ti.dynamics.spectrum import normal_spectrum
 from cortex_ti.io.trajectory import Trajectory
+from cortex_ti.scene import scene_from_dict
 from cortex_ti.simulation.core import Simulation
 
 
@@ -41,19 +44,26 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("trajectory")
     p.add_argument("times", type=float, nargs="+")
+    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                   help="change the run's scene, e.g. translation=centroid")
     args = p.parse_args(argv)
     with Trajectory(args.trajectory) as tr:
-        scene, tt = tr.scene, tr.ds["time"].values
-        frames = [(float(tt[k]), tr.ds["points"].isel(time=k).values)
+        scene, tt = scene_from_dict(copy.deepcopy(tr.scene.data), args.overrides), tr.ds["time"].values
+        frames = [(float(tt[k]), tr.ds["points"].isel(time=k).values, tr.ds["active_stress"].isel(time=k).values)
                   for k in (int(np.argmin(np.abs(tt - t))) for t in args.times)]
     sim = Simulation(scene)
-    print(f"{scene.settings.name}, {len(frames[0][1])} nodes, {scene.settings.numerics.formulation}")
+    s = scene.settings
+    print(f"{s.name}, {len(frames[0][1])} nodes, {s.numerics.formulation}, translation {s.translation}")
     print("| t | rightmost Re lambda | growing mode | translation share | direction of U |")
     print("|---|---|---|---|---|")
-    for t, x in frames:
+    for t, x, zeta in frames:
+        sim.zeta = np.asarray(zeta, dtype=float)
         sp = normal_spectrum(sim, x, modes=True)
         geo = sim.shape_geometry(x)
-        for j in np.flatnonzero(sp.eigenvalues.real > 0.1):
+        growing = np.flatnonzero(sp.eigenvalues.real > 0.1)
+        if not len(growing):
+            print(f"| {t:g} | {', '.join(f'{v:+.4f}' for v in sp.eigenvalues.real[:3])} | none | | |")
+        for j in growing:
             share, u = translation_share(np.real(sp.modes[:, j]), geo.normal, np.asarray(geo.area))
             print(f"| {t:g} | {', '.join(f'{v:+.4f}' for v in sp.eigenvalues.real[:3])} | "
                   f"{sp.eigenvalues[j].real:+.4f} | {share:.3f} | {np.array2string(u, precision=3)} |")

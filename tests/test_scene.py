@@ -169,7 +169,7 @@ def test_defaults_and_canonical_numbers():
     assert scene["active_stress"] == [{"type": "ring", "zeta0": 1.0, "amplitude": 1.0,
                                        "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
-    assert list(scene.data) == ["name", "description", "model", "mesh", "viscosity", "active_stress",
+    assert list(scene.data) == ["name", "description", "model", "translation", "mesh", "viscosity", "active_stress",
                                 "effects", "numerics", "solver", "time", "axisymmetric"]
 
 
@@ -236,7 +236,7 @@ def test_error_names_the_scene_file(tmp_path):
     ("viscosity.shaer=1", "unknown key 'viscosity.shaer' (did you mean 'viscosity.shear'?)"),
     ("viscocity.bulk=1", "unknown key 'viscocity' (did you mean 'viscosity'?)"),
     ("time.dtt=1", "unknown key 'time.dtt' (did you mean 'time.dt'?)"),
-    ("foo=1", "unknown key 'foo' (valid keys here: name, description, model, mesh, viscosity, "
+    ("foo=1", "unknown key 'foo' (valid keys here: name, description, model, translation, mesh, viscosity, "
               "active_stress, effects, numerics, solver, time, axisymmetric)"),
     # wrong types
     ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
@@ -686,3 +686,8 @@ def test_static_solve_with_field_and_python_patterns_equals_the_ring(tmp_path, m
         np.testing.assert_allclose(sol.velocity, ring.velocity, rtol=0, atol=1e-12, err_msg=name)
         assert sol.pressure == pytest.approx(ring.pressure, abs=1e-12)
     sys.modules.pop("ring_patterns_for_scene_test", None)
+
+
+def test_holding_the_centroid_needs_the_normal_balance():
+    with pytest.raises(SceneError, match="translation = centroid needs the normal force balance"):
+        load_scene("sphere_y20_tangential", ["translation=centroid"])

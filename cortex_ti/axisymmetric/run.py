@@ -73,6 +73,10 @@ def axisymmetric_tension(settings: RunSettings):
     return lambda th: at(th)
 
 
+#: The solver's name for each way of fixing the translation (scene key ``translation``).
+GAUGES = {"mean_velocity": "velocity", "centroid": "centroid"}
+
+
 def viscosities(settings: RunSettings) -> dict:
     """The viscous coefficients as the solver's keywords (bending ones 0 without the effect)."""
     v = settings.viscosity
@@ -98,7 +102,7 @@ class AxisymmetricRun:
         s = self.settings
         try:
             return static_flow(self.zeta, **viscosities(s), radius=s.mesh.radius, n=2 * s.axisymmetric.n,
-                               fixed_normal=s.has("fixed_normal_velocity"))
+                               fixed_normal=s.has("fixed_normal_velocity"), gauge=GAUGES[s.translation])
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
@@ -112,7 +116,8 @@ class AxisymmetricRun:
         times = np.unique(np.round(np.minimum(times, st.t_end), 12))
         try:
             return simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,
-                            n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True)
+                            n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
+                            gauge=GAUGES[s.translation])
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 

@@ -32,7 +32,8 @@ integrated exactly over the triangles:
   so the triangulated volume is stationary under the normal advection of the nodes.
   ``area``: both on the Meyer areas; ``exact``: both on ``W`` (then the force is exactly minus
   the gradient of ``E - P V``, at the price of that O(h) error);
-* **rigid-body gauge** as the paper's;
+* **rigid-body gauge** as the paper's (zero mean velocity, or the centroid held: scene key
+  ``translation``);
 * **bending viscosity** as the dissipation ``1/2 int [B^cd d_c v_n d_d v_n + beta_0 v_n^2] dA``
   with ``B = -beta``, ``beta`` and ``beta_0`` the paper's Eq. 45 coefficients
   (:func:`cortex_ti.physics.terms.bending.bending_tensors`, from the fitted curvature). Its
@@ -192,7 +193,7 @@ def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
 def _constraint_rows(geometry: Geometry, physics: Physics, pressure_weights: str, terms: list[str]):
     """The gauge and volume rows (m, N, 3), the rows the multipliers push along (None: the same),
     and the names and the index of the pressure's multiplier."""
-    rows = [rigid_motion_rows(geometry.points, geometry.area)]
+    rows = [rigid_motion_rows(geometry.points, geometry.area, geometry.normal if physics.centroid_gauge else None)]
     names = [f"momentum[{k}]" for k in range(6)]
     if not ("incompressibility" in physics.effects and physics.normal_balance):
         return np.concatenate(rows), None, names, None

@@ -33,6 +33,12 @@ class Physics:
     eta_b: float = 1.0
     eta_bar: float = 0.0
     eta_bar_b: float = 0.0
+    translation: str = "mean_velocity"   # how the free rigid translation is fixed (scene key ``translation``)
+
+    @property
+    def centroid_gauge(self) -> bool:
+        """The translation fixed by holding the enclosed volume's centroid, not by zero mean velocity."""
+        return self.translation == "centroid"
 
     @property
     def normal_balance(self) -> bool:

@@ -31,6 +31,7 @@ def check_rules(data: dict) -> None:
     _check_time(data.get("time") or {})
     _check_patterns(data["active_stress"], effects)
     _check_formulation_keys(data["numerics"])
+    _check_translation(data["translation"], effects)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
 
@@ -49,6 +50,14 @@ def _check_formulation_keys(numerics: dict) -> None:
                 raise SceneError(
                     f"numerics.{key} = {fmt_value(value)} applies to numerics.formulation = {name} only, not "
                     f"{chosen}: remove it or set numerics.formulation: {name}")
+
+
+def _check_translation(translation: str, seen: set[str]) -> None:
+    """Holding the centroid needs the normal velocity: with it fixed (a tangential flow) the
+    centroid cannot move and its rows would be empty."""
+    if translation == "centroid" and "normal_balance" not in seen:
+        raise SceneError("translation = centroid needs the normal force balance (effect 'normal_balance'): a "
+                         "tangential flow cannot move the centroid; use translation: mean_velocity")
 
 
 def _check_mesh_source(mesh: dict) -> None:

@@ -132,6 +132,7 @@ class RunSettings:
 
     name: str
     model: str                 # "3d" or "axisymmetric"
+    translation: str           # how the free rigid translation is fixed: "mean_velocity" or "centroid"
     effects: frozenset
     mesh: MeshSettings
     viscosity: ViscositySettings
@@ -154,6 +155,7 @@ class RunSettings:
         return cls(
             name=data["name"],
             model=data["model"],
+            translation=data["translation"],
             effects=effects,
             mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
                               shear=float(mesh["shear"]),
@@ -187,7 +189,8 @@ class RunSettings:
     def physics(self) -> Physics:
         """What the force-balance terms read: the effects and the viscous coefficients."""
         v = self.viscosity
-        return Physics(effects=self.effects, eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk)
+        return Physics(effects=self.effects, eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk,
+                       translation=self.translation)
 
     @property
     def pattern_axis(self) -> np.ndarray:

@@ -169,11 +169,14 @@ class EnergySystem(_Unknowns):
         return self.residual(x, multipliers), self._constraint_parts(x)
 
 
-def rigid_motion_rows(points: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """Rows (6, N, 3): total velocity (3) and angular momentum (3), weighted per node.
+def rigid_motion_rows(points: np.ndarray, weight: np.ndarray, normal: np.ndarray | None = None) -> np.ndarray:
+    """Rows (6, N, 3): the translation (3) and the rotation (3) fixed, weighted per node.
 
-    ``sum_i w_i v_i = 0`` and ``sum_i w_i (x_i - x_c) x v_i = 0`` with ``x_c`` the weighted
-    centroid (with zero total velocity the reference point drops out).
+    ``sum_i w_i (x_i - x_c) x v_i = 0`` (angular momentum) with ``x_c`` the weighted centroid,
+    and for the translation ``sum_i w_i v_i = 0`` (zero total velocity; the reference point of
+    the rotation rows then drops out), or, given the ``normal``s, ``sum_i w_i (x_i - x_c) (n_i . v_i)
+    = 0``: the velocity of the enclosed volume's centroid, which a rigid translation U moves at
+    U (the integral of (x - x_c) n^T dA is V times the identity).
     """
     n = points.shape[0]
     rows = np.zeros((6, n, 3))
@@ -181,6 +184,9 @@ def rigid_motion_rows(points: np.ndarray, weight: np.ndarray) -> np.ndarray:
     r = points - centroid
     eye = np.eye(3)
     for k in range(3):
-        rows[k, :, k] = weight
+        if normal is None:
+            rows[k, :, k] = weight
+        else:
+            rows[k] = (weight * r[:, k])[:, None] * normal
         rows[3 + k] = weight[:, None] * np.cross(eye[k], r)
     return rows

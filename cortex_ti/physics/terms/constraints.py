@@ -2,7 +2,8 @@ r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multipl
 
 * Rigid-body gauge (always on: the force balance contains only derivatives of the
   velocity, so a rigid motion can be added to any solution): zero total velocity
-  ``sum_i A_i v_i = 0`` (Eq. 36) and zero angular momentum
+  ``sum_i A_i v_i = 0`` (Eq. 36; or, with the scene's ``translation: centroid``, the enclosed
+  volume's centroid held, ``sum_i A_i (x_i - x_c) v_n,i = 0``) and zero angular momentum
   ``sum_i A_i (x_i - x_c) x v_i = 0`` (Eq. 37), ``A_i`` the Meyer mixed area, ``x_c``
   the area-weighted centroid (with zero total velocity the reference point drops out).
 * Incompressibility (effect ``incompressibility``): the pressure difference ``P``
@@ -29,7 +30,8 @@ class RigidBodyGauge(Term):
 
     def apply(self, ctx: AssemblyContext) -> None:
         g = ctx.geometry
-        ctx.constraints.append(Constraint("momentum", rigid_motion_rows(g.points, g.area)))
+        normal = g.normal if ctx.physics.centroid_gauge else None
+        ctx.constraints.append(Constraint("momentum", rigid_motion_rows(g.points, g.area, normal)))
 
 
 @register
