@@ -366,3 +366,8 @@ def test_frames_land_on_the_extra_save_times(tmp_path, capsys, model):
     assert rc == 0, err
     with open_output(out) as ds:
         np.testing.assert_allclose(ds["time"].values, [0.0, 0.0035, 0.01, 0.02, 0.025], rtol=0, atol=1e-12)
+
+
+def test_check_names_the_centroid_gauge(capsys):
+    rc, out, _ = run(["check", "furrow_p4_a1", "--set", "translation=centroid"], capsys)
+    assert rc == 0 and "the centroid held (translation: centroid)" in out

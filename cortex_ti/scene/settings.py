@@ -199,11 +199,13 @@ class RunSettings:
 
     def describe_numerics(self) -> str:
         """One line on the discretisation (for ``cortex-ti check`` and logs)."""
+        held = "; the centroid held (translation: centroid)" if self.translation == "centroid" else ""
         if self.model == "axisymmetric":
             a = self.axisymmetric
-            return f"axisymmetric model: {a.n} meridian points, Radau rtol {a.rtol:g}"
+            return f"axisymmetric model: {a.n} meridian points, Radau rtol {a.rtol:g}{held}"
         num = self.numerics
         if num.formulation == "paper":
             w = num.fit_residual_weight
-            return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}"
-        return f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}"
+            return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}{held}"
+        return (f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure "
+                f"{num.pressure_weights}{held}")
