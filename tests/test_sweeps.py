@@ -121,3 +121,11 @@ def test_the_residual_column_gives_the_weight_that_runs():
                                     {"scene": "furrow_p8_a1", "nodes": 642, "formulation": "paper"}])
     assert [r["residual"] for r in rows] == ["0", "0.001"]     # the scene's default (null) is 0
     assert load_scene(rows[1]["scene"], scene_overrides(rows[1]))["numerics.fit_residual_weight"] == 1e-3
+
+
+def test_a_swept_tilt_names_the_same_folder_as_the_scenes_own():
+    """tilt 45 given in a record and the shear_035_tilted scene's own 45-degree axis are one run
+    (the axis round-trips through 15 digits; the folder must not read 44.999999999999964)."""
+    rows = expand_runs("reorientation", [{"scene": "shear_035_tilted", "tilt": [22.5, 45]},
+                                         {"scene": "shear_035_tilted"}])
+    assert [r["tilt"] for r in rows] == ["22.5", "45"]

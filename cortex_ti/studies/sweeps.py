@@ -98,7 +98,9 @@ def _settings_value(settings, column: str):
     """The value of a sweep column in a run's resolved settings."""
     if column == "tilt":
         ax, _, az = (float(v) for v in settings.pattern_axis)
-        return math.degrees(math.atan2(ax, az))
+        # rounded: the axis is stored to 15 digits (tilt_axis), so 45 must not come back as
+        # 44.999999999999964 and name another folder than the same run without the column
+        return round(math.degrees(math.atan2(ax, az)), 9)
     if column in ("zeta_hat", "p"):
         if not settings.patterns:
             raise SceneError(f"scene {settings.name!r} has no active-stress pattern for sweep column {column!r}")
