@@ -33,8 +33,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from scipy.integrate import Radau
 
-from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
-from cortex_ti.axisymmetric.evolve import _Dynamics, _integrate, simulate
+from cortex_ti.axisymmetric.evolve import _Dynamics, _integrate, full_meridian_dynamics, normal_embedding, simulate
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities
 from cortex_ti.axisymmetric.spectral import Spectral
 from cortex_ti.scene.loader import load_scene
@@ -65,9 +64,7 @@ class FullAdvection(_Dynamics):
 
 def dynamics(n: int, v: dict, gauge: str = "velocity", cls=_Dynamics) -> _Dynamics:
     """The full-meridian lagrangian dynamics exactly as simulate builds it."""
-    sp = Spectral(n, False)
-    phys = _check_visc(v["eta_s"], v["eta_b"], v["eta_bar"], v["eta_bar_b"], 1.0)
-    return cls(sp, ForceBalance(sp, phys, gauge), ZETA, "lagrangian")
+    return full_meridian_dynamics(ZETA, n, **v, gauge=gauge, cls=cls)
 
 
 def states(n: int, v: dict, times):
@@ -100,10 +97,9 @@ def frames(dyn: _Dynamics, y: np.ndarray):
     g = dyn.geometry(y)
     n = dyn.n
     i = np.arange(n)
-    N, T = np.zeros((2 * n, n)), np.zeros((2 * n, n))
-    N[i, i], N[n + i, i] = -g["zs"], g["rs"]  # rhs = v_n (-z_s, r_s)
+    T = np.zeros((2 * n, n))
     T[i, i], T[n + i, i] = g["rs"], g["zs"]
-    return N, T, g
+    return normal_embedding(dyn, y), T, g
 
 
 def block_eig(J: np.ndarray, n: int, sgn: int):

@@ -26,18 +26,10 @@ import sys
 
 import numpy as np
 
-from cortex_ti.dynamics.spectrum import normal_spectrum
+from cortex_ti.dynamics.spectrum import normal_spectrum, translation_share
 from cortex_ti.io.trajectory import Trajectory
 from cortex_ti.scene import scene_from_dict
 from cortex_ti.simulation.core import Simulation
-
-
-def translation_share(s: np.ndarray, normal: np.ndarray, area: np.ndarray) -> tuple[float, np.ndarray]:
-    """Share of ``s`` (area-weighted) in the span of ``U . n`` and the unit direction of ``U``."""
-    w = np.sqrt(area)
-    u, *_ = np.linalg.lstsq(w[:, None] * normal, w * s, rcond=None)
-    rest = w * s - (w[:, None] * normal) @ u
-    return 1.0 - float(rest @ rest) / float(np.sum(area * s * s)), u / np.linalg.norm(u)
 
 
 def main(argv=None) -> int:

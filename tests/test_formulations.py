@@ -232,8 +232,9 @@ def test_the_translation_gauge_only_adds_a_rigid_translation(formulation):
     without bending viscosity, the two solutions differ by one constant vector U at every node
     (the viscous, active and pressure forces are exactly translation-invariant; the discrete
     curvature rate of a translation is not zero but O(h^2), so with bending viscosity the two
-    differ by a little more: measured 3.5e-3 (rayleigh_p1) and 1.7e-2 (paper) of max |v|), the centroid's rows hold to rounding, the mean velocity of the other
-    solution is zero; on the up-down symmetric ring both gauges give the same flow."""
+    differ by a little more: measured 3.5e-3 (rayleigh_p1) and 1.7e-2 (paper) of max |v|), the
+    centroid's rows hold to rounding, the mean velocity of the other solution is zero; on the
+    up-down symmetric ring both gauges give the same flow."""
     def solve(scene, gauge, extra=()):
         sim = Simulation(load_scene(scene, ["mesh.nodes=642", f"numerics.formulation={formulation}",
                                             f"translation={gauge}", "solver.reuse=false", *extra]))

@@ -31,7 +31,7 @@ from .balance import (
 )
 from .spectral import Spectral, geometry
 
-__all__ = ["SimulationResult", "simulate", "revolve"]
+__all__ = ["SimulationResult", "simulate", "revolve", "full_meridian_dynamics", "normal_embedding"]
 
 ArrayF = np.ndarray
 
@@ -457,6 +457,29 @@ def simulate(
                   rtol=rtol, atol=atol, symmetric=symmetric, method=method, parametrization=parametrization,
                   gauge=gauge, interpolate=interpolate)
     return _result(dyn, saved, R, stats, params)
+
+
+def full_meridian_dynamics(zeta: ZetaFn, n: int, *, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float,
+                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None) -> "_Dynamics":
+    """The shape dynamics of ``simulate(..., symmetric=False, parametrization='lagrangian')``:
+    material points at ``n`` labels on the whole meridian moving with ``v_n n``, state
+    ``y = (r, z)``; its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the dynamics about
+    any state (e.g. a saved frame), without the up-down reduction, so modes odd under z -> -z
+    are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
+    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
+    sp = Spectral(_check_n(n), False)
+    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian")
+
+
+def normal_embedding(dyn: "_Dynamics", y: ArrayF) -> ArrayF:
+    """(2n, n): the node displacements ``(dr, dz)`` of a normal displacement ``s`` per node on
+    the state ``y``, so that ``N.T @ dyn.jac(t, y) @ N`` is the normal-normal operator the 3D
+    spectrum computes (:func:`cortex_ti.dynamics.spectrum.normal_jacobian`)."""
+    g = dyn.geometry(y)
+    n, i = dyn.n, np.arange(dyn.n)
+    N = np.zeros((2 * n, n))
+    N[i, i], N[n + i, i] = -g["zs"], g["rs"]
+    return N
 
 
 def _check_times(t_end, save_times, rtol, atol, R) -> tuple[ArrayF, float]:

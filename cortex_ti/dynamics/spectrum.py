@@ -47,7 +47,7 @@ import scipy.sparse.linalg as spla
 
 from ..solve.constrained import ConstrainedLeastSquares
 
-__all__ = ["normal_spectrum", "normal_jacobian", "Spectrum", "NormalJacobian", "distance_colouring"]
+__all__ = ["normal_spectrum", "normal_jacobian", "Spectrum", "NormalJacobian", "distance_colouring", "translation_share"]
 
 
 def adjacency(ring: np.ndarray) -> sp.csr_matrix:
@@ -267,3 +267,14 @@ def normal_spectrum(sim, points: np.ndarray | None = None, dt: float = 0.0, k: i
     seconds["eig"] = time.perf_counter() - t0
     return Spectrum(eigenvalues=w[order], n_nodes=n, method=method, leak=jac.leak, seconds=seconds,
                     modes=None if vecs is None else vecs[:, order])
+
+
+def translation_share(s: np.ndarray, normal: np.ndarray, area: np.ndarray) -> tuple[float, np.ndarray]:
+    """How much of a normal displacement ``s`` (one value per node; e.g. a mode of
+    :func:`normal_spectrum`) is the normal part ``U . n`` of a rigid translation ``U``: the share
+    of its area-weighted squared norm in that span (1: a pure translation, as the nodes see it),
+    and the unit direction of ``U``."""
+    w = np.sqrt(area)
+    u, *_ = np.linalg.lstsq(w[:, None] * normal, w * s, rcond=None)
+    rest = w * s - (w[:, None] * normal) @ u
+    return 1.0 - float(rest @ rest) / float(np.sum(area * s * s)), u / np.linalg.norm(u)

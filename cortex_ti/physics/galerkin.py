@@ -59,11 +59,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from ..solve.system import EnergySystem, rigid_motion_rows
+from ..solve.system import EnergySystem
 from ..surface.geometry import Geometry
 from .assembly import check_inputs, velocity_basis
 from .model import Physics
 from .terms.bending import bending_tensors
+from .terms.constraints import gauge_rows
 
 __all__ = ["assemble_p1", "PRESSURE_WEIGHTS", "triangle_gradients"]
 
@@ -193,7 +194,7 @@ def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
 def _constraint_rows(geometry: Geometry, physics: Physics, pressure_weights: str, terms: list[str]):
     """The gauge and volume rows (m, N, 3), the rows the multipliers push along (None: the same),
     and the names and the index of the pressure's multiplier."""
-    rows = [rigid_motion_rows(geometry.points, geometry.area, geometry.normal if physics.centroid_gauge else None)]
+    rows = [gauge_rows(geometry, physics)]
     names = [f"momentum[{k}]" for k in range(6)]
     if not ("incompressibility" in physics.effects and physics.normal_balance):
         return np.concatenate(rows), None, names, None

@@ -23,15 +23,21 @@ from ...solve.system import rigid_motion_rows
 from .base import AssemblyContext, Constraint, Term, register
 
 
+def gauge_rows(geometry, physics) -> np.ndarray:
+    """The six rigid-body rows (6, N, 3) of ``physics``'s gauge on ``geometry``: the translation
+    fixed by zero mean velocity or, with ``translation: centroid``, by the centroid held (both
+    formulations use these)."""
+    normal = geometry.normal if physics.centroid_gauge else None
+    return rigid_motion_rows(geometry.points, geometry.area, normal)
+
+
 @register
 class RigidBodyGauge(Term):
     effect = None
     name = "zero total velocity and angular momentum"
 
     def apply(self, ctx: AssemblyContext) -> None:
-        g = ctx.geometry
-        normal = g.normal if ctx.physics.centroid_gauge else None
-        ctx.constraints.append(Constraint("momentum", rigid_motion_rows(g.points, g.area, normal)))
+        ctx.constraints.append(Constraint("momentum", gauge_rows(ctx.geometry, ctx.physics)))
 
 
 @register
