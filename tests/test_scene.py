@@ -163,7 +163,8 @@ def test_defaults_and_canonical_numbers():
     scene = scene_from_dict(data)
     assert data["viscosity"] == {"shear": 2, "bulk": 0}  # input not modified
     assert scene["description"] == ""
-    assert scene["mesh"] == {"nodes": 42, "file": None, "radius": 1.0, "shear": 0.0, "transform": None}
+    assert scene["mesh"] == {"nodes": 42, "file": None, "radius": 1.0, "shear": 0.0, "transform": None,
+                             "motion": "normal", "ale_time": 0.05}
     assert scene["viscosity"] == {"shear": 2.0, "bulk": 0.0, "bending": 0.0, "bending_bulk": 0.0}
     assert type(scene["viscosity.shear"]) is float
     assert scene["active_stress"] == [{"type": "ring", "zeta0": 1.0, "amplitude": 1.0,

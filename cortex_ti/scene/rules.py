@@ -32,6 +32,7 @@ def check_rules(data: dict) -> None:
     _check_patterns(data["active_stress"], effects)
     _check_formulation_keys(data["numerics"])
     _check_translation(data["translation"], effects)
+    _check_motion(data)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
 
@@ -58,6 +59,15 @@ def _check_translation(translation: str, seen: set[str]) -> None:
     if translation == "centroid" and "normal_balance" not in seen:
         raise SceneError("translation = centroid needs the normal force balance (effect 'normal_balance'): a "
                          "tangential flow cannot move the centroid; use translation: mean_velocity")
+
+
+def _check_motion(data: dict) -> None:
+    """A tension glued to nodes that move by a mesh rule (``ale``) would move by that rule, not by
+    any physics: such a tension must be carried by the material."""
+    motion = data["mesh"]["motion"]
+    if motion == "ale" and data["tension_transport"] == "nodes" and data["active_stress"]:
+        raise SceneError("mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
+                         "(tension_transport = nodes) would move by that rule: set tension_transport: material")
 
 
 def _check_mesh_source(mesh: dict) -> None:

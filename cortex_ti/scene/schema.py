@@ -26,6 +26,7 @@ from typing import Any, Iterable, Iterator
 
 import jsonschema
 
+from ..dynamics.motion import MESH_MOTIONS
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.formulations import FORMULATIONS
@@ -51,6 +52,7 @@ def full_schema() -> dict:
     props["numerics"]["properties"]["formulation"]["enum"] = list(FORMULATIONS)
     props["numerics"]["properties"]["pressure_weights"]["enum"] = list(PRESSURE_WEIGHTS)
     props["time"]["properties"]["scheme"]["enum"] = list(SCHEMES)
+    props["mesh"]["properties"]["motion"]["enum"] = list(MESH_MOTIONS)
     props["solver"]["properties"]["backend"]["enum"] = backend_names()
     fragments = pattern_schemas()
     schema["$defs"] = {"pattern": _pattern_schema(list(fragments)), **copy.deepcopy(fragments)}
@@ -76,7 +78,7 @@ _BUILT: dict = {}
 
 def current_schema() -> dict:
     """The schema for the registries as they are now (built again after a registration)."""
-    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(backend_names()),
+    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(MESH_MOTIONS), tuple(backend_names()),
            tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()))
     if _BUILT.get("key") != key:
         schema = full_schema()

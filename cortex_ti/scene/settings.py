@@ -38,6 +38,8 @@ class MeshSettings:
     radius: float
     shear: float
     transform: tuple[tuple[float, float, float], ...] | None
+    motion: str = "normal"     # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
+    ale_time: float = 0.05     # relaxation time of the ALE mesh velocity (motion: ale)
 
     def initial_map(self) -> np.ndarray | None:
         """The 3x3 matrix of ``transform`` followed by ``shear`` (None for the identity)."""
@@ -133,6 +135,7 @@ class RunSettings:
     name: str
     model: str                 # "3d" or "axisymmetric"
     translation: str           # how the free rigid translation is fixed: "mean_velocity" or "centroid"
+    tension_transport: str     # "nodes" (glued to the mesh nodes, the paper's) or "material" (carried by v)
     effects: frozenset
     mesh: MeshSettings
     viscosity: ViscositySettings
@@ -156,9 +159,10 @@ class RunSettings:
             name=data["name"],
             model=data["model"],
             translation=data["translation"],
+            tension_transport=data["tension_transport"],
             effects=effects,
             mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
-                              shear=float(mesh["shear"]),
+                              shear=float(mesh["shear"]), motion=mesh["motion"], ale_time=float(mesh["ale_time"]),
                               transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform)),
             viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),
             patterns=tuple(copy.deepcopy(data["active_stress"])) if "active_stress" in effects else (),
@@ -185,6 +189,13 @@ class RunSettings:
     def dynamic(self) -> bool:
         """Whether the shape evolves in time (the ``shape_evolution`` effect)."""
         return "shape_evolution" in self.effects
+
+    @property
+    def tension_carried(self) -> bool:
+        """Whether the prescribed tension moves with the material (``tension_transport: material``, or
+        nodes that are material points, ``mesh.motion: lagrangian``) rather than staying on nodes
+        that move normally."""
+        return self.tension_transport == "material" or self.mesh.motion == "lagrangian"
 
     @property
     def physics(self) -> Physics:
