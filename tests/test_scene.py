@@ -170,7 +170,8 @@ def test_defaults_and_canonical_numbers():
     assert scene["active_stress"] == [{"type": "ring", "zeta0": 1.0, "amplitude": 1.0,
                                        "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
-    assert list(scene.data) == ["name", "description", "model", "translation", "mesh", "viscosity", "active_stress",
+    assert list(scene.data) == ["name", "description", "model", "translation", "tension_transport",
+                                "mesh", "viscosity", "active_stress",
                                 "effects", "numerics", "solver", "time", "axisymmetric"]
 
 
@@ -237,7 +238,8 @@ def test_error_names_the_scene_file(tmp_path):
     ("viscosity.shaer=1", "unknown key 'viscosity.shaer' (did you mean 'viscosity.shear'?)"),
     ("viscocity.bulk=1", "unknown key 'viscocity' (did you mean 'viscosity'?)"),
     ("time.dtt=1", "unknown key 'time.dtt' (did you mean 'time.dt'?)"),
-    ("foo=1", "unknown key 'foo' (valid keys here: name, description, model, translation, mesh, viscosity, "
+    ("foo=1", "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
+                "viscosity, "
               "active_stress, effects, numerics, solver, time, axisymmetric)"),
     # wrong types
     ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
