@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .guard import StabilityGuard
+from .state import State
 
 __all__ = ["RunStats", "integrate"]
 
@@ -34,13 +35,14 @@ class RunStats:
     stopped: str = "t_end"     # why the run ended: t_end or steady
 
 
-def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float, scheme,
+def integrate(evaluate, state0: State | np.ndarray, t0: float, t_end: float, dt0: float, scheme,
               save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
               guard: StabilityGuard | None = None, write_first: bool = True,
               implicit: bool = False, save_times: tuple[float, ...] = ()) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
-    ``evaluate(points, dt) -> Evaluation`` solves the force balance on a shape (for a step
+    ``state0`` is the :class:`~cortex_ti.dynamics.state.State` to start from (an array: positions only).
+    ``evaluate(state, dt) -> Evaluation`` solves the force balance on a state (for a step
     ``dt`` with the semi-implicit tension when ``implicit``, else always with ``dt = 0``);
     ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
     resumed run has that frame already), at every multiple of ``save_every`` and at each of
@@ -50,7 +52,7 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
     start = _time.perf_counter()
     guard = guard if guard is not None else StabilityGuard()
     t, dt = t0, dt0
-    x = points0
+    x = state0 if isinstance(state0, State) else State(np.asarray(state0))
     eps = 1e-9 * max(save_every, 1e-12)
     extra = sorted(float(s) for s in save_times)
 
@@ -97,8 +99,8 @@ def integrate(evaluate, points0: np.ndarray, t0: float, t_end: float, dt0: float
             stats.rejected += 1
             dt = res.dt_next
             continue
-        guard.check(t + res.dt, res.dt, x, res.points, ev, ev.edge_length)
-        x, t = res.points, t + res.dt  # the scheme may take a shorter step than offered
+        guard.check(t + res.dt, res.dt, x.points, res.points, ev, ev.edge_length)
+        x, t = res.state, t + res.dt  # the scheme may take a shorter step than offered
         stats.steps += 1
         if scheme.adaptive and res.dt_next is not None:
             # keep the controller's proposal, not the step shortened to reach a frame time

@@ -15,19 +15,46 @@ by: the velocity relative to the mesh, ``v - w`` (:mod:`cortex_ti.surface.transp
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
-__all__ = ["MESH_MOTIONS", "MeshMotion", "register_motion"]
+import numpy as np
+
+__all__ = ["MESH_MOTIONS", "MeshMotion", "MotionContext", "register_motion", "ale_velocity", "conformal_distortion"]
 
 
 @dataclass(frozen=True)
 class MeshMotion:
-    """One way the mesh moves: ``velocity(v, normal, context) -> w`` (N, 3)."""
+    """One way the mesh moves: ``velocity(v, normal, points, context) -> w`` (N, 3)."""
 
     name: str
     description: str
     velocity: Callable | None = None
+
+
+@dataclass
+class MotionContext:
+    """What a mesh motion may need beyond the velocity: the connectivity, the triangles' shapes at
+    t = 0 (``reference``), the local mesh size and the ALE relaxation time."""
+
+    faces: np.ndarray
+    reference: np.ndarray             # (N, 3) the nodes at t = 0
+    ale_time: float = 0.05
+    _dm_inv: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def dm_inv(self) -> np.ndarray:
+        """(T, 2, 2) inverse of each reference triangle's edge matrix in its own plane."""
+        if self._dm_inv is None:
+            x = self.reference[self.faces]
+            e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+            u = e1 / np.linalg.norm(e1, axis=1)[:, None]
+            n = np.cross(e1, e2)
+            w = np.cross(n / np.linalg.norm(n, axis=1)[:, None], u)
+            dm = np.stack([np.stack([(u * e1).sum(1), (u * e2).sum(1)], 1),
+                           np.stack([(w * e1).sum(1), (w * e2).sum(1)], 1)], 1)
+            self._dm_inv = np.linalg.inv(dm)
+        return self._dm_inv
 
 
 #: name -> :class:`MeshMotion`
@@ -44,11 +71,62 @@ def register_motion(name: str, description: str):
 
 
 @register_motion("normal", "the nodes move with the normal velocity v_n n (the paper's Eq. 60)")
-def normal_velocity(velocity, normal, context=None):
-    vn = (velocity * normal).sum(axis=1)
+def normal_velocity(velocity, normal, points=None, context=None):
+    vn = np.einsum("nc,nc->n", velocity, normal)
     return vn[:, None] * normal
 
 
 @register_motion("lagrangian", "the nodes move with the full velocity: material points")
-def lagrangian_velocity(velocity, normal, context=None):
+def lagrangian_velocity(velocity, normal, points=None, context=None):
     return velocity
+
+
+def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: bool = False):
+    r"""The conformal distortion of every triangle against its reference shape,
+    ``E_T = |F|^2 / (2 J) - 1`` (0 for a similar triangle, > 0 otherwise; ``F`` the 3x2 map from the
+    reference triangle, ``J = sqrt(det F^T F)`` its area ratio), and with ``gradient`` the
+    gradient ``(N, 3)`` of ``sum_T E_T`` with respect to the nodes:
+    ``dE/dF = (F - |F|^2/2 F C^{-1}) / J``, ``C = F^T F``, chained through ``F = D_s D_m^{-1}``.
+    """
+    faces = context.faces
+    x = points[faces]
+    ds = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]], axis=2)           # (T, 3, 2)
+    f = ds @ context.dm_inv                                                 # (T, 3, 2)
+    c = np.transpose(f, (0, 2, 1)) @ f                                      # (T, 2, 2)
+    i1 = c[:, 0, 0] + c[:, 1, 1]
+    det = c[:, 0, 0] * c[:, 1, 1] - c[:, 0, 1] * c[:, 1, 0]
+    j = np.sqrt(det)
+    energy = i1 / (2.0 * j) - 1.0
+    if not gradient:
+        return energy
+    cinv = np.linalg.inv(c)
+    de_df = (f - 0.5 * i1[:, None, None] * (f @ cinv)) / j[:, None, None]
+    de_ds = de_df @ np.transpose(context.dm_inv, (0, 2, 1))                 # (T, 3, 2)
+    g = np.zeros_like(points)
+    np.add.at(g, faces[:, 1], de_ds[:, :, 0])
+    np.add.at(g, faces[:, 2], de_ds[:, :, 1])
+    np.add.at(g, faces[:, 0], -(de_ds[:, :, 0] + de_ds[:, :, 1]))
+    return energy, g
+
+
+@register_motion("ale", "v_n n plus a tangential mesh velocity relaxing the triangles toward their initial "
+                        "shapes (relaxation time mesh.ale_time)")
+def ale_velocity(velocity, normal, points, context: MotionContext):
+    r"""``w = v_n n + w_t`` with ``w_t = -(h_i^2 / (tau n_i)) P_i dE/dx_i``: the tangential gradient
+    flow of the triangles' conformal distortion (:func:`conformal_distortion`) with mobility
+    ``h_i^2 / n_i`` (``h_i`` the mean edge length at node i, ``n_i`` its number of triangles), so
+    that a distortion relaxes in about ``tau = mesh.ale_time`` whatever the mesh size. The
+    distortion is measured against the triangles at t = 0: an undistorted mesh does not move
+    tangentially, and a shape change that keeps the triangles similar (a uniform dilation) needs no
+    mesh motion."""
+    faces = context.faces
+    _, g = conformal_distortion(points, context, gradient=True)
+    x = points[faces]
+    edges = np.linalg.norm(x - x[:, [1, 2, 0]], axis=2)                     # (T, 3)
+    count = np.bincount(faces.ravel(), minlength=points.shape[0]).astype(float)
+    hsum = np.bincount(faces.ravel(), weights=(edges + edges[:, [2, 0, 1]]).ravel() / 2.0,
+                       minlength=points.shape[0])
+    h = hsum / count
+    g = g - np.einsum("nc,nc->n", g, normal)[:, None] * normal
+    wt = -(h * h / (context.ale_time * count))[:, None] * g
+    return normal_velocity(velocity, normal) + wt

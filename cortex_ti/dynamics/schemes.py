@@ -1,9 +1,13 @@
 r"""Time schemes of the shape evolution (registry :data:`SCHEMES`, the scene key ``time.scheme``).
 
-Every node moves with its normal velocity, ``dx_i/dt = (v_i . n_i) n_i`` (paper Eq. 60); the
-active tension stays attached to the node (it was evaluated once, on the initial shape). Each
-right-hand-side evaluation recomputes the geometry, the fits and the constrained solve on the
-current shape. Schemes, all explicit in the shape:
+A scheme advances a :class:`~cortex_ti.dynamics.state.State`: the node positions, which move with
+the mesh velocity (``dx_i/dt = (v_i . n_i) n_i`` with the paper's normal motion, Eq. 60; see
+:mod:`cortex_ti.dynamics.motion`), and the nodal fields the state carries (the active tension
+glued to the nodes or carried by the material, :mod:`cortex_ti.physics.fields`). Each
+right-hand-side evaluation recomputes the geometry, the fits, the constrained solve and the
+fields' transport rates on the current state; a scheme combines the :class:`~cortex_ti.dynamics.state.Rates`
+of its evaluations and :meth:`State.advanced <cortex_ti.dynamics.state.State.advanced>` applies
+them (with each field's implicit diffusion and turnover). Schemes, all explicit in the shape:
 
 ``euler``           the paper's scheme, fixed step ``time.dt``, first order.
 ``heun``            explicit trapezoid (RK2), fixed step, second order, two solves per step.
@@ -22,15 +26,17 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import SceneError, StabilityError
+from .state import Rates, State
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SCHEMES", "Scheme", "Evaluation", "StepResult", "register_scheme", "make_scheme", "RESOLUTION_HINT"]
+__all__ = ["SCHEMES", "Scheme", "Evaluation", "StepResult", "register_scheme", "make_scheme", "advance",
+           "RESOLUTION_HINT"]
 
 #: how to get out of a resolution problem
 RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562); with numerics.formulation=paper, switch to "
@@ -39,7 +45,8 @@ RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562); with numerics.fo
 
 @dataclass
 class Evaluation:
-    """The solve on one shape: the velocity and the normal the nodes move along."""
+    """The dynamics on one state: the velocity, the normal, the nodes' velocity and the rates of the
+    transported fields."""
 
     points: np.ndarray
     velocity: np.ndarray
@@ -47,6 +54,10 @@ class Evaluation:
     pressure: float
     solution: object  # simulation.Solution
     edge_length: np.ndarray | None = None  # (N,) mean edge length at each node
+    state: State | None = None             # the state evaluated (None: positions only)
+    mesh_velocity: np.ndarray | None = None  # (N, 3) dx/dt of the nodes (None: v_n n)
+    field_rates: dict = field(default_factory=dict)   # name -> rate of the stored quantity
+    transport: dict = field(default_factory=dict)     # name -> FieldTransport (kind, implicit part)
 
     @property
     def normal_speed(self) -> np.ndarray:
@@ -54,18 +65,36 @@ class Evaluation:
 
     @property
     def rate(self) -> np.ndarray:
-        """dx/dt of the nodes: the normal part of the velocity."""
+        """dx/dt of the nodes: the mesh velocity (the normal part of the velocity by default)."""
+        if self.mesh_velocity is not None:
+            return self.mesh_velocity
         return self.normal_speed[:, None] * self.normal
+
+    @property
+    def rates(self) -> Rates:
+        """d/dt of the whole state."""
+        return Rates(self.rate, self.field_rates)
+
+
+def advance(ev: Evaluation, dt: float, rates: Rates) -> State:
+    """The state of ``ev`` advanced by ``dt`` with ``rates`` (the fields' implicit parts included)."""
+    state = ev.state if ev.state is not None else State(ev.points)
+    return state.advanced(dt, rates, ev.transport)
 
 
 @dataclass
 class StepResult:
-    points: np.ndarray        # the new shape
+    state: State              # the new state
     dt: float                 # the step taken
     error: float              # estimated local displacement error (R0), nan if not estimated
     accepted: bool = True
     dt_next: float | None = None
     solves: int = 1
+
+    @property
+    def points(self) -> np.ndarray:
+        """The new shape."""
+        return self.state.points
 
 
 SCHEMES: dict[str, type["Scheme"]] = {}
@@ -105,10 +134,10 @@ class Scheme:
 
 @register_scheme("euler")
 class Euler(Scheme):
-    """x_{n+1} = x_n + dt v_n(x_n) n(x_n)."""
+    """y_{n+1} = y_n + dt f(y_n) (positions: x_{n+1} = x_n + dt w(x_n), w = v_n n by default)."""
 
     def step(self, ev: Evaluation, dt: float) -> StepResult:
-        return StepResult(ev.points + dt * ev.rate, dt, float("nan"), solves=0)
+        return StepResult(advance(ev, dt, ev.rates), dt, float("nan"), solves=0)
 
 
 @register_scheme("heun")
@@ -118,10 +147,10 @@ class Heun(Scheme):
     first_order = False
 
     def _pair(self, ev, dt):
-        pred = ev.points + dt * ev.rate
+        pred = advance(ev, dt, ev.rates)
         ev2 = self.evaluate(pred)
-        new = ev.points + 0.5 * dt * (ev.rate + ev2.rate)
-        return new, float(np.max(np.linalg.norm(new - pred, axis=1)))
+        new = advance(ev, dt, 0.5 * (ev.rates + ev2.rates))
+        return new, float(np.max(np.linalg.norm(new.points - pred.points, axis=1)))
 
     def step(self, ev, dt):
         new, err = self._pair(ev, dt)
@@ -144,10 +173,10 @@ class AdaptiveHeun(Heun):
         ratio = err / self.tol
         factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio ** -0.5))
         dt_next = min(self.dt_max, dt * factor)
-        if ratio > 1.0 or not np.all(np.isfinite(new)):
+        if ratio > 1.0 or not np.all(np.isfinite(new.points)):
             if dt <= self.dt_min:
                 raise StabilityError(f"the adaptive step fell below time.dt_min = {self.dt_min:g} at error {err:.2e}")
-            return StepResult(ev.points, dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
+            return StepResult(ev.state if ev.state is not None else State(ev.points), dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
         return StepResult(new, dt, err, dt_next=dt_next, solves=1)
 
 
@@ -206,7 +235,7 @@ class AdaptiveEuler(Euler):
             dt_next = min(self.dt_max, self.dt_cap, dt * self.GROW, max(dt * self.SHRINK, ideal))
             dt = min(dt, dt_next)
         self._prev = (rate, dt)
-        return StepResult(ev.points + dt * rate, dt, err, dt_next=dt_next, solves=0)
+        return StepResult(advance(ev, dt, ev.rates), dt, err, dt_next=dt_next, solves=0)
 
 
 def make_scheme(name: str, evaluate, **options):

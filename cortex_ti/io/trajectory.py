@@ -26,7 +26,7 @@ from __future__ import annotations
 import datetime as _dt
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any, Mapping
@@ -612,6 +612,7 @@ class ResumeState:
     points: np.ndarray      # (N, 3)
     active_stress: np.ndarray   # (N,) the tension carried by the nodes
     dt: float | None        # the step the integrator was about to take (None if not stored)
+    fields: dict = field(default_factory=dict)   # every other (time, node) variable of the frame
 
     @classmethod
     def read(cls, output: str | os.PathLike) -> "ResumeState | None":
@@ -623,10 +624,12 @@ class ResumeState:
         if not last["n_frames"]:
             return None
         dt = last["extra"].get("dt")
+        n = np.shape(last["points"])[0]
+        nodal = {k: np.asarray(v, dtype=float) for k, v in last["extra"].items() if np.shape(v) == (n,)}
         return cls(path=partial, n_frames=last["n_frames"], time=float(last["time"]),
                    points=np.asarray(last["points"], dtype=float),
                    active_stress=np.asarray(last["active_stress"], dtype=float),
-                   dt=None if dt is None else float(dt))
+                   dt=None if dt is None else float(dt), fields=nodal)
 
 
 class Trajectory:

@@ -16,15 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..dynamics.motion import MESH_MOTIONS, MotionContext
 from ..dynamics.schemes import Evaluation
+from ..dynamics.state import FieldTransport, State
+from ..physics.fields import FIELDS, scene_fields, tension_of
 from ..scene.loader import Scene
 from ..solve.constrained import ConstrainedLeastSquares, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.topology import Topology, build_topology
+from ..surface.transport import advective_rate, triangle_gradients
 from .run import run_scene, run_summary
-from .setup import active_tension, initial_mesh, initial_shape
+from .setup import initial_fields, initial_mesh, initial_shape
 
 __all__ = ["Simulation", "Solution"]
 
@@ -67,13 +71,40 @@ class Simulation:
         undeformed = mesh or initial_mesh(self.settings)
         self.topology: Topology = build_topology(undeformed)
         self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
-        # the stress is carried by the nodes: assign it on the undeformed mesh, then deform
-        self.zeta = active_tension(undeformed, self.settings)
+        # the fields are assigned on the undeformed mesh, then the mesh is deformed
+        fields = initial_fields(undeformed, self.settings)
         self.mesh = initial_shape(undeformed, self.settings)
+        self.state0 = State(self.mesh.points, fields, self.mesh.faces)
+        self.fields = scene_fields(self.settings)
+        self.transport = {spec.name: FieldTransport(spec.kind, spec.diffusion(self.settings), *spec.turnover(self.settings))
+                          for spec in self.fields if self._moves(spec)}
+        self.motion = MESH_MOTIONS[self.settings.mesh.motion]
+        self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, self.settings.mesh.ale_time)
         s = self.settings.solver
         self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
         self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
+
+    def _moves(self, spec) -> bool:
+        """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""
+        return (spec.carried(self.settings) or spec.kind == "density" or spec.diffusion(self.settings) > 0
+                or spec.turnover(self.settings)[0] > 0)
+
+    @property
+    def zeta(self) -> np.ndarray:
+        """The active tension of the initial state (what :meth:`solve` uses unless told otherwise)."""
+        return tension_of(self.state0.fields, self.mesh.n_nodes)
+
+    @zeta.setter
+    def zeta(self, value) -> None:
+        """Set the initial state's tension (the scene's prescribed tension field)."""
+        fields = dict(self.state0.fields)
+        fields["prescribed_tension"] = np.asarray(value, dtype=float)
+        self.state0 = State(self.state0.points, fields, self.state0.faces)
+
+    def state_at(self, points: np.ndarray) -> State:
+        """The initial state's fields on the shape ``points``."""
+        return self.state0.with_points(points)
 
     @property
     def formulation(self) -> str:
@@ -89,13 +120,16 @@ class Simulation:
         """Frames, areas and fit operators of the shape ``points`` (what the formulation needs)."""
         return compute_geometry(points, self.topology, self.stencils, residual=self.settings.numerics.uses_fit_residual)
 
-    def system(self, geometry, dt: float = 0.0):
-        """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step)."""
+    def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None):
+        """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step) with the
+        tension ``zeta`` (default: the initial state's)."""
         num = self.settings.numerics
-        return num.formulation_entry.system(geometry, self.physics, self.zeta, self.mesh.faces, num, dt)
+        zeta = self.zeta if zeta is None else zeta
+        return num.formulation_entry.system(geometry, self.physics, zeta, self.mesh.faces, num, dt)
 
-    def solve(self, points: np.ndarray | None = None, dt: float = 0.0) -> Solution:
-        """Velocity and pressure on the shape ``points`` (default: the initial shape).
+    def solve(self, points: np.ndarray | None = None, dt: float = 0.0, zeta: np.ndarray | None = None) -> Solution:
+        """Velocity and pressure on the shape ``points`` (default: the initial shape) with the
+        tension ``zeta`` (default: the initial state's).
 
         ``dt > 0``: the velocity of a step of that length with the semi-implicit tension
         (:mod:`cortex_ti.physics.terms.implicit_tension`); 0 is the instantaneous velocity."""
@@ -103,7 +137,7 @@ class Simulation:
         t0 = time.perf_counter()
         geometry = self.shape_geometry(x)
         t1 = time.perf_counter()
-        system = self.system(geometry, dt)
+        system = self.system(geometry, dt, zeta)
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()
@@ -111,14 +145,34 @@ class Simulation:
                         normal=geometry.normal.copy(), edge_length=geometry.edge_length.copy(),
                         seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2})
 
-    def evaluate(self, points: np.ndarray, dt: float = 0.0) -> Evaluation:
-        """Solve on ``points`` (for a step ``dt``, see :meth:`solve`), count its time per stage, and
-        package what the time integration needs."""
-        sol = self.solve(points, dt)
+    def evaluate(self, state: State | np.ndarray, dt: float = 0.0) -> Evaluation:
+        """The dynamics on a state (positions: the initial state's fields on them): the solve with
+        the state's tension (for a step ``dt``, see :meth:`solve`), the mesh velocity of
+        ``mesh.motion`` and the transport rates of the moving fields; counts the time per stage."""
+        if not isinstance(state, State):
+            state = self.state_at(state)
+        points = state.points
+        zeta = tension_of(state.fields, state.n_nodes) if state.fields else None
+        sol = self.solve(points, dt, zeta)
+        t0 = time.perf_counter()
+        mesh_velocity, rates = None, {}
+        if self.motion.name != "normal":
+            mesh_velocity = self.motion.velocity(sol.velocity, sol.normal, points, self.motion_context)
+        carried = [spec for spec in self.fields if spec.name in self.transport and spec.carried(self.settings)]
+        if carried:
+            w = mesh_velocity if mesh_velocity is not None else (
+                np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal)
+            u = sol.velocity - w
+            tri = triangle_gradients(points, self.mesh.faces)
+            for spec in carried:
+                rates[spec.name] = advective_rate(state.fields[spec.name], spec.kind, points, self.mesh.faces, u, tri)
+        if mesh_velocity is not None or carried:
+            sol.seconds["transport"] = time.perf_counter() - t0
         for k, v in sol.seconds.items():
             self.seconds[k] = self.seconds.get(k, 0.0) + v
         return Evaluation(points=points, velocity=sol.velocity, normal=sol.normal, pressure=sol.pressure,
-                          solution=sol, edge_length=sol.edge_length)
+                          solution=sol, edge_length=sol.edge_length, state=state, mesh_velocity=mesh_velocity,
+                          field_rates=rates, transport=self.transport)
 
     def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).

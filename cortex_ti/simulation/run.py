@@ -23,7 +23,9 @@ from ..dynamics.guard import StabilityGuard
 from ..dynamics.integrate import RunStats, integrate
 from ..dynamics.schemes import make_scheme
 from ..errors import CortexError
+from ..dynamics.state import State
 from ..io.trajectory import ResumeState, TrajectoryWriter
+from ..physics.fields import tension_of
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
@@ -104,31 +106,36 @@ def _run_static(sim: "Simulation", output: Path) -> RunReport:
 def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) -> RunReport:
     st = sim.settings.time
     scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max)
-    points, t0, dt = sim.mesh.points, 0.0, st.dt
+    start, t0, dt = sim.state0, 0.0, st.dt
     state = ResumeState.read(output) if resume else None
     if state is not None:
-        points, t0 = state.points, state.time
+        t0 = state.time
         if scheme.adaptive and state.dt is not None:
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
             dt = min(state.dt, st.dt_max)
-        sim.zeta = state.active_stress
+        start = resumed_state(sim, state)
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
     faces, axis = sim.mesh.faces, sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
+    stored = stored_fields(sim)
     writer = TrajectoryWriter(output, faces, sim.mesh.n_nodes, output_attrs(sim),
-                              extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS}, resume=state is not None)
+                              extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS,
+                                          **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored}},
+                              resume=state is not None)
 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
-        writer.append(t, ev.points, ev.velocity, sim.zeta, ev.pressure if has_p else float("nan"),
-                      normal=ev.normal, dt=dt_next, **ev.solution.diagnostics, **diag)
+        fields = ev.state.fields
+        writer.append(t, ev.points, ev.velocity, tension_of(fields, sim.mesh.n_nodes),
+                      ev.pressure if has_p else float("nan"), normal=ev.normal, dt=dt_next,
+                      **ev.solution.diagnostics, **diag, **{spec.var: fields[spec.name] for spec in stored})
 
     bar = _ProgressBar(t0, st.t_end) if progress else None
     try:
-        stats = integrate(sim.evaluate, points, t0, st.t_end, dt, scheme, st.save_every, on_frame,
+        stats = integrate(sim.evaluate, start, t0, st.t_end, dt, scheme, st.save_every, on_frame,
                           steady_tol=st.steady_tol, progress=bar, write_first=state is None,
                           implicit=st.implicit_tension, guard=StabilityGuard(faces=faces),
                           save_times=st.save_times)
@@ -144,6 +151,29 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
              sim.settings.name, stats.t, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
              ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()))
     return RunReport(path=path, stats=stats)
+
+
+def stored_fields(sim: "Simulation") -> list:
+    """The fields a trajectory stores as variables of their own: all but a prescribed tension that is
+    the whole active tension (the ``active_stress`` variable already holds it)."""
+    specs = sim.fields
+    alone = [spec.name for spec in specs if spec.tension is not None] == ["prescribed_tension"]
+    return [spec for spec in specs if not (alone and spec.name == "prescribed_tension")]
+
+
+def resumed_state(sim: "Simulation", resume: ResumeState) -> State:
+    """The state of the last complete frame of an interrupted run: its points and every field (a
+    prescribed tension that is the whole tension from ``active_stress``; files written before the
+    fields existed hold only that)."""
+    fields = {}
+    for spec in sim.fields:
+        if spec.var in resume.fields:
+            fields[spec.name] = np.asarray(resume.fields[spec.var], dtype=float)
+        elif spec.name == "prescribed_tension":
+            fields[spec.name] = np.asarray(resume.active_stress, dtype=float)
+        else:
+            raise CortexError(f"cannot resume {resume.path}: it holds no values of the field {spec.var!r}")
+    return State(np.asarray(resume.points, dtype=float), fields, sim.mesh.faces)
 
 
 def run_summary(sim: "Simulation") -> dict:

@@ -10,12 +10,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import CortexError
+from ..physics.fields import scene_fields
 from ..physics.patterns import evaluate_active_stress
 from ..scene.settings import RunSettings
 from ..surface.mesh import Mesh, affine, icosphere
 from ..surface.reading import load_mesh
 
-__all__ = ["initial_mesh", "active_tension", "initial_shape"]
+__all__ = ["initial_mesh", "active_tension", "initial_fields", "initial_shape"]
 
 
 def initial_mesh(settings: RunSettings) -> Mesh:
@@ -32,6 +33,14 @@ def active_tension(mesh: Mesh, settings: RunSettings) -> np.ndarray:
     if not settings.has("active_stress"):
         return np.zeros(mesh.n_nodes)
     return evaluate_active_stress(mesh.points, list(settings.patterns))
+
+
+def initial_fields(mesh: Mesh, settings: RunSettings) -> dict[str, np.ndarray]:
+    """The scene's nodal fields (:data:`cortex_ti.physics.fields.FIELDS`) on the undeformed ``mesh``.
+
+    Reads field files and runs python patterns, so ``cortex-ti check`` calls it too."""
+    return {spec.name: np.asarray(spec.initial(settings, mesh.points), dtype=float)
+            for spec in scene_fields(settings)}
 
 
 def initial_shape(mesh: Mesh, settings: RunSettings) -> Mesh:

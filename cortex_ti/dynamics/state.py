@@ -1,0 +1,114 @@
+r"""The state the time schemes advance: the shape (node positions) and the nodal fields it carries.
+
+A :class:`State` is immutable: ``points`` (N, 3) and ``fields``, a mapping of field name to its
+nodal values (N,) (:data:`cortex_ti.physics.fields.FIELDS`). An evaluation of the dynamics on a
+state gives its :class:`Rates`: the nodes' velocity (the mesh velocity ``w``,
+:mod:`cortex_ti.dynamics.motion`) and, for each transported field, the rate of its stored
+quantity (a density's content ``c A``, a property's value: :mod:`cortex_ti.surface.transport`).
+Rates add and scale like vectors, so a scheme writes its update once for the whole state::
+
+    new = ev.state.advanced(dt, 0.5 * (ev.rates + ev2.rates), implicit)   # Heun
+
+:meth:`State.advanced` takes the explicit update and then the implicit part of the step
+(diffusion and turnover, on the new shape), and turns stored quantities back into values on the
+new shape. A field without a rate (``None``: glued to the nodes) keeps its values exactly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping
+
+import numpy as np
+
+from ..surface.transport import DENSITY, dual_areas, implicit_diffusion_reaction
+
+__all__ = ["State", "Rates", "FieldTransport"]
+
+
+@dataclass(frozen=True)
+class FieldTransport:
+    """How one field of a state moves in a step: its kind and its implicit diffusion and turnover."""
+
+    kind: str
+    diffusion: float = 0.0
+    turnover: float = 0.0
+    target: float = 0.0
+
+
+@dataclass(frozen=True)
+class Rates:
+    """d/dt of a state: ``points`` (N, 3), and per transported field the rate of its stored
+    quantity (fields absent or None do not change)."""
+
+    points: np.ndarray
+    fields: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __add__(self, other: "Rates") -> "Rates":
+        keys = set(self.fields) | set(other.fields)
+        return Rates(self.points + other.points, {k: _add(self.fields.get(k), other.fields.get(k)) for k in keys})
+
+    def __mul__(self, factor: float) -> "Rates":
+        return Rates(factor * self.points, {k: None if v is None else factor * v for k, v in self.fields.items()})
+
+    __rmul__ = __mul__
+
+
+def _add(a, b):
+    if a is None:
+        return b
+    return a if b is None else a + b
+
+
+@dataclass(frozen=True)
+class State:
+    """Node positions and the nodal fields (name -> (N,) values) of one instant."""
+
+    points: np.ndarray
+    fields: Mapping[str, np.ndarray] = field(default_factory=dict)
+    faces: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "fields", MappingProxyType(dict(self.fields)))
+
+    @property
+    def n_nodes(self) -> int:
+        return self.points.shape[0]
+
+    def with_points(self, points: np.ndarray) -> "State":
+        """The same fields on other node positions."""
+        return State(points, self.fields, self.faces)
+
+    def stored(self, name: str, kind: str) -> np.ndarray:
+        """The quantity a scheme advances for field ``name``: ``c A`` (dual areas of this shape) for
+        a density, the value for a property."""
+        values = self.fields[name]
+        return values * dual_areas(self.points, self.faces) if kind == DENSITY else values
+
+    def advanced(self, dt: float, rates: Rates, transport: Mapping[str, FieldTransport]) -> "State":
+        """The state after a step ``dt`` with the (combined) ``rates``: explicit update of the
+        positions and of the stored quantities, then each field's implicit diffusion and turnover on
+        the new shape."""
+        points = self.points + dt * rates.points
+        fields = {}
+        for name, values in self.fields.items():
+            rate = rates.fields.get(name)
+            tr = transport.get(name)
+            if tr is None or (rate is None and tr.kind != DENSITY and tr.diffusion == 0.0 and tr.turnover == 0.0):
+                fields[name] = values          # glued to the nodes: unchanged
+                continue
+            stored = self.stored(name, tr.kind)
+            if rate is not None:
+                stored = stored + dt * rate
+            fields[name] = implicit_diffusion_reaction(stored, tr.kind, points, self.faces, dt, tr.diffusion,
+                                                       tr.turnover, tr.target)
+        return State(points, fields, self.faces)
+
+    def total(self, name: str) -> float:
+        """``sum_i c_i A_i`` of a field on this shape (the amount of a density)."""
+        return float(np.sum(self.fields[name] * dual_areas(self.points, self.faces)))
+
+    @staticmethod
+    def empty_transport() -> Mapping[str, FieldTransport]:
+        return MappingProxyType({})
