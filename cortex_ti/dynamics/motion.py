@@ -20,7 +20,8 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["MESH_MOTIONS", "MeshMotion", "MotionContext", "register_motion", "ale_velocity", "conformal_distortion"]
+__all__ = ["MESH_MOTIONS", "MeshMotion", "MotionContext", "register_motion", "ale_velocity", "conformal_distortion",
+           "volume_gradient"]
 
 
 @dataclass(frozen=True)
@@ -129,4 +130,22 @@ def ale_velocity(velocity, normal, points, context: MotionContext):
     h = hsum / count
     g = g - np.einsum("nc,nc->n", g, normal)[:, None] * normal
     wt = -(h * h / (context.ale_time * count))[:, None] * g
+    # volume-neutral: the solver keeps sum_k (n_k . dV/dx_k) v_n,k = 0, so the tangential motion
+    # must not change the triangulated volume either: remove its component along P dV/dx
+    vg = volume_gradient(points, faces)
+    pg = vg - np.einsum("nc,nc->n", vg, normal)[:, None] * normal
+    norm = float(np.sum(pg * pg))
+    if norm > 0.0:
+        wt = wt - (float(np.sum(vg * wt)) / norm) * pg
     return normal_velocity(velocity, normal) + wt
+
+
+def volume_gradient(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """``dV/dx_k`` (N, 3) of the triangulated volume ``V = sum_T x_a . (x_b x x_c) / 6``."""
+    x = points[faces]
+    g = np.zeros_like(points)
+    for k in range(3):
+        part = np.cross(x[:, (k + 1) % 3], x[:, (k + 2) % 3]) / 6.0
+        for c in range(3):
+            g[:, c] += np.bincount(faces[:, k], weights=part[:, c], minlength=points.shape[0])
+    return g
