@@ -24,7 +24,6 @@ is exact for the degrees involved, so 1e-9; the axisymmetric collocation (n = 32
 from __future__ import annotations
 
 import json
-import math
 from importlib import resources
 
 import numpy as np
@@ -37,8 +36,8 @@ from cortex_ti.axisymmetric.balance import static_flow
 from cortex_ti.axisymmetric.evolve import full_meridian_dynamics, normal_embedding
 from cortex_ti.physics.spherical import real_sph_harm_surface_gradient
 
-PAPER_BENDING = dict(eta_bar=5e-4, eta_bar_b=2.5e-3)
-STRONG_BENDING = dict(eta_bar=0.05, eta_bar_b=0.1)
+PAPER_BENDING = {"eta_bar": 5e-4, "eta_bar_b": 2.5e-3}
+STRONG_BENDING = {"eta_bar": 0.05, "eta_bar_b": 0.1}
 
 
 def sphere_grid(n: int, R: float = 1.0):
@@ -61,7 +60,7 @@ def tension_column(l, m, A, D, k, *, c0=1.0, R=1.0, eta_s=1.0, eta_b=1.0, eta_ba
     Y = real_sph_harm(l, m, pts)
     gradY = real_sph_harm_surface_gradient(l, m, pts)            # on the sphere of radius R
     g = A / c0
-    v, _, info = sphere_flow(lambda p: g * real_sph_harm(l, m, p), pts, radius=R, eta_s=eta_s, eta_b=eta_b,
+    v, _, _ = sphere_flow(lambda p: g * real_sph_harm(l, m, p), pts, radius=R, eta_s=eta_s, eta_b=eta_b,
                              eta_bar=eta_bar, eta_bar_b=eta_bar_b, system=system, lmax=16, l1=l1)
     vn = np.einsum("ij,ij->i", v, n)
     dil = np.sum(w * (-np.einsum("ij,ij->i", gradY, v) + 2.0 * Y * vn / R))
@@ -71,7 +70,7 @@ def tension_column(l, m, A, D, k, *, c0=1.0, R=1.0, eta_s=1.0, eta_b=1.0, eta_ba
 
 
 @pytest.mark.parametrize("l, m", [(2, 0), (2, 1), (2, -2), (3, 2), (4, -3)])
-@pytest.mark.parametrize("visc", [dict(), dict(eta_b=3.0), PAPER_BENDING, dict(eta_s=0.5, **STRONG_BENDING)])
+@pytest.mark.parametrize("visc", [{}, {"eta_b": 3.0}, PAPER_BENDING, dict(eta_s=0.5, **STRONG_BENDING)])
 def test_tension_column_from_the_exact_sphere_flow(l, m, visc):
     A, D, k, c0, R = 0.9, 0.05, 0.2, 1.7, 1.3
     J = ms.mode_matrix(l, A, 1.0, D, k, c0=c0, radius=R, **visc)
@@ -129,7 +128,7 @@ def shape_column(l, zeta0, visc, gauge="velocity", eps=1e-5, n=32):
     return -_projection(dyn, (dp - dm) / (2 * eps), l), _projection(dyn, (vp - vm) / (2 * eps), l)
 
 
-VISC = dict(eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0)
+VISC = {"eta_s": 1.0, "eta_b": 1.0, "eta_bar": 0.0, "eta_bar_b": 0.0}
 
 
 @pytest.mark.parametrize("l", [2, 3, 4])
@@ -234,11 +233,11 @@ def test_the_marginal_mode_is_the_tangential_flow(l, m, D, k):
 
 
 @pytest.mark.parametrize("D, k", [(0.05, 0.2), (0.001, 0.01), (1.0, 5.0), (0.05, 0.0)])
-@pytest.mark.parametrize("visc", [dict(), dict(eta_b=5.0), dict(eta_s=3.0, **STRONG_BENDING)])
+@pytest.mark.parametrize("visc", [{}, {"eta_b": 5.0}, dict(eta_s=3.0, **STRONG_BENDING)])
 def test_polarity_goes_first_and_grows_fastest(D, k, visc):
     """A_c(l) grows with l, and above onset the l = 1 rate is the largest (the 2 x 2 of l >= 2 has
     off-diagonal entries of opposite signs, so its top eigenvalue is below its myosin entry)."""
-    trans = dict(translation="centroid")
+    trans = {"translation": "centroid"}
     onsets = [ms.critical_activity(l, D, k, **visc, **trans) for l in range(1, 12)]
     assert np.all(np.diff(onsets) > 0)
     assert ms.first_unstable_degree(D, k, **visc, **trans)[0] == 1
@@ -304,10 +303,10 @@ def test_the_saturating_law_has_gamma_one():
     assert ms.activity("saturating", zeta0) == pytest.approx(c0 * (law(c0 + h) - law(c0 - h)) / (2 * h), rel=1e-9)
 
 
-@pytest.mark.parametrize("bad", [dict(D=-1.0), dict(k=-0.1), dict(c0=0.0), dict(eta_s=0.0),
-                                 dict(translation="drift"), dict(eta_b=0.0), dict(l=-1), dict(l=1.5)])
+@pytest.mark.parametrize("bad", [{"D": -1.0}, {"k": -0.1}, {"c0": 0.0}, {"eta_s": 0.0},
+                                 {"translation": "drift"}, {"eta_b": 0.0}, {"l": -1}, {"l": 1.5}])
 def test_bad_input(bad):
-    kw = dict(l=2, zeta0=1.0, gamma=1.0, D=0.05, k=0.2)
+    kw = {"l": 2, "zeta0": 1.0, "gamma": 1.0, "D": 0.05, "k": 0.2}
     kw.update(bad)
     with pytest.raises(ValueError):
         ms.mode_matrix(kw.pop("l"), kw.pop("zeta0"), kw.pop("gamma"), kw.pop("D"), kw.pop("k"), **kw)
@@ -329,8 +328,8 @@ def test_laplace_relaxation_is_the_limit_of_the_3d_spectrum(bending):
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
 
-    keys = [] if bending else ["viscosity.bending=0", "viscosity.bending_bulk=0", "effects=[active_stress,"
-                                "shear_viscosity,bulk_viscosity,normal_balance,incompressibility,shape_evolution]"]
+    keys = [] if bending else ["viscosity.bending=0", "viscosity.bending_bulk=0", ("effects=[active_stress,"
+                                "shear_viscosity,bulk_viscosity,normal_balance,incompressibility,shape_evolution]")]
     l2 = []
     for nodes in (162, 642):
         sim = Simulation(load_scene("furrow_p4_a1", [f"mesh.nodes={nodes}", "numerics.formulation=rayleigh_p1", *keys]))

@@ -60,8 +60,18 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
-    "TRANSLATIONS", "FORMULATIONS", "activity", "mode_matrix", "growth_rates", "modes", "Modes",
-    "critical_activity", "oscillatory_gamma", "laplace_rate", "l1_gain", "first_unstable_degree",
+    "FORMULATIONS",
+    "TRANSLATIONS",
+    "Modes",
+    "activity",
+    "critical_activity",
+    "first_unstable_degree",
+    "growth_rates",
+    "l1_gain",
+    "laplace_rate",
+    "mode_matrix",
+    "modes",
+    "oscillatory_gamma",
 ]
 
 #: Values of the scene key ``translation`` (scene.schema.json, its enum; a test checks they agree):
@@ -104,8 +114,8 @@ def _degree(l) -> int:
 
 
 def _check(D, k, c0, eta_s, eta_b, eta_bar, eta_bar_b, radius, translation, formulation) -> None:
-    vals = dict(D=D, k=k, c0=c0, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b,
-                radius=radius)
+    vals = {"D": D, "k": k, "c0": c0, "eta_s": eta_s, "eta_b": eta_b, "eta_bar": eta_bar,
+            "eta_bar_b": eta_bar_b, "radius": radius}
     for name, v in vals.items():
         if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
