@@ -4,7 +4,8 @@ against independent truths.
 * The tension-driven column of ``J_l`` (myosin -> myosin, myosin -> shape): the exact spectral
   flow of a tension ``Y_lm`` on the sphere (``sphere_exact.sphere_flow``), its area-dilation rate
   ``oint Y div v`` by integration by parts on a Gauss-Legendre grid, the diffusion part from the
-  package's own harmonic gradients (``physics.spherical``), and the shape rate ``oint Y v_n``.
+  package's own harmonic gradients (``physics.spherical``), and the shape rate ``oint Y v_n``;
+  for m = 0 also the axisymmetric model's static flow (collocation, no harmonics).
 * The shape-driven column (shape -> myosin, shape -> shape, the Laplace relaxation): the
   axisymmetric model's force balance on a sphere deformed by ``eps P_l`` (central differences),
   a code that knows nothing of harmonics; and its exact Jacobian.
@@ -200,6 +201,24 @@ def test_degree_one_gauges_from_the_axisymmetric_model(visc, translation, gauge)
         assert J.shape == (1, 1) and abs(vn) < 1e-12
     else:
         assert J[1, 0] == pytest.approx(A * vn, rel=1e-9)
+
+
+@pytest.mark.parametrize("l", [2, 3, 4])
+@pytest.mark.parametrize("visc", [VISC, dict(VISC, eta_b=2.5), dict(VISC, eta_s=0.5, **STRONG_BENDING)])
+def test_tension_column_from_the_axisymmetric_model(l, visc):
+    """The same column from a second, independent solver: the axisymmetric model's static flow for
+    the tension P_l(cos theta) (collocation, no harmonics; rounding-level agreement)."""
+    A, D, k = 0.9, 0.05, 0.2
+    res = static_flow(lambda t: eval_legendre(l, np.cos(t)), n=32, symmetric=False, **visc)
+    th, sp = res.theta, res.spectral
+    dil = (res.v_s @ sp.D["O"].T) + res.v_s * np.cos(th) / np.sin(th) + 2.0 * res.v_n
+    P = eval_legendre(l, np.cos(th))
+
+    def proj(f):
+        return float((f * P * np.sin(th)) @ sp.wR) / float((P * P * np.sin(th)) @ sp.wR)
+    J = ms.mode_matrix(l, A, 1.0, D, k, **visc)
+    assert J[0, 0] == pytest.approx(-A * proj(dil) - D * l * (l + 1) - k, rel=1e-9)
+    assert J[1, 0] == pytest.approx(A * proj(res.v_n), rel=1e-9)
 
 
 def test_translation_vocabulary_is_the_scenes():
