@@ -171,7 +171,7 @@ def test_defaults_and_canonical_numbers():
                                        "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
     assert list(scene.data) == ["name", "description", "model", "translation", "tension_transport",
-                                "mesh", "viscosity", "active_stress",
+                                "mesh", "viscosity", "active_stress", "fields",
                                 "effects", "numerics", "solver", "time", "axisymmetric"]
 
 
@@ -240,7 +240,7 @@ def test_error_names_the_scene_file(tmp_path):
     ("time.dtt=1", "unknown key 'time.dtt' (did you mean 'time.dt'?)"),
     ("foo=1", "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
                 "viscosity, "
-              "active_stress, effects, numerics, solver, time, axisymmetric)"),
+              "active_stress, fields, effects, numerics, solver, time, axisymmetric)"),
     # wrong types
     ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
     ("solver.reuse=3", "solver.reuse: 3 is not of type 'boolean'"),

@@ -318,3 +318,63 @@ def test_the_translation_gauge_is_a_rigid_translation_of_a_material_cortex(tmp_p
     assert np.abs(shift[-1]).max() > 1e-4            # the gauges do differ by a translation
     steps = round(0.3 / sim.settings.time.dt)
     assert np.abs(d - shift[:, None, :]).max() < sim.settings.solver.rtol * steps * 10
+
+
+def _myosin_scene(tmp_path, **myosin):
+    import yaml
+
+    data = {"name": "myosin", "mesh": {"nodes": 162},
+            "fields": {"myosin": {"c0": 1.0, "initial": [{"type": "harmonics", "terms": [{"l": 2, "m": 0, "coeff": 0.1}]}],
+                                  **myosin}},
+            "active_stress": [],
+            "effects": ["active_stress", "shear_viscosity", "bulk_viscosity", "normal_balance", "incompressibility",
+                        "shape_evolution"],
+            "time": {"dt": 0.005, "t_end": 0.2, "save_every": 0.05}}
+    path = tmp_path / "myosin.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("turnover", [0.0, 2.0])
+def test_myosin_total_is_kept_and_turns_over_as_dM_dt_says(tmp_path, turnover):
+    """The myosin field (fields.myosin): without turnover its total sum c A is kept to round-off over
+    a run (diffusion and transport conserve it); with turnover k it follows the backward-Euler step
+    of dM/dt = -k (M - c0 A(t)) exactly, M_{n+1} = (M_n + dt k c0 A_{n+1}) / (1 + dt k)."""
+    import xarray as xr
+
+    from cortex_ti.scene import load_scene as load
+    from cortex_ti.simulation.core import Simulation
+
+    sim = Simulation(load(_myosin_scene(tmp_path, diffusion=0.1, turnover=turnover)))
+    sim.run(tmp_path / "m.h5", progress=False)
+    ds = xr.load_dataset(tmp_path / "m.h5", engine="h5netcdf")
+    f = ds.triangles.values
+    mass = np.array([np.sum(ds.myosin.values[k] * dual_areas(ds.points.values[k], f)) for k in range(len(ds.time))])
+    if turnover == 0.0:
+        assert np.ptp(mass) < 1e-12 * mass[0]
+    else:
+        # between frames 10 steps; the area changes little, so the closed form with A(t) at the frame
+        # times bounds the difference by k dt |dA| over the interval
+        area = np.array([dual_areas(ds.points.values[k], f).sum() for k in range(len(ds.time))])
+        dt, steps = 0.005, 10
+        for k in range(len(mass) - 1):
+            expect = mass[k]
+            for _ in range(steps):
+                expect = (expect + dt * turnover * area[k + 1]) / (1 + dt * turnover)
+            assert abs(mass[k + 1] - expect) < turnover * steps * dt * abs(area[k + 1] - area[k]) + 1e-12 * mass[0]
+    # the tension is the linear law of the density
+    np.testing.assert_allclose(ds.active_stress.values, ds.myosin.values, rtol=0, atol=1e-14)
+
+
+def test_myosin_bad_input_is_one_line(tmp_path):
+    """A negative diffusion, and a myosin field under the axisymmetric model, are refused naming the key."""
+    import subprocess
+    import sys
+
+    bad = _myosin_scene(tmp_path, diffusion=-1.0)
+    out = subprocess.run([sys.executable, "-m", "cortex_ti.cli", "check", str(bad)], capture_output=True, text=True)
+    assert out.returncode == 2 and "fields.myosin.diffusion" in out.stderr and "Traceback" not in out.stderr
+    ok = _myosin_scene(tmp_path)
+    out = subprocess.run([sys.executable, "-m", "cortex_ti.cli", "check", str(ok), "--set", "model=axisymmetric"],
+                         capture_output=True, text=True)
+    assert out.returncode == 2 and "does not carry fields" in out.stderr

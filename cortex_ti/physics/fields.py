@@ -46,6 +46,7 @@ class FieldSpec:
     turnover: Callable = staticmethod(lambda settings: (0.0, 0.0))  # settings -> (k, c_target)
     variable: str | None = None                 # the trajectory variable (None: the field's name)
     attrs: tuple = ()                           # (key, value) pairs of the variable's attributes
+    schema: dict | None = None                  # its scene keys under fields.<name> (JSON-schema fragment)
 
     @property
     def var(self) -> str:
@@ -97,3 +98,94 @@ def tension_of(fields, n_nodes: int, settings=None) -> np.ndarray:
         part = spec.tension(values, settings)
         total = part if total is None else total + part
     return np.zeros(n_nodes) if total is None else total
+
+
+# ---------------------------------------------------------------------------------------------
+# myosin: a conserved density carried by the full velocity, diffusing and turning over, that
+# makes the active tension (issue: a self-organising cortex; theory in analysis.myosin_stability)
+# ---------------------------------------------------------------------------------------------
+
+#: the tension laws of the myosin field: (c, c0, zeta0, gamma) -> zeta, each with zeta(c0) = zeta0
+TENSION_LAWS = {
+    "linear": lambda c, c0, zeta0, gamma: zeta0 * (1.0 - gamma + gamma * c / c0),
+    "saturating": lambda c, c0, zeta0, gamma: 2.0 * zeta0 * c * c / (c0 * c0 + c * c),
+}
+
+_MYOSIN_SCHEMA = {
+    "description": "A myosin (regulator) density c: conserved, carried by the cortex's full velocity (diluted by "
+                   "surface stretching), diffusing (diffusion), turning over toward c0 (turnover), making the active "
+                   "tension zeta(c) (tension), added to the prescribed patterns of active_stress.",
+    "type": "object",
+    "additionalProperties": False,
+    "properties": {
+        "c0": {"description": "Uniform reference density (the turnover's target; units of c).", "type": "number",
+               "exclusiveMinimum": 0, "default": 1.0},
+        "diffusion": {"description": "Surface diffusion coefficient D (R0^2/t_a), implicit in the step.",
+                      "type": "number", "minimum": 0, "default": 0.0},
+        "turnover": {"description": "Turnover rate k (1/t_a): dc/dt = ... - k (c - c0), implicit in the step.",
+                     "type": "number", "minimum": 0, "default": 0.0},
+        "initial": {"description": "Patterns added to c0 on the initial (undeformed) mesh (the active_stress "
+                                   "pattern types).", "type": "array", "items": {"$ref": "#/$defs/pattern"},
+                    "default": []},
+        "noise": {"description": "Seeded random perturbation added to the initial density: amplitude times a "
+                                 "standard normal per node; symmetric: mirror-symmetric about the equator z = 0.",
+                  "type": "object", "additionalProperties": False,
+                  "properties": {"amplitude": {"type": "number", "minimum": 0, "default": 0.0,
+                                               "description": "Standard deviation (units of c)."},
+                                 "seed": {"type": "integer", "default": 1, "description": "Random seed."},
+                                 "symmetric": {"type": "boolean", "default": False,
+                                               "description": "Mirror-symmetric about z = 0."}},
+                  "default": {}},
+        "tension": {"description": "The active tension of the density: law 'linear', zeta0 (1 - gamma + gamma "
+                                   "c/c0), or 'saturating', 2 zeta0 c^2/(c0^2 + c^2); both give zeta0 at c = c0.",
+                    "type": "object", "additionalProperties": False,
+                    "properties": {"law": {"enum": list(TENSION_LAWS), "default": "linear",
+                                           "description": "The tension law."},
+                                   "zeta0": {"type": "number", "minimum": 0, "default": 1.0,
+                                             "description": "Tension at c = c0 (units of zeta_0)."},
+                                   "gamma": {"type": "number", "minimum": 0, "maximum": 1, "default": 1.0,
+                                             "description": "Linear law: the share of the tension that follows c "
+                                                            "(at most 1, so zeta >= 0 for c >= 0)."}},
+                    "default": {}},
+    },
+}
+
+
+def _myosin_initial(settings, points: np.ndarray) -> np.ndarray:
+    f = settings.field("myosin")
+    c = np.full(points.shape[0], float(f["c0"]))
+    if f["initial"]:
+        c = c + evaluate_active_stress(points, list(f["initial"]))
+    noise = f["noise"]
+    if noise["amplitude"] > 0:
+        rng = np.random.default_rng(noise["seed"])
+        if noise["symmetric"]:
+            # the same value at a node and at its mirror image z -> -z (nearest node)
+            from scipy.spatial import cKDTree
+
+            mirror = cKDTree(points).query(points * np.array([1.0, 1.0, -1.0]))[1]
+            raw = rng.standard_normal(points.shape[0])
+            c = c + noise["amplitude"] * 0.5 * (raw + raw[mirror])
+        else:
+            c = c + noise["amplitude"] * rng.standard_normal(points.shape[0])
+    return c
+
+
+def _myosin_tension(values: np.ndarray, settings) -> np.ndarray:
+    f = settings.field("myosin")
+    t = f["tension"]
+    return TENSION_LAWS[t["law"]](values, float(f["c0"]), float(t["zeta0"]), float(t["gamma"]))
+
+
+register_field(FieldSpec(
+    name="myosin", kind=DENSITY,
+    present=lambda s: s.field("myosin") is not None,
+    initial=_myosin_initial,
+    carried=lambda s: s.mesh.motion != "lagrangian",
+    tension=_myosin_tension,
+    diffusion=lambda s: float(s.field("myosin")["diffusion"]),
+    turnover=lambda s: (float(s.field("myosin")["turnover"]), float(s.field("myosin")["c0"])),
+    attrs=(("units", "c0 units (amount per R0^2)"),
+           ("long_name", "myosin density: conserved, carried by the full velocity, diffusing, turning over")),
+    schema=_MYOSIN_SCHEMA,
+))

@@ -29,7 +29,7 @@ def check_rules(data: dict) -> None:
     _check_effect_combinations(effects)
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
-    _check_patterns(data["active_stress"], effects)
+    _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
     _check_translation(data["translation"], effects)
     _check_motion(data)
@@ -65,6 +65,12 @@ def _check_motion(data: dict) -> None:
     """A tension glued to nodes that move by a mesh rule (``ale``) would move by that rule, not by
     any physics: such a tension must be carried by the material."""
     motion = data["mesh"]["motion"]
+    if data["fields"] and "active_stress" not in data["effects"]:
+        raise SceneError(f"fields.{next(iter(data['fields']))} makes an active tension, which needs the effect "
+                         "'active_stress' (add it to effects; active_stress: [] adds no prescribed pattern)")
+    if data["fields"] and data["model"] == "axisymmetric":
+        raise SceneError(f"model = axisymmetric does not carry fields yet (fields.{next(iter(data['fields']))}): "
+                         "use model: 3d")
     if motion == "ale" and data["tension_transport"] == "nodes" and data["active_stress"]:
         raise SceneError("mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
                          "(tension_transport = nodes) would move by that rule: set tension_transport: material")
@@ -164,14 +170,14 @@ def _check_time(time: dict) -> None:
         )
 
 
-def _check_patterns(patterns: list, seen: set[str]) -> None:
+def _check_patterns(patterns: list, seen: set[str], has_fields: bool = False) -> None:
     """Patterns exactly when the active stress is on; pattern details the schema cannot say."""
     if patterns and "active_stress" not in seen:
         raise SceneError(
             f"active_stress has {len(patterns)} pattern(s) but the effect 'active_stress' is off: "
             "add it to effects or set active_stress: []"
         )
-    if not patterns and "active_stress" in seen:
+    if not patterns and "active_stress" in seen and not has_fields:
         raise SceneError(
             "the effect 'active_stress' is on but the active_stress list is empty: "
             "add a pattern or remove 'active_stress' from effects"

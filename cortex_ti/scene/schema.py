@@ -29,6 +29,7 @@ import jsonschema
 from ..dynamics.motion import MESH_MOTIONS
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
+from ..physics.fields import FIELDS
 from ..physics.formulations import FORMULATIONS
 from ..physics.galerkin import PRESSURE_WEIGHTS
 from ..physics.patterns import pattern_schemas
@@ -56,6 +57,10 @@ def full_schema() -> dict:
     props["solver"]["properties"]["backend"]["enum"] = backend_names()
     fragments = pattern_schemas()
     schema["$defs"] = {"pattern": _pattern_schema(list(fragments)), **copy.deepcopy(fragments)}
+    for name, spec in FIELDS.items():
+        if spec.schema is not None:
+            schema["$defs"][f"field_{name}"] = copy.deepcopy(dict(spec.schema))
+            props["fields"]["properties"][name] = {"$ref": f"#/$defs/field_{name}"}
     return schema
 
 
@@ -78,7 +83,7 @@ _BUILT: dict = {}
 
 def current_schema() -> dict:
     """The schema for the registries as they are now (built again after a registration)."""
-    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(MESH_MOTIONS), tuple(backend_names()),
+    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(MESH_MOTIONS), tuple(FIELDS), tuple(backend_names()),
            tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()))
     if _BUILT.get("key") != key:
         schema = full_schema()

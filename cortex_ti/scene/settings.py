@@ -136,6 +136,7 @@ class RunSettings:
     model: str                 # "3d" or "axisymmetric"
     translation: str           # how the free rigid translation is fixed: "mean_velocity" or "centroid"
     tension_transport: str     # "nodes" (glued to the mesh nodes, the paper's) or "material" (carried by v)
+    fields: tuple              # (name, settings mapping) of each field the scene names (treat as read-only)
     effects: frozenset
     mesh: MeshSettings
     viscosity: ViscositySettings
@@ -160,6 +161,7 @@ class RunSettings:
             model=data["model"],
             translation=data["translation"],
             tension_transport=data["tension_transport"],
+            fields=tuple((k, copy.deepcopy(v)) for k, v in data["fields"].items()),
             effects=effects,
             mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
                               shear=float(mesh["shear"]), motion=mesh["motion"], ale_time=float(mesh["ale_time"]),
@@ -189,6 +191,10 @@ class RunSettings:
     def dynamic(self) -> bool:
         """Whether the shape evolves in time (the ``shape_evolution`` effect)."""
         return "shape_evolution" in self.effects
+
+    def field(self, name: str):
+        """The settings of the field ``name`` (None if the scene does not name it)."""
+        return dict(self.fields).get(name)
 
     @property
     def tension_carried(self) -> bool:

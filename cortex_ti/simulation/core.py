@@ -93,7 +93,7 @@ class Simulation:
     @property
     def zeta(self) -> np.ndarray:
         """The active tension of the initial state (what :meth:`solve` uses unless told otherwise)."""
-        return tension_of(self.state0.fields, self.mesh.n_nodes)
+        return tension_of(self.state0.fields, self.mesh.n_nodes, self.settings)
 
     @zeta.setter
     def zeta(self, value) -> None:
@@ -152,7 +152,7 @@ class Simulation:
         if not isinstance(state, State):
             state = self.state_at(state)
         points = state.points
-        zeta = tension_of(state.fields, state.n_nodes) if state.fields else None
+        zeta = tension_of(state.fields, state.n_nodes, self.settings) if state.fields else None
         sol = self.solve(points, dt, zeta)
         t0 = time.perf_counter()
         mesh_velocity, rates = None, {}

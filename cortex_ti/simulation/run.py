@@ -129,7 +129,7 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
         fields = ev.state.fields
-        writer.append(t, ev.points, ev.velocity, tension_of(fields, sim.mesh.n_nodes),
+        writer.append(t, ev.points, ev.velocity, tension_of(fields, sim.mesh.n_nodes, sim.settings),
                       ev.pressure if has_p else float("nan"), normal=ev.normal, dt=dt_next,
                       **ev.solution.diagnostics, **diag, **{spec.var: fields[spec.name] for spec in stored})
 
