@@ -4,6 +4,15 @@ Units throughout: lengths in the initial radius R0 = 1, viscosities in eta_s = 1
 times in t_a = eta_s / zeta_0. Sign conventions: outward normal n, curvature
 C_ab = -n . d_a d_b X (a sphere has C = 2/R > 0), zeta > 0 is contractile tension,
 P = p_inside - p_outside.
+
+The Python front door (:mod:`cortex_ti.api`)::
+
+    import cortex_ti as ct
+    ds = ct.run("furrow_p8_a1", nodes=642, t_end=0.3)   # an xarray Dataset
 """
 
 __version__ = "0.1.0"
+
+from .api import load_scene, open_trajectory, run, scenes  # noqa: E402  (light: imports nothing heavy)
+
+__all__ = ["run", "load_scene", "open_trajectory", "scenes", "__version__"]

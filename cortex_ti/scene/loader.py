@@ -52,7 +52,9 @@ class Scene:
         The validated scene with every default filled in, keys in schema order,
         numbers canonical (floats for ``number`` keys) and every file path
         (``mesh.file``, a field pattern's ``file``) resolved to an absolute path
-        (``mesh.file`` may be None).  Treat it as read-only.
+        (``mesh.file`` may be None).  A copy: a scene is immutable once
+        validated (edit the copy and build a new scene from it with
+        :func:`scene_from_dict`, which validates it again).
     source : str or None
         Absolute path of the YAML file the scene was read from, if any.  Not
         part of equality: two scenes with the same data are equal.
@@ -64,18 +66,23 @@ class Scene:
     (1.0, True, 642)
     """
 
-    data: dict
+    _data: dict
     source: str | None = field(default=None, compare=False)
+
+    @property
+    def data(self) -> dict:
+        """A copy of the validated scene (see the class docstring)."""
+        return copy.deepcopy(self._data)
 
     @property
     def name(self) -> str:
         """The scene's ``name``."""
-        return self.data["name"]
+        return self._data["name"]
 
     @property
     def effects(self) -> frozenset[str]:
         """The effects switched on."""
-        return frozenset(self.data["effects"])
+        return frozenset(self._data["effects"])
 
     def __getitem__(self, dotted: str) -> Any:
         """Value at a dotted key, e.g. ``scene["viscosity.shear"]``.
@@ -88,7 +95,7 @@ class Scene:
         KeyError
             If the key does not exist in the scene.
         """
-        node: Any = self.data
+        node: Any = self._data
         for part in str(dotted).split("."):
             if isinstance(node, dict) and part in node:
                 node = node[part]
@@ -108,7 +115,7 @@ class Scene:
         """
         if effect not in EFFECTS:
             raise ValueError(f"unknown effect {effect!r}; known effects: {', '.join(EFFECTS)}")
-        return effect in self.data["effects"]
+        return effect in self._data["effects"]
 
     def to_yaml(self) -> str:
         """Canonical YAML text of :attr:`data`.
@@ -116,12 +123,12 @@ class Scene:
         Stored in output files; :func:`scene_from_yaml` gives back an equal scene
         (floats are written with ``repr`` precision).
         """
-        return dump_yaml(self.data)
+        return dump_yaml(self._data)
 
     @cached_property
     def settings(self) -> RunSettings:
         """The scene's settings resolved once, typed (:class:`~cortex_ti.scene.settings.RunSettings`)."""
-        return RunSettings.from_data(self.data)
+        return RunSettings.from_data(self._data)
 
     def __hash__(self) -> int:
         return hash(self.to_yaml())
@@ -154,7 +161,7 @@ def _build(data: Any, overrides: Sequence[str], source: str | None, label: str) 
         resolve_files(canonical, base)
     except SceneError as exc:
         raise SceneError(f"{label}: {exc}") from None
-    return Scene(data=canonical, source=source)
+    return Scene(canonical, source=source)
 
 
 def scene_from_dict(data: dict, overrides: Sequence[str] = (), source: str | None = None) -> Scene:
