@@ -10,7 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PARTIAL_SUFFIX", "atomic_path", "write_json", "write_dataset", "read_benchmark"]
+from ..errors import CortexError
+
+__all__ = ["PARTIAL_SUFFIX", "OutputError", "atomic_path", "describe_os_error", "write_json", "write_dataset",
+           "read_benchmark"]
 
 #: Suffix of a file being written (renamed when complete).
 PARTIAL_SUFFIX = ".partial"
@@ -71,3 +74,15 @@ def write_dataset(ds, path: str | os.PathLike) -> Path:
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+class OutputError(CortexError):
+    """Writing an output failed (full disk, I/O error, a folder that cannot be written): the message
+    says what failed, which file, and what was kept."""
+
+
+def describe_os_error(exc: OSError) -> str:
+    """An operating-system error as words with its file: ``No space left on device: 'x.h5'``."""
+    what = exc.strerror or str(exc) or type(exc).__name__
+    names = [n for n in (exc.filename, exc.filename2) if n is not None]
+    return what + "".join(f": '{os.fsdecode(n)}'" for n in names)
