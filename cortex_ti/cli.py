@@ -33,7 +33,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)")
     run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
-    run.add_argument("--threads", type=_positive_int, default=None,
+    run.add_argument("--threads", default=None,
                      help="CPU threads for Taichi (default: $CORTEX_TI_THREADS, else all cores)")
     run.add_argument("--resume", action="store_true",
                      help="continue an interrupted run from OUTPUT.partial, or extend a finished OUTPUT to a later "
@@ -76,29 +76,22 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-def _positive_int(text: str) -> int:
+def _threads(args) -> int | None:
+    """``--threads``, else ``CORTEX_TI_THREADS``, checked: a bad value is one line, before Taichi starts
+    (Taichi aborts on 0 threads)."""
+    if args.threads is not None:
+        text, what = str(args.threads).strip(), "--threads"
+    else:
+        text, what = os.environ.get("CORTEX_TI_THREADS", "").strip(), "CORTEX_TI_THREADS"
+        if not text:
+            return None
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1, got '{text}'") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
-    return value
-
-
-def _threads(args) -> int | None:
-    """``--threads``, else ``CORTEX_TI_THREADS`` checked (a bad value is one line, before Taichi starts)."""
-    if args.threads is not None:
-        return args.threads
-    env = os.environ.get("CORTEX_TI_THREADS", "").strip()
-    if not env:
-        return None
-    try:
-        value = int(env)
-    except ValueError:
         value = 0
     if value < 1:
-        raise CortexError(f"CORTEX_TI_THREADS must be a whole number >= 1 (or unset: all cores), got '{env}'")
+        unset = " (or unset: all cores)" if what == "CORTEX_TI_THREADS" else ""
+        raise CortexError(f"{what} must be a whole number >= 1{unset}, got '{text}'")
     return value
 
 
@@ -109,13 +102,19 @@ def _writable_file(path: Path, what: str) -> None:
 
     if path.is_dir():
         raise CortexError(f"{what} '{path}' is a folder; name a file")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise CortexError(f"cannot write {what} '{path}': '{parent}' is a file, not a folder")
+            break
     probe = path.with_name(path.name + ".partial")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
+        if probe.exists():       # a leftover of a killed run (write_json replaces it): can we write there?
+            with open(probe, "a"):
+                return
         with open(probe, "x"):
             pass
-    except FileExistsError:
-        return    # a leftover of a killed run: write_json replaces it
     except OSError as exc:
         raise CortexError(f"cannot write {what} '{path}': {describe_os_error(exc)}") from None
     probe.unlink()
@@ -185,7 +184,8 @@ def _run(args) -> int:
             exc = exc if isinstance(exc, Interrupted) else Interrupted()
             summary("interrupted", exc)
             n, t = kept()
-            where = (f"{n} frames to t = {t:.6g} are kept in {partial_path(args.output)}; continue with --resume"
+            where = (f"{n} frame{'s' if n > 1 else ''} to t = {t:.6g} kept in {partial_path(args.output)}; "
+                     "continue with --resume"
                      if n else "no frame was complete, nothing was kept")
             print(f"cortex-ti: interrupted ({exc.name}); {where}", file=sys.stderr)
             return exc.exit_code

@@ -85,7 +85,7 @@ _TIME_CHUNK = 1024
 #: Global attribute: the number of complete frames (written after each frame's values are on disk).
 COMMIT_ATTR = "committed_frames"
 #: Room reserved for HDF5's metadata on top of a frame's chunks (object headers, chunk index nodes).
-_METADATA_RESERVE = 1 << 20
+_METADATA_RESERVE = 1 << 16
 _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
@@ -557,7 +557,8 @@ class TrajectoryWriter:
 
     def _write_error(self, what: str, exc: OSError) -> OutputError:
         if self._n:
-            kept = f"the {self._n} frames to t = {self._last_t:.6g} before it are kept there"
+            kept = (f"the {self._n} frame{'s' if self._n > 1 else ''} to t = {self._last_t:.6g} before it "
+                    f"{'are' if self._n > 1 else 'is'} kept there")
             hint = "; make room and continue with --resume"
         else:
             kept, hint = "no frame was complete", ""
