@@ -399,3 +399,37 @@ def test_trajectory_opens_a_file_xarray_has_open(tmp_path):
         assert tr.times.tolist() == [0.0] and ds.sizes["time"] == 1
         with Trajectory(path, lazy=True) as lazy:
             assert lazy.times.tolist() == [0.0]
+
+
+# ---------------------------------------------------------------------------------------------
+# a trajectory answers for itself; an extensile tension is named
+# ---------------------------------------------------------------------------------------------
+def test_a_trajectory_keeps_its_field_values_after_the_file_moved(tmp_path, capsys):
+    from cortex_ti.surface.mesh import icosphere
+
+    pts = icosphere(162).points
+    values = 1.0 + 0.5 * pts[:, 2] ** 2
+    field = tmp_path / "zeta.npy"
+    np.save(field, values)
+    out = tmp_path / "f.h5"
+    rc = main(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", "numerics.fit=quadratic", "--set",
+               f"active_stress=[{{type: field, file: {field}, scale: 2.0}}]", "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    moved = tmp_path / "elsewhere.npy"
+    field.rename(moved)
+    tr = Trajectory(out)
+    from cortex_ti.simulation.setup import active_tension, initial_mesh
+
+    s = tr.settings
+    np.testing.assert_array_equal(active_tension(initial_mesh(s), s), 2.0 * values)
+    np.testing.assert_array_equal(tr.ds["field_values_0"].values, 2.0 * values)
+
+
+def test_an_extensile_tension_runs_with_a_warning(tmp_path, capsys, caplog):
+    out = tmp_path / "e.h5"
+    with caplog.at_level("WARNING", logger="cortex_ti"):
+        rc = main(["run", "furrow_p4_a1", "--set", "mesh.nodes=162", "--set", "time.t_end=0.01", "--set",
+                   "active_stress=[{type: harmonics, terms: [{l: 0, m: 0, coeff: -1.0}]}]", "-o", str(out)])
+    assert rc == 0, capsys.readouterr().err
+    warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
+    assert any("extensile (zeta < 0 everywhere" in m and "physically unstable" in m for m in warned), warned

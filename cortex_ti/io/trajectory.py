@@ -68,6 +68,7 @@ __all__ = [
     "partial_path",
     "committed_frames",
     "COMMIT_ATTR",
+    "FIELD_PREFIX",
 ]
 
 #: The per-frame variables every trajectory has: name -> (dims, attrs).
@@ -82,6 +83,8 @@ _TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each tr
 _EXTRA_DIMS = ("time", "node", "xyz")
 _RESERVED = {"time", "triangles", *FRAME_VARIABLES}
 _TIME_CHUNK = 1024
+#: Prefix of the stored values of the scene's ``field`` patterns: ``field_values_<i>`` (node), pattern i.
+FIELD_PREFIX = "field_values_"
 #: Global attribute: the number of complete frames (written after each frame's values are on disk).
 COMMIT_ATTR = "committed_frames"
 #: Room reserved for HDF5's metadata on top of a frame's chunks (object headers, chunk index nodes).
@@ -254,6 +257,16 @@ def _declared(extra_vars: Mapping, allowed=_EXTRA_DIMS) -> dict[str, tuple[tuple
     return out
 
 
+def _node_variables(node_vars: Mapping, n_nodes: int) -> dict:
+    """Per-node constants written once (e.g. a ``field`` pattern's values): ``name -> (values, attrs)``."""
+    out = {}
+    for name, (values, attrs) in node_vars.items():
+        if name in _RESERVED:
+            raise ValueError(f"node variable {name!r} clashes with a standard variable")
+        out[name] = (_array(name, values, (n_nodes,)), dict(attrs))
+    return out
+
+
 def _triangles(triangles, n_nodes: int) -> np.ndarray:
     """The triangles as int32, checked against the node count."""
     tri = np.asarray(triangles)
@@ -387,6 +400,7 @@ class TrajectoryWriter:
         extra_vars: Mapping[str, tuple[tuple[str, ...], Mapping[str, str]]] | None = None,
         resume: bool = False,
         extra_dims: Mapping[str, int] | None = None,
+        node_vars: Mapping[str, tuple[np.ndarray, Mapping[str, str]]] | None = None,
     ) -> None:
         self.path = Path(os.fspath(path))
         self.partial = partial_path(self.path)
@@ -400,6 +414,7 @@ class TrajectoryWriter:
             raise ValueError(f"extra_dims {sorted(extra_dims)} clash with the standard dimensions")
         self._sizes = {"time": 1, "node": n_nodes, "xyz": 3, **{k: int(v) for k, v in extra_dims.items()}}
         self._extra = _declared(extra_vars or {}, tuple(self._sizes))
+        self._node_vars = _node_variables(node_vars or {}, n_nodes)
         self._attrs = _global_attrs(attrs)
         self._h5: h5py.File | None = None
         self._nc: h5netcdf.File | None = None
@@ -428,6 +443,9 @@ class TrajectoryWriter:
             self._h5 = h5py.File(self.partial, "w", track_order=True)
             self._nc = h5netcdf.File(self._h5, "w")
             _layout(self._nc, self._sizes, self.triangles, self._variables(), self._attrs)
+            for name, (values, var_attrs) in self._node_vars.items():
+                var = self._nc.create_variable(name, ("node",), "f8", data=values)
+                var.attrs.update(var_attrs)
             self._h5.attrs[COMMIT_ATTR] = np.int64(0)
             self._flush()
             self._open_fd()
@@ -455,7 +473,8 @@ class TrajectoryWriter:
             raise CortexError(f"{where}: it is not a readable trajectory ({exc}); delete it to start over") from None
         nc = self._nc
         try:
-            problems = _resume_problems(nc, self.n_nodes, self.triangles, self._variables(), self._attrs["scene"])
+            problems = _resume_problems(nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars},
+                                        self._attrs["scene"])
             if problems:
                 raise CortexError(f"{where}: {'; '.join(problems)}; delete it or run without resume")
             self._n = _committed(self._h5)
@@ -867,10 +886,28 @@ class Trajectory:
 
     @cached_property
     def scene(self):
-        """The scene the trajectory was written for (:class:`~cortex_ti.scene.Scene`)."""
-        from ..scene import scene_from_yaml
+        """The scene the trajectory was written for (:class:`~cortex_ti.scene.Scene`).
 
-        return scene_from_yaml(self.ds.attrs["scene"])
+        A ``field`` pattern whose values the file stores (``field_values_<i>``, written by a run)
+        reads them from the trajectory, not from the file the run read, so the scene answers after
+        that file moved or changed."""
+        from ..scene import scene_from_yaml
+        from ..scene.yamltext import dump_yaml, load_yaml
+
+        text = self.ds.attrs["scene"]
+        stored = {int(name[len(FIELD_PREFIX):]): name for name in self.ds.variables
+                  if name.startswith(FIELD_PREFIX) and name[len(FIELD_PREFIX):].isdigit()}
+        if not stored:
+            return scene_from_yaml(text)
+        import tempfile
+
+        data = load_yaml(text)
+        self._field_dir = tempfile.TemporaryDirectory(prefix="cortex-ti-fields-")
+        for i, name in stored.items():
+            file = Path(self._field_dir.name) / f"{name}.npy"
+            np.save(file, np.asarray(self.ds[name].values, dtype=float))
+            data["active_stress"][i] = {"type": "field", "file": str(file)}
+        return scene_from_yaml(dump_yaml(data))
 
     @property
     def settings(self):

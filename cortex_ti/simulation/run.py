@@ -34,7 +34,8 @@ from ..dynamics.schemes import make_scheme
 from ..errors import CortexError, SolverError, StabilityError
 from ..io.claim import OutputClaim
 from ..io.files import OutputError, describe_os_error
-from ..io.trajectory import ResumeState, TrajectoryWriter, partial_path
+from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
+from ..physics.patterns import evaluate_active_stress
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
@@ -163,6 +164,20 @@ def output_attrs(sim: "Simulation") -> dict:
     }
 
 
+def field_values(sim: "Simulation") -> dict:
+    """The node values of each ``field`` pattern of the scene (``field_values_<i>``, pattern i), written
+    once into the trajectory so that it answers for itself after the field's file moved
+    (:attr:`cortex_ti.io.trajectory.Trajectory.scene`)."""
+    out = {}
+    for i, pattern in enumerate(sim.settings.patterns):
+        if pattern.get("type") == "field":
+            out[f"{FIELD_PREFIX}{i}"] = (
+                evaluate_active_stress(sim.mesh.points, [pattern]),
+                {"units": "zeta_0", "long_name": f"values of the field pattern active_stress.{i} at the nodes "
+                                                 f"(read from {pattern.get('file')}, times its scale)"})
+    return out
+
+
 def run_scene(sim: "Simulation", output: Path, resume: bool = False, progress: bool = True) -> RunReport:
     """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring)."""
     sim.seconds = {}
@@ -195,7 +210,7 @@ def _run_static(sim: "Simulation", output: Path) -> RunReport:
 
 def _write_static(sim: "Simulation", output: Path) -> RunReport:
     with TrajectoryWriter(output, sim.mesh.faces, sim.mesh.n_nodes, output_attrs(sim),
-                          extra_vars=FRAME_EXTRAS) as writer:
+                          extra_vars=FRAME_EXTRAS, node_vars=field_values(sim)) as writer:
         ev = sim.evaluate(sim.mesh.points)
         sol = ev.solution
         log.info("solved %d nodes: residual %.2e, constraints %.1e, %s",
@@ -261,7 +276,8 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
     faces, axis = sim.mesh.faces, sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
     writer = TrajectoryWriter(output, faces, sim.mesh.n_nodes, output_attrs(sim),
-                              extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS}, resume=state is not None)
+                              extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS}, resume=state is not None,
+                              node_vars=field_values(sim))
 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
