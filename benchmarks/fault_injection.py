@@ -3,9 +3,12 @@
 One scene (default ``furrow_p4_a1`` on 642 nodes to t = 0.5) is run once uninterrupted (the
 reference), then
 
-* ``--kills`` times: started, sent SIGKILL, SIGTERM or SIGINT (in turn) at a random time
-  (uniform between 0 and the reference's wall time, so some land before the first frame, during
-  Taichi's start-up, or between the flushes of a frame), then ``--resume``\\ d to the end;
+* ``--kills`` times: started, sent SIGKILL, SIGTERM or SIGINT (in turn) at a random moment: once
+  the run has committed k frames, k drawn uniformly from 0 to the reference's frame count - 1
+  (k = 0: at a random moment of its start-up), and then a random fraction of the time between two
+  frames later, so kills land anywhere, between the flushes of a frame too (the moment is set by
+  the run's progress, not by the clock, which a busy machine stretches); then ``--resume``\\ d to
+  the end;
 * ``--disk`` times: run with its output on a full disk, then ``--resume``\\ d after space is freed.
   The disk is a tmpfs mounted for the run with a random size between 10 % and 90 % of the final
   file (when this process may mount: root with CAP_SYS_ADMIN), else a file-size limit
@@ -117,14 +120,36 @@ def resume(args, out: Path, log) -> subprocess.CompletedProcess:
     return res
 
 
-def kill_run(args, i: int, ref: Path, ref_wall: float, work: Path, rng: random.Random, log) -> dict:
+def wait_for(proc, out: Path, k: int) -> None:
+    """Until ``proc`` has committed ``k`` frames (or ended)."""
+    from cortex_ti.io.trajectory import committed_frames, partial_path
+
+    part = partial_path(out)
+    while proc.poll() is None:
+        if part.exists():
+            try:
+                if committed_frames(part)[0] >= k:
+                    return
+            except Exception:      # being created
+                pass
+        time.sleep(0.01)
+
+
+def kill_run(args, i: int, ref: Path, ref_wall: float, n_frames: int, work: Path, rng: random.Random, log) -> dict:
     sig = SIGNALS[i % len(SIGNALS)]
     folder = work / f"kill{i:03d}"
     folder.mkdir()
     out = folder / "run.h5"
-    delay = rng.uniform(0.0, ref_wall)
+    k = rng.randrange(n_frames)
     proc = subprocess.Popen(command(args, out), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    t0 = time.perf_counter()
+    if k:
+        wait_for(proc, out, k)
+        delay = rng.uniform(0.0, ref_wall / n_frames)
+    else:
+        delay = rng.uniform(0.0, ref_wall / 2)
     time.sleep(delay)
+    delay = time.perf_counter() - t0
     finished_first = proc.poll() is not None
     if not finished_first:
         proc.send_signal(sig)
@@ -235,10 +260,13 @@ def main(argv=None) -> int:
         subprocess.run(command(args, ref), check=True, capture_output=True)
         ref_wall = time.perf_counter() - t0
         size = ref.stat().st_size
+        from cortex_ti.io.trajectory import committed_frames
+
+        n_frames = committed_frames(ref)[0]
         log(f"reference: {ref_wall:.1f} s, {size} bytes")
         rows = []
         for i in range(args.kills):
-            rows.append(kill_run(args, i, ref, ref_wall, work, rng, log))
+            rows.append(kill_run(args, i, ref, ref_wall, n_frames, work, rng, log))
             r = rows[-1]
             log(f"kill {i:3d} {r['kind']:7s} after {r['delay']:5.2f} s: rc {r['rc']}, kept {r['frames_kept']}, "
                 f"equal {r['equal']} ({r['diff']:.2g}) {r['why']} {r['strays'] or ''}")
