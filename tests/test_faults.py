@@ -291,7 +291,18 @@ CASES = {
                             "is a file"),
     "plot a non-HDF5 file": (lambda d: ["plot", str(_not_hdf5(d)), "-o", str(d / "p.png")],
                              "cannot read trajectory"),
+    "plot -o under a file": (lambda d: ["plot", str(_tiny_trajectory(d)), "-o", str(d / "file" / "p.png"),
+                                        "--no-arrows", "--series", ""], "is a file, not a folder"),
+    "schema to a full device": (lambda d: ["schema"], "No space left on device"),
 }
+
+
+def _tiny_trajectory(folder):
+    path = folder / "tiny.h5"
+    w = _tiny_writer(path)
+    _frame(w, 0.0)
+    w.finish()
+    return path
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -300,7 +311,17 @@ def test_os_and_file_errors_are_one_line(tmp_path, capsys, case):
     (tmp_path / "file").write_text("a file where a folder is expected\n")
     argv = make(tmp_path)
     before = listing(tmp_path)
-    rc = main(argv)
+    if case == "schema to a full device":
+        if not Path("/dev/full").exists():
+            pytest.skip("no /dev/full")
+        with open("/dev/full", "w") as full:
+            stdout, sys.stdout = sys.stdout, full
+            try:
+                rc = main(argv)
+            finally:
+                sys.stdout = stdout
+    else:
+        rc = main(argv)
     err = capsys.readouterr().err
     assert rc == 2, err
     lines = error_lines(err)

@@ -83,6 +83,13 @@ class OutputError(CortexError):
 
 def describe_os_error(exc: OSError) -> str:
     """An operating-system error as words with its file: ``No space left on device: 'x.h5'``."""
+    import errno
+
+    if exc.errno in (errno.EEXIST, errno.ENOTDIR) and exc.filename is not None:
+        # mkdir of a folder whose name, or a parent's, is a file
+        for p in (Path(os.fsdecode(exc.filename)), *Path(os.fsdecode(exc.filename)).parents):
+            if p.exists() and not p.is_dir():
+                return f"'{p}' is a file, not a folder"
     what = exc.strerror or str(exc) or type(exc).__name__
     names = [n for n in (exc.filename, exc.filename2) if n is not None]
     return what + "".join(f": '{os.fsdecode(n)}'" for n in names)
