@@ -98,15 +98,11 @@ def _threads(args) -> int | None:
 def _writable_file(path: Path, what: str) -> None:
     """Check before the run that ``path`` can be written (its folder created, a file made in it and
     removed), so that a run is not lost to a summary that cannot be written afterwards."""
-    from .io.files import describe_os_error
+    from .io.files import describe_os_error, refuse_file_parent
 
     if path.is_dir():
         raise CortexError(f"{what} '{path}' is a folder; name a file")
-    for parent in path.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise CortexError(f"cannot write {what} '{path}': '{parent}' is a file, not a folder")
-            break
+    refuse_file_parent(path, what)
     probe = path.with_name(path.name + ".partial")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -25,6 +25,7 @@ import pytest
 import xarray as xr
 
 from cortex_ti.cli import main
+from cortex_ti.errors import CortexError
 from cortex_ti.io import Trajectory, TrajectoryWriter, load_trajectory, partial_path
 from cortex_ti.io.claim import lock_path
 from cortex_ti.io.trajectory import COMMIT_ATTR, ResumeState, committed_frames
@@ -50,7 +51,7 @@ def start(out: Path, *extra, **kw):
 
 def run(out: Path, *extra, **kw):
     return subprocess.run(cli("run", *ARGS, "-o", str(out), *extra), capture_output=True, text=True, env=env(),
-                          timeout=600, **kw)
+                          timeout=600, check=False, **kw)
 
 
 def wait_for_frames(proc, out: Path, n: int = 3, timeout: float = 300.0) -> None:
@@ -62,7 +63,7 @@ def wait_for_frames(proc, out: Path, n: int = 3, timeout: float = 300.0) -> None
             try:
                 if committed_frames(part)[0] >= n:
                     return
-            except Exception:       # the file is being created
+            except CortexError:     # the file is being created
                 pass
         time.sleep(0.05)
     raise AssertionError(f"no {n} frames in {part} (the run ended with {proc.poll()})")
@@ -122,7 +123,7 @@ def test_a_writer_in_this_process_is_refused_too(tmp_path):
             "CortexError\ntry:\n    TrajectoryWriter(sys.argv[1], np.array([[0,1,2],[0,2,3],[0,3,1],[1,3,2]]), 4, "
             "{'scene': 'name: x\\n', 'effects': 'a'})\nexcept CortexError as e:\n    print(e); sys.exit(3)\n")
     res = subprocess.run([sys.executable, "-c", code, str(out)], capture_output=True, text=True, env=env(),
-                         timeout=120)
+                         timeout=120, check=False)
     assert res.returncode == 3 and "being written by another run" in res.stdout
     w.abort()
     assert not partial_path(out).exists() and not lock_path(out).exists()
@@ -233,7 +234,8 @@ def test_an_existing_file_is_never_overwritten_without_force(tmp_path, capsys):
 def test_resume_with_a_later_t_end_extends_a_finished_run(tmp_path, reference):
     out, summary = tmp_path / "x.h5", tmp_path / "x.json"
     short = [a if a != "time.t_end=0.6" else "time.t_end=0.3" for a in ARGS]
-    res = subprocess.run(cli("run", *short, "-o", str(out)), capture_output=True, text=True, env=env(), timeout=600)
+    res = subprocess.run(cli("run", *short, "-o", str(out)), capture_output=True, text=True, env=env(), timeout=600,
+                         check=False)
     assert res.returncode == 0, res.stderr
     first = load_trajectory(out)
     res = run(out, "--resume", "--summary", str(summary))
@@ -334,7 +336,7 @@ def test_a_bad_cortex_ti_threads_is_one_line(tmp_path, capsys, monkeypatch, valu
     monkeypatch.setenv("CORTEX_TI_THREADS", value)
     rc = main(["run", "sphere_y20_full", "-o", str(tmp_path / "x.h5")])
     lines = error_lines(capsys.readouterr().err)
-    assert rc == 2 and len(lines) == 1 and f"CORTEX_TI_THREADS must be a whole number >= 1" in lines[0]
+    assert rc == 2 and len(lines) == 1 and "CORTEX_TI_THREADS must be a whole number >= 1" in lines[0]
     assert list(tmp_path.iterdir()) == []
 
 
@@ -454,3 +456,25 @@ def test_an_extensile_tension_runs_with_a_warning(tmp_path, capsys, caplog):
     assert rc == 0, capsys.readouterr().err
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]
     assert any("extensile (zeta < 0 everywhere" in m and "physically unstable" in m for m in warned), warned
+
+
+def test_a_read_only_folder_is_one_line(tmp_path, capsys):
+    """An unwritable folder for root too: a read-only tmpfs (skipped where this process may not mount)."""
+    folder = tmp_path / "ro"
+    folder.mkdir()
+    mounted = os.geteuid() == 0 and subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=1m", "tmpfs", str(folder)],
+                                                   capture_output=True, check=False).returncode == 0
+    if not mounted:
+        pytest.skip("cannot mount a read-only tmpfs here")
+    try:
+        rc = main(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "-o", str(folder / "x.h5")])
+        lines = error_lines(capsys.readouterr().err)
+        assert rc == 2 and len(lines) == 1 and "Read-only file system" in lines[0], lines
+        assert f"cannot write the output '{folder / 'x.h5'}'" in lines[0]
+        rc = main(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "-o", str(tmp_path / "x.h5"),
+                   "--summary", str(folder / "s.json")])
+        lines = error_lines(capsys.readouterr().err)
+        assert rc == 2 and len(lines) == 1 and "cannot write --summary" in lines[0], lines
+        assert list(folder.iterdir()) == [] and not (tmp_path / "x.h5").exists()
+    finally:
+        subprocess.run(["umount", str(folder)], check=False)

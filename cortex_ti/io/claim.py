@@ -28,7 +28,7 @@ import sys
 from pathlib import Path
 
 from ..errors import CortexError
-from .files import PARTIAL_SUFFIX
+from .files import PARTIAL_SUFFIX, OutputError, describe_os_error, refuse_file_parent
 
 __all__ = ["LOCK_SUFFIX", "OutputBusy", "OutputClaim", "claim_output", "check_output", "lock_path"]
 
@@ -143,17 +143,16 @@ class OutputClaim:
 
 
 def claim_output(path: str | os.PathLike) -> OutputClaim:
-    """:meth:`OutputClaim.acquire`, with the output path checked first: not a folder, its folder
-    not a file."""
+    """:meth:`OutputClaim.acquire`, with the output path checked first (not a folder, its folder not a
+    file) and an operating-system error as one :class:`~cortex_ti.io.files.OutputError`."""
     path = Path(os.fspath(path))
     if path.is_dir():
         raise CortexError(f"output '{path}' is a folder; name a file in it, e.g. '{path / 'run.h5'}'")
-    for parent in path.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise CortexError(f"cannot write '{path}': '{parent}' is a file, not a folder")
-            break
-    return OutputClaim.acquire(path)
+    refuse_file_parent(path, "the output")
+    try:
+        return OutputClaim.acquire(path)
+    except OSError as exc:
+        raise OutputError(f"cannot write the output '{path}': {describe_os_error(exc)}") from None
 
 
 def _partial(path: Path) -> Path:

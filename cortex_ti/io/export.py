@@ -21,7 +21,7 @@ import meshio
 import numpy as np
 
 from ..errors import CortexError
-from .files import OutputError, describe_os_error
+from .files import OutputError, describe_os_error, refuse_file_parent
 from .trajectory import Trajectory
 
 
@@ -29,11 +29,7 @@ def _target(out_dir: Path, force: bool) -> None:
     """Refuse a target that is a file, or a folder with files in it (without ``force``)."""
     if out_dir.exists() and not out_dir.is_dir():
         raise CortexError(f"export folder '{out_dir}' is a file")
-    for parent in out_dir.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise CortexError(f"cannot write the export folder '{out_dir}': '{parent}' is a file, not a folder")
-            break
+    refuse_file_parent(out_dir, "the export folder")
     if out_dir.is_dir() and any(out_dir.iterdir()) and not force:
         raise CortexError(f"export folder '{out_dir}' exists and is not empty; choose a new folder or pass --force "
                           "to replace it")

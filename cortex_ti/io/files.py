@@ -12,8 +12,8 @@ import numpy as np
 
 from ..errors import CortexError
 
-__all__ = ["PARTIAL_SUFFIX", "OutputError", "atomic_path", "describe_os_error", "write_json", "write_dataset",
-           "read_benchmark"]
+__all__ = ["PARTIAL_SUFFIX", "OutputError", "atomic_path", "describe_os_error", "refuse_file_parent", "write_json",
+           "write_dataset", "read_benchmark"]
 
 #: Suffix of a file being written (renamed when complete).
 PARTIAL_SUFFIX = ".partial"
@@ -79,6 +79,15 @@ def write_dataset(ds, path: str | os.PathLike) -> Path:
 class OutputError(CortexError):
     """Writing an output failed (full disk, I/O error, a folder that cannot be written): the message
     says what failed, which file, and what was kept."""
+
+
+def refuse_file_parent(path: Path, what: str) -> None:
+    """Refuse, before anything is computed, an output ``path`` whose folder (or a parent) is a file."""
+    for parent in Path(path).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise CortexError(f"cannot write {what} '{path}': '{parent}' is a file, not a folder")
+            return
 
 
 def describe_os_error(exc: OSError) -> str:

@@ -300,7 +300,7 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
                           steady_tol=st.steady_tol, progress=watch, write_first=state is None,
                           implicit=st.implicit_tension, guard=StabilityGuard(faces=faces, zeta=sim.zeta),
                           save_times=st.save_times)
-    except BaseException as exc:
+    except BaseException:
         writer.close_partial()
         if seen.get("stats") is not None and writer.n_frames:
             seen["stats"].t = writer.last_time
