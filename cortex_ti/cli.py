@@ -1,8 +1,11 @@
-"""Command line: ``cortex-ti run | check | export | plot | scenes``.
+"""Command line: ``cortex-ti run | check | export | plot | scenes | schema``.
 
-Every problem with the input (scene, mesh, values) is reported as one line naming
-it, with exit status 2 and no output file; an unexpected internal error keeps its
-traceback (exit status 1) so it can be reported.
+Every problem with the input (scene, mesh, values) and every operating-system or file error
+(a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
+one line naming it, with exit status 2 and no stray file; an unexpected internal error keeps
+its traceback (exit status 1) so it can be reported. SIGINT ends a command with status 130,
+SIGTERM with 143 (:data:`cortex_ti.simulation.run.EXIT_CODES`); a run then keeps its frames for
+``--resume`` and writes its summary with ``status: interrupted``.
 """
 
 from __future__ import annotations
@@ -30,9 +33,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                      help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)")
     run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
-    run.add_argument("--threads", type=int, default=None, help="CPU threads for Taichi")
+    run.add_argument("--threads", default=None,
+                     help="CPU threads for Taichi (default: $CORTEX_TI_THREADS, else all cores)")
     run.add_argument("--resume", action="store_true",
-                     help="continue an interrupted run from OUTPUT.partial (only the scene's time section may change)")
+                     help="continue an interrupted run from OUTPUT.partial, or extend a finished OUTPUT to a later "
+                          "time.t_end (only the scene's time section may change)")
+    run.add_argument("--force", action="store_true",
+                     help="replace OUTPUT (and start over instead of resuming OUTPUT.partial) if it exists")
     run.add_argument("--summary", type=Path, default=None, metavar="FILE.json",
                      help="also write what the run took (status, wall time, steps, solves, peak memory) as JSON; "
                           "written for a failed run too, with the error")
@@ -43,8 +50,10 @@ def _parser() -> argparse.ArgumentParser:
 
     exp = sub.add_parser("export", help="write a trajectory as a ParaView series (one VTU per frame + .pvd)")
     exp.add_argument("trajectory", type=Path)
-    exp.add_argument("-o", "--output", type=Path, default=None, help="folder (default: next to the file)")
+    exp.add_argument("-o", "--output", type=Path, default=None,
+                     help="folder, new or empty (default: the trajectory's name without .h5, next to it)")
     exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
+    exp.add_argument("--force", action="store_true", help="replace the folder if it exists and is not empty")
 
     plot = sub.add_parser("plot", help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
                                        "time series; works on the .partial file of a running simulation")
@@ -67,54 +76,122 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _threads(args) -> int | None:
+    """``--threads``, else ``CORTEX_TI_THREADS``, checked: a bad value is one line, before Taichi starts
+    (Taichi aborts on 0 threads)."""
+    if args.threads is not None:
+        text, what = str(args.threads).strip(), "--threads"
+    else:
+        text, what = os.environ.get("CORTEX_TI_THREADS", "").strip(), "CORTEX_TI_THREADS"
+        if not text:
+            return None
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        unset = " (or unset: all cores)" if what == "CORTEX_TI_THREADS" else ""
+        raise CortexError(f"{what} must be a whole number >= 1{unset}, got '{text}'")
+    return value
+
+
+def _writable_file(path: Path, what: str) -> None:
+    """Check before the run that ``path`` can be written (its folder created, a file made in it and
+    removed), so that a run is not lost to a summary that cannot be written afterwards."""
+    from .io.files import describe_os_error, refuse_file_parent
+
+    if path.is_dir():
+        raise CortexError(f"{what} '{path}' is a folder; name a file")
+    refuse_file_parent(path, what)
+    probe = path.with_name(path.name + ".partial")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if probe.exists():       # a leftover of a killed run (write_json replaces it): can we write there?
+            with open(probe, "a"):
+                return
+        with open(probe, "x"):
+            pass
+    except OSError as exc:
+        raise CortexError(f"cannot write {what} '{path}': {describe_os_error(exc)}") from None
+    probe.unlink()
+
+
 def _run(args) -> int:
+    from .io.claim import check_output, claim_output
+    from .io.trajectory import committed_frames, partial_path
     from .scene import load_scene
+    from .simulation.run import interruptible, stop_reason
 
     t0 = time.perf_counter()
     sim = None
+    scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
+    settings = scene.settings
+    threads = _threads(args)
+    if args.summary is not None:
+        _writable_file(args.summary, "--summary")
 
-    def summary(status: str, error: str | None = None) -> None:
+    def kept() -> tuple[int, float | None]:
+        try:
+            return committed_frames(partial_path(args.output))
+        except CortexError:
+            return 0, None
+
+    def summary(status: str, exc: BaseException | None = None) -> None:
         if args.summary is None:
             return
         import resource
 
-        from .io import ResumeState, write_json
+        from .io import write_json
 
         info = sim.summary() if sim is not None else {}
-        if status != "ok" and sim is not None:  # how far it got: the last flushed frame
-            try:
-                state = ResumeState.read(args.output)
-            except CortexError:
-                state = None
-            if state is not None:
-                info["t_reached"] = state.time
+        if exc is not None:
+            info["stopped"] = stop_reason(exc)
+            n, t = kept()       # how far it got: the last complete frame
+            if n:
+                info["t_reached"] = t
+            info["frames_kept"] = n
+        error = None if exc is None else f"{type(exc).__name__}: {exc}"
         info.update(status=status, error=error, wall_s=time.perf_counter() - t0, output=str(args.output),
                     peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
-        write_json(info, args.summary)
+        try:
+            write_json(info, args.summary)
+        except OSError as err:
+            from .io.files import describe_os_error
 
-    try:
-        scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
-        settings = scene.settings
-        if settings.model == "axisymmetric":
-            from .axisymmetric.run import AxisymmetricRun
+            raise CortexError(f"cannot write the summary '{args.summary}': {describe_os_error(err)}") from None
 
-            sim = AxisymmetricRun(scene)
-        else:
-            from . import runtime
-            from .simulation import Simulation
+    with interruptible(), claim_output(args.output):
+        check_output(args.output, args.resume, args.force)    # refused: no summary (it is not a run)
+        try:
+            if settings.model == "axisymmetric":
+                from .axisymmetric.run import AxisymmetricRun
 
-            runtime.init(args.arch, args.threads)
-            sim = Simulation(scene)
-        out = sim.run(args.output, resume=args.resume)
-    except KeyboardInterrupt:
-        summary("interrupted")
-        print(f"cortex-ti: interrupted; frames so far are in {args.output}.partial, continue with --resume",
-              file=sys.stderr)
-        return 130
-    except CortexError as exc:
-        summary("failed", f"{type(exc).__name__}: {exc}")
-        raise
-    summary("ok")
+                sim = AxisymmetricRun(scene)
+            else:
+                from . import runtime
+                from .simulation import Simulation
+
+                runtime.init(args.arch, threads)
+                sim = Simulation(scene)
+            out = sim.run(args.output, resume=args.resume)
+        except KeyboardInterrupt as exc:
+            from .simulation.run import Interrupted
+
+            exc = exc if isinstance(exc, Interrupted) else Interrupted()
+            summary("interrupted", exc)
+            n, t = kept()
+            where = (f"{n} frame{'s' if n > 1 else ''} to t = {t:.6g} kept in {partial_path(args.output)}; "
+                     "continue with --resume"
+                     if n else "no frame was complete, nothing was kept")
+            print(f"cortex-ti: interrupted ({exc.name}); {where}", file=sys.stderr)
+            return exc.exit_code
+        except CortexError as exc:
+            summary("failed", exc)
+            raise
+        except OSError as exc:
+            summary("failed", exc)
+            raise
+        summary("ok")
     log.info("wrote %s (%s, %.1f s)", out, settings.describe_numerics(), time.perf_counter() - t0)
     print(out)
     return 0
@@ -151,7 +228,7 @@ def _export(args) -> int:
 
     if not args.trajectory.exists():
         raise CortexError(f"trajectory file '{args.trajectory}' does not exist")
-    print(export_vtu_series(args.trajectory, args.output, args.every))
+    print(export_vtu_series(args.trajectory, args.output, args.every, force=args.force))
     return 0
 
 
@@ -217,22 +294,30 @@ def _schema(_args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from .io.files import describe_os_error
+    from .simulation.run import Interrupted, interruptible
+
     args = _parser().parse_args(argv)
     # our own messages: INFO by default, DEBUG with -v; other libraries stay at WARNING
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
-                "schema": _schema}[args.command](args)
+        with interruptible():
+            return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
+                    "schema": _schema}[args.command](args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("cortex-ti: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        exc = exc if isinstance(exc, Interrupted) else Interrupted()
+        print(f"cortex-ti: interrupted ({exc.name})", file=sys.stderr)
+        return exc.exit_code
     except BrokenPipeError:     # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
+    except OSError as exc:      # a file or folder the command could not read or write
+        print(f"cortex-ti: error: {describe_os_error(exc)}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

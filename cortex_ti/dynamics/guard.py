@@ -5,6 +5,13 @@ modes grow by a factor each step. :class:`StabilityGuard` watches the normal spe
 balance residual and the mesh, and stops such a run with a
 :class:`~cortex_ti.errors.StabilityError` that names the step size to try, before the output
 fills with garbage.
+
+Not every blow-up is numerical. A cortex under *extensile* active tension (zeta < 0) is
+physically unstable: a negative tension does work on any wrinkle that adds area, so its shape
+modes grow at a rate set by the physics, and a smaller step or a finer mesh only changes when
+the run blows up, not whether. :func:`extensile_tension` detects such a
+scene (a dynamic run warns at its start) and the guard, given the tension, says so instead of
+suggesting a smaller step.
 """
 
 from __future__ import annotations
@@ -17,7 +24,20 @@ from ..analysis.diagnostics import mesh_quality
 from ..errors import StabilityError
 from .schemes import RESOLUTION_HINT, Evaluation
 
-__all__ = ["StabilityGuard"]
+__all__ = ["StabilityGuard", "extensile_tension"]
+
+
+def extensile_tension(zeta) -> str | None:
+    """A sentence on the extensile part of a tension field (``None`` if ``zeta >= 0`` everywhere)."""
+    if zeta is None:
+        return None
+    z = np.asarray(zeta, dtype=float)
+    neg = z < 0.0
+    if not np.any(neg):
+        return None
+    share = "everywhere" if np.all(neg) else f"at {int(neg.sum())} of {z.size} nodes"
+    return (f"the active tension is extensile (zeta < 0 {share}, down to {float(z.min()):.3g}): a cortex under "
+            "extensile tension is physically unstable (its shape modes grow whatever the step and the mesh)")
 
 
 @dataclass
@@ -43,6 +63,7 @@ class StabilityGuard:
     max_residual: float = 0.05
     angle_fraction: float = 0.2
     faces: np.ndarray | None = None
+    zeta: np.ndarray | None = None     # the tension the nodes carry: tells a physical instability
     _history: list = field(default_factory=list)
     _angle0: float | None = None
 
@@ -50,8 +71,13 @@ class StabilityGuard:
         return mesh_quality(points, self.faces)["min_angle_deg"]
 
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
-        suggestion = (f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the mesh "
-                      f"is too coarse for the force balance: {RESOLUTION_HINT}")
+        physical = extensile_tension(self.zeta)
+        if physical is not None:
+            suggestion = (f"{physical}; this is the physics, not the numerics: a smaller step or a finer mesh "
+                          "only changes when it blows up")
+        else:
+            suggestion = (f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the "
+                          f"mesh is too coarse for the force balance: {RESOLUTION_HINT}")
         if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
             raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
         move = np.linalg.norm(new_points - old_points, axis=1)
@@ -59,7 +85,8 @@ class StabilityGuard:
         if move[worst] > self.max_fraction * edge_length[worst]:
             raise StabilityError(
                 f"the step dt={dt:.3g} at t={t:.4g} moves node {worst} by {move[worst]:.3g}, "
-                f"{move[worst] / edge_length[worst]:.2f} of its edge length: the explicit scheme is unstable; {suggestion}")
+                f"{move[worst] / edge_length[worst]:.2f} of its edge length: "
+                f"{'the shape is unstable' if physical else 'the explicit scheme is unstable'}; {suggestion}")
         vmax = float(np.max(np.abs(ev.normal_speed)))
         self._history.append(vmax)
         h = self._history
@@ -68,13 +95,15 @@ class StabilityGuard:
             if all(b > self.growth * a for a, b in zip(recent[:-1], recent[1:])) and vmax > self.jump * min(h):
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
-                    f"(t={t:.4g}): the explicit scheme is unstable at this step; {suggestion}")
+                    f"(t={t:.4g}): "
+                    f"{'the shape is unstable' if physical else 'the explicit scheme is unstable at this step'}; "
+                    f"{suggestion}")
         residual = ev.solution.info.relative_residual
         if residual > self.max_residual:
             raise StabilityError(
                 f"the force balance is no longer satisfied at t={t - dt:.4g}: relative least-squares residual "
                 f"{residual:.2g} > {self.max_residual:g} (resolved runs stay below 3e-3); the shape is not resolved: "
-                f"{RESOLUTION_HINT}")
+                f"{physical + '; ' if physical else ''}{RESOLUTION_HINT}")
         if self.faces is not None:
             if self._angle0 is None:
                 self._angle0 = self._min_angle(old_points)

@@ -10,7 +10,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["PARTIAL_SUFFIX", "atomic_path", "write_json", "write_dataset", "read_benchmark"]
+from ..errors import CortexError
+
+__all__ = ["PARTIAL_SUFFIX", "OutputError", "atomic_path", "describe_os_error", "refuse_file_parent", "write_json",
+           "write_dataset", "read_benchmark"]
 
 #: Suffix of a file being written (renamed when complete).
 PARTIAL_SUFFIX = ".partial"
@@ -71,3 +74,31 @@ def write_dataset(ds, path: str | os.PathLike) -> Path:
         if tmp.exists():
             tmp.unlink()
     return path
+
+
+class OutputError(CortexError):
+    """Writing an output failed (full disk, I/O error, a folder that cannot be written): the message
+    says what failed, which file, and what was kept."""
+
+
+def refuse_file_parent(path: Path, what: str) -> None:
+    """Refuse, before anything is computed, an output ``path`` whose folder (or a parent) is a file."""
+    for parent in Path(path).parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise CortexError(f"cannot write {what} '{path}': '{parent}' is a file, not a folder")
+            return
+
+
+def describe_os_error(exc: OSError) -> str:
+    """An operating-system error as words with its file: ``No space left on device: 'x.h5'``."""
+    import errno
+
+    if exc.errno in (errno.EEXIST, errno.ENOTDIR) and exc.filename is not None:
+        # mkdir of a folder whose name, or a parent's, is a file
+        for p in (Path(os.fsdecode(exc.filename)), *Path(os.fsdecode(exc.filename)).parents):
+            if p.exists() and not p.is_dir():
+                return f"'{p}' is a file, not a folder"
+    what = exc.strerror or str(exc) or type(exc).__name__
+    names = [n for n in (exc.filename, exc.filename2) if n is not None]
+    return what + "".join(f": '{os.fsdecode(n)}'" for n in names)

@@ -19,13 +19,30 @@ Crash safety: frames go to ``<path>.partial`` and are flushed to disk one by
 one, so a killed run leaves a readable partial file of the frames written so
 far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
 to ``<path>``, so the final path never holds a half-written file.
+
+* The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.claim`) before it creates or opens
+  the partial file: a second writer of the same path is refused before anything is truncated.
+* A frame is *committed* last: its values are written and flushed, then the global attribute
+  ``committed_frames`` is set to the new count and flushed again. Readers here
+  (:func:`load_trajectory`, :func:`last_frame`, :class:`Trajectory`, :class:`ResumeState`) take only
+  the committed frames; a resumed writer drops an uncommitted one.
+* Before each frame the file's space for it is reserved (:func:`os.posix_fallocate`: the largest
+  chunk of every variable plus room for HDF5's metadata), so a full disk or a file-size limit stops
+  the run with the file untouched and readable, rather than half-way through an HDF5 write (HDF5 is
+  not journaled); the run ends with one line (:class:`~cortex_ti.io.files.OutputError`) saying
+  which file, why, and how many frames were kept.
+* ``SIGINT`` and ``SIGTERM`` are held back while a frame is written and committed, and delivered
+  right after.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import errno
 import math
 import os
+import signal
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -37,7 +54,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import CortexError
-from .files import PARTIAL_SUFFIX
+from .claim import OutputClaim
+from .files import PARTIAL_SUFFIX, OutputError, describe_os_error
 
 __all__ = [
     "FRAME_VARIABLES",
@@ -48,6 +66,9 @@ __all__ = [
     "load_trajectory",
     "last_frame",
     "partial_path",
+    "committed_frames",
+    "COMMIT_ATTR",
+    "FIELD_PREFIX",
 ]
 
 #: The per-frame variables every trajectory has: name -> (dims, attrs).
@@ -62,6 +83,29 @@ _TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each tr
 _EXTRA_DIMS = ("time", "node", "xyz")
 _RESERVED = {"time", "triangles", *FRAME_VARIABLES}
 _TIME_CHUNK = 1024
+#: Prefix of the stored values of the scene's ``field`` patterns: ``field_values_<i>`` (node), pattern i.
+FIELD_PREFIX = "field_values_"
+#: Global attribute: the number of complete frames (written after each frame's values are on disk).
+COMMIT_ATTR = "committed_frames"
+#: Room reserved for HDF5's metadata on top of a frame's chunks (object headers, chunk index nodes).
+_METADATA_RESERVE = 1 << 16
+_HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold SIGINT/SIGTERM back (blocked, kept pending) while a frame is written and committed;
+    Python's handlers run right after."""
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _same_scene_but_time(a, b) -> bool:
@@ -82,6 +126,59 @@ def _same_scene_but_time(a, b) -> bool:
 def partial_path(path: str | os.PathLike) -> Path:
     """The in-progress file of a trajectory: ``<path>.partial``."""
     return Path(os.fspath(path) + PARTIAL_SUFFIX)
+
+
+def _close_fd(fd: int) -> int:
+    if fd >= 0:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    return -1
+
+
+def _trim(path: Path) -> None:
+    """Give back the space reserved past HDF5's end of file: opening and closing the file lets HDF5
+    truncate it to its end of allocation."""
+    with h5py.File(path, "r+"):
+        pass
+
+
+def _committed(h5) -> int:
+    """The number of complete frames of an open file: its ``committed_frames`` attribute, or for a file
+    written before it existed the leading frames with finite, increasing times."""
+    n_time = int(h5["time"].shape[0]) if "time" in h5 else 0
+    if COMMIT_ATTR in h5.attrs:
+        return min(int(h5.attrs[COMMIT_ATTR]), n_time)
+    t = np.asarray(h5["time"][...], dtype=float) if n_time else np.zeros(0)
+    ok = np.isfinite(t)
+    ok[1:] &= np.diff(t) > 0.0
+    bad = np.flatnonzero(~ok)
+    return int(bad[0]) if bad.size else n_time
+
+
+def _open_h5(file: Path):
+    """``h5py.File(file, "r")`` without HDF5's lock (a running writer holds it), or with it when this
+    process has the file open already (HDF5 refuses two opens with different locking flags)."""
+    try:
+        return h5py.File(file, "r", locking=False)
+    except OSError as exc:
+        if "locking flag" not in str(exc):
+            raise
+        return h5py.File(file, "r")
+
+
+def committed_frames(path: str | os.PathLike) -> tuple[int, float | None]:
+    """``(number of complete frames, time of the last)`` of a trajectory file (``None``: no frame)."""
+    file = Path(os.fspath(path))
+    try:
+        with _open_h5(file) as h5:
+            if "time" not in h5 or "points" not in h5:
+                raise CortexError(f"'{file}' is not a trajectory (no time and points)")
+            n = _committed(h5)
+            return n, (float(h5["time"][n - 1]) if n else None)
+    except (OSError, KeyError, ValueError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
 def _now() -> str:
@@ -157,6 +254,16 @@ def _declared(extra_vars: Mapping, allowed=_EXTRA_DIMS) -> dict[str, tuple[tuple
         if missing:
             raise ValueError(f"extra variable {name!r}: attrs must give {' and '.join(missing)}")
         out[name] = (dims, attrs)
+    return out
+
+
+def _node_variables(node_vars: Mapping, n_nodes: int) -> dict:
+    """Per-node constants written once (e.g. a ``field`` pattern's values): ``name -> (values, attrs)``."""
+    out = {}
+    for name, (values, attrs) in node_vars.items():
+        if name in _RESERVED:
+            raise ValueError(f"node variable {name!r} clashes with a standard variable")
+        out[name] = (_array(name, values, (n_nodes,)), dict(attrs))
     return out
 
 
@@ -293,6 +400,7 @@ class TrajectoryWriter:
         extra_vars: Mapping[str, tuple[tuple[str, ...], Mapping[str, str]]] | None = None,
         resume: bool = False,
         extra_dims: Mapping[str, int] | None = None,
+        node_vars: Mapping[str, tuple[np.ndarray, Mapping[str, str]]] | None = None,
     ) -> None:
         self.path = Path(os.fspath(path))
         self.partial = partial_path(self.path)
@@ -306,6 +414,7 @@ class TrajectoryWriter:
             raise ValueError(f"extra_dims {sorted(extra_dims)} clash with the standard dimensions")
         self._sizes = {"time": 1, "node": n_nodes, "xyz": 3, **{k: int(v) for k, v in extra_dims.items()}}
         self._extra = _declared(extra_vars or {}, tuple(self._sizes))
+        self._node_vars = _node_variables(node_vars or {}, n_nodes)
         self._attrs = _global_attrs(attrs)
         self._h5: h5py.File | None = None
         self._nc: h5netcdf.File | None = None
@@ -313,26 +422,46 @@ class TrajectoryWriter:
         self._n = 0
         self._last_t = -math.inf
         self._state = "open"
-        if resume and self.partial.exists():
-            self._reopen()
-        else:
-            self._create()
+        self._fd = -1              # a descriptor of the partial file, to reserve space with
+        self._reserve = 0
+        self._claim = OutputClaim.acquire(self.path)   # before the partial file is truncated or opened
+        try:
+            if resume and self.partial.exists():
+                self._reopen()
+            else:
+                self._create()
+        except BaseException:
+            self._release()
+            raise
 
     # ----------------------------------------------------------------------------- setup
     def _variables(self) -> dict[str, tuple[tuple[str, ...], dict[str, str]]]:
         return {**FRAME_VARIABLES, **self._extra}
 
     def _create(self) -> None:
-        self.partial.parent.mkdir(parents=True, exist_ok=True)
-        self._h5 = h5py.File(self.partial, "w", track_order=True)
         try:
+            self._h5 = h5py.File(self.partial, "w", track_order=True)
             self._nc = h5netcdf.File(self._h5, "w")
             _layout(self._nc, self._sizes, self.triangles, self._variables(), self._attrs)
+            for name, (values, var_attrs) in self._node_vars.items():
+                var = self._nc.create_variable(name, ("node",), "f8", data=values)
+                var.attrs.update(var_attrs)
+            self._h5.attrs[COMMIT_ATTR] = np.int64(0)
             self._flush()
-        except BaseException:
+            self._open_fd()
+        except BaseException as exc:
             self._close()
             self.partial.unlink(missing_ok=True)
+            if isinstance(exc, OSError):
+                raise OutputError(f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}") \
+                    from None
             raise
+
+    def _open_fd(self) -> None:
+        self._fd = os.open(self.partial, os.O_RDWR | os.O_CLOEXEC)
+        data = self._datasets()
+        self._reserve = _METADATA_RESERVE + sum(
+            int(np.prod(d.chunks)) * d.dtype.itemsize for d in data.values() if d.chunks is not None)
 
     def _reopen(self) -> None:
         where = f"cannot resume '{self.partial}'"
@@ -344,18 +473,26 @@ class TrajectoryWriter:
             raise CortexError(f"{where}: it is not a readable trajectory ({exc}); delete it to start over") from None
         nc = self._nc
         try:
-            problems = _resume_problems(nc, self.n_nodes, self.triangles, self._variables(), self._attrs["scene"])
+            problems = _resume_problems(nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars},
+                                        self._attrs["scene"])
             if problems:
                 raise CortexError(f"{where}: {'; '.join(problems)}; delete it or run without resume")
-            self._n = int(nc.dimensions["time"].size)
+            self._n = _committed(self._h5)
+            if int(nc.dimensions["time"].size) != self._n:   # drop a frame written but not committed
+                nc.resize_dimension("time", self._n)
+            self._h5.attrs[COMMIT_ATTR] = np.int64(self._n)
             if self._n:
                 self._last_t = float(nc["time"][self._n - 1])
             resumed = nc.attrs.get("resumed", "")
             nc.attrs.update({k: v for k, v in self._attrs.items() if k != "created"})
             nc.attrs["resumed"] = f"{resumed},{_now()}" if resumed else _now()
             self._flush()
-        except BaseException:
+            self._open_fd()
+        except BaseException as exc:
             self._close()
+            if isinstance(exc, OSError):
+                raise OutputError(f"{where}: {describe_os_error(exc) if exc.errno else exc}; its frames are "
+                                  "unchanged") from None
             raise
 
     # ----------------------------------------------------------------------------- writing
@@ -363,6 +500,11 @@ class TrajectoryWriter:
     def n_frames(self) -> int:
         """Number of frames in the file (including those of a resumed partial file)."""
         return self._n
+
+    @property
+    def last_time(self) -> float | None:
+        """Time of the last complete frame (None before the first)."""
+        return self._last_t if self._n else None
 
     def _datasets(self) -> dict:
         """The HDF5 datasets of the per-frame variables (written directly: h5netcdf's item
@@ -401,25 +543,63 @@ class TrajectoryWriter:
             )
         values = _frame_values(self._sizes, self._extra, points, velocity, active_stress, pressure, extra)
         k = self._n
-        self._nc.resize_dimension("time", k + 1)
-        data = self._datasets()
-        for name, value in values.items():
-            data[name][k, ...] = value
-        data["time"][k] = t  # last: a frame is complete once its time is set
-        self._n = k + 1
-        self._last_t = t
-        self._flush()
+        with _signals_held():
+            try:
+                self._make_room()
+                self._nc.resize_dimension("time", k + 1)
+                data = self._datasets()
+                for name, value in values.items():
+                    data[name][k, ...] = value
+                data["time"][k] = t
+                self._flush()
+                self._h5.attrs.modify(COMMIT_ATTR, np.int64(k + 1))   # last: the frame is complete
+                self._flush()
+            except OSError as exc:
+                self._state = "failed"
+                raise self._write_error(f"writing frame {k} (t = {t:.6g})", exc) from None
+            self._n = k + 1
+            self._last_t = t
+
+    def _make_room(self) -> None:
+        """Reserve the file space the next frame can take (see the module docstring), so that a full
+        disk is met here, with the file untouched, and not inside HDF5."""
+        if self._fd < 0:
+            return
+        end = int(self._h5.id.get_filesize()) + self._reserve
+        try:
+            os.posix_fallocate(self._fd, 0, end)
+        except OSError as exc:
+            if exc.errno in (errno.EOPNOTSUPP, errno.EINVAL, errno.ENOSYS):
+                self._fd = _close_fd(self._fd)   # cannot reserve here: rely on the commit marker
+                return
+            raise
+
+    def _write_error(self, what: str, exc: OSError) -> OutputError:
+        if self._n:
+            kept = (f"the {self._n} frame{'s' if self._n > 1 else ''} to t = {self._last_t:.6g} before it "
+                    f"{'are' if self._n > 1 else 'is'} kept there")
+            hint = "; make room and continue with --resume"
+        else:
+            kept, hint = "no frame was complete", ""
+        why = describe_os_error(exc) if exc.errno else str(exc)
+        return OutputError(f"{what} to '{self.partial}' failed ({why}); {kept}{hint}")
 
     # ----------------------------------------------------------------------------- closing
     def _close(self) -> None:
         nc, h5 = self._nc, self._h5
         self._nc = self._h5 = self._h5data = None
+        self._fd = _close_fd(self._fd)
         try:
             if nc is not None:
                 nc.close()
         finally:
             if h5 is not None:
                 h5.close()
+
+    def _release(self) -> None:
+        claim, self._claim = getattr(self, "_claim", None), None
+        if claim is not None:
+            claim.release()
 
     def finish(self) -> Path:
         """Close the file and atomically rename ``<path>.partial`` to ``path``.
@@ -433,11 +613,21 @@ class TrajectoryWriter:
             return self.path
         if self._state != "open":
             raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
-        self._close()
-        with open(self.partial, "rb") as fh:
-            os.fsync(fh.fileno())
-        os.replace(self.partial, self.path)
+        try:
+            with _signals_held():
+                reserved = self._fd >= 0
+                self._close()
+                if reserved:
+                    _trim(self.partial)
+                with open(self.partial, "rb") as fh:
+                    os.fsync(fh.fileno())
+                os.replace(self.partial, self.path)
+        except OSError as exc:
+            self._state = "failed"
+            self._release()
+            raise self._write_error("closing the file", exc) from None
         self._state = "finished"
+        self._release()
         return self.path
 
     def abort(self) -> None:
@@ -446,24 +636,32 @@ class TrajectoryWriter:
         Does nothing after :meth:`finish` (the finished file is kept) or a
         previous :meth:`abort`.
         """
-        if self._state != "open":
+        if self._state not in ("open", "failed"):
             return
         self._state = "aborted"
         try:
             self._close()
         finally:
-            self.partial.unlink(missing_ok=True)
+            try:
+                self.partial.unlink(missing_ok=True)
+            finally:
+                self._release()
 
     def close_partial(self) -> Path | None:
         """Close but keep ``<path>.partial`` for :option:`--resume` (interrupted or failed
         dynamic runs); a partial file without any frame is deleted instead."""
-        if self._state != "open":
+        if self._state not in ("open", "failed"):
             return None
         if self._n == 0:
             self.abort()
             return None
         self._state = "kept"
-        self._close()
+        try:
+            self._close()
+        except OSError:
+            pass    # the committed frames are on disk already; a failed close cannot take them back
+        finally:
+            self._release()
         return self.partial
 
     def __enter__(self) -> "TrajectoryWriter":
@@ -523,9 +721,10 @@ def load_trajectory(path: str | os.PathLike):
     A running simulation holds HDF5's file lock on its ``.partial`` file, so
     :func:`open_trajectory` cannot open it; this function opens the file without taking the
     lock (read-only).  The writer flushes after every frame, so the frames read are those
-    complete at that moment; should a frame be caught half-appended (its time not yet set),
-    it and anything after it are dropped: only the leading frames with finite, increasing
-    times are kept.
+    complete at that moment: only the committed frames are read (``committed_frames``, see the
+    module docstring), a frame caught half-appended is left out. (For files written before the
+    commit marker: the leading frames with finite, increasing times.) It also opens a file this
+    process has open already (e.g. with :func:`xarray.open_dataset`).
 
     Parameters
     ----------
@@ -547,18 +746,36 @@ def load_trajectory(path: str | os.PathLike):
 
     file = _existing(path)
     try:
-        with h5py.File(file, "r", locking=False) as h5, h5netcdf.File(h5, "r") as nc:
-            ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc)).load()
-    except (OSError, KeyError, ValueError) as exc:
+        with _open_h5(file) as h5, h5netcdf.File(h5, "r") as nc:
+            n = _committed(h5) if "time" in h5 else None
+            ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc))
+            if n is not None and ds.sizes.get("time", n) != n:
+                ds = ds.isel(time=slice(0, n))
+            ds = ds.load()
+    except (OSError, KeyError, ValueError, TypeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
-    if "time" in ds.dims:
-        t = np.asarray(ds["time"].values, dtype=float)
-        ok = np.isfinite(t)
-        ok[1:] &= np.diff(t) > 0.0
-        bad = np.flatnonzero(~ok)
-        if bad.size:
-            ds = ds.isel(time=slice(0, int(bad[0])))
     return ds
+
+
+def _open_lazily(file: Path):
+    """``(dataset of the committed frames, open files)``, read lazily, without HDF5's lock (or with it
+    when this process has the file open already); errors are one :class:`CortexError`."""
+    import xarray as xr
+
+    h5 = nc = None
+    try:
+        h5 = _open_h5(file)
+        n = _committed(h5) if "time" in h5 else None
+        nc = h5netcdf.File(h5, "r")
+        ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc))
+        if n is not None and ds.sizes.get("time", n) != n:
+            ds = ds.isel(time=slice(0, n))
+        return ds, (nc, h5)
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        for f in (nc, h5):
+            if f is not None:
+                f.close()
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
 def last_frame(path: str | os.PathLike) -> dict[str, Any]:
@@ -581,8 +798,8 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
     """
     file = _existing(path)
     try:
-        with h5netcdf.File(file, "r") as nc:
-            n = int(nc.dimensions["time"].size)
+        with _open_h5(file) as h5, h5netcdf.File(h5, "r") as nc:
+            n = _committed(h5)
             out: dict[str, Any] = {"path": file, "n_frames": n}
             if n == 0:
                 out.update(time=None, points=None, velocity=None, active_stress=None,
@@ -598,7 +815,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
                 if name not in _RESERVED and var.dimensions[:1] == ("time",)
             }
             return out
-    except (OSError, KeyError) as exc:
+    except (OSError, KeyError, ValueError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
@@ -652,7 +869,11 @@ class Trajectory:
 
     def __init__(self, path: str | os.PathLike, lazy: bool = False):
         self.path = _existing(path)
-        self.ds = open_trajectory(self.path) if lazy else load_trajectory(self.path)
+        self._files = ()
+        if lazy:
+            self.ds, self._files = _open_lazily(self.path)
+        else:
+            self.ds = load_trajectory(self.path)
 
     def __enter__(self) -> "Trajectory":
         return self
@@ -662,13 +883,34 @@ class Trajectory:
 
     def close(self) -> None:
         self.ds.close()
+        for f in self._files:
+            f.close()
+        self._files = ()
 
     @cached_property
     def scene(self):
-        """The scene the trajectory was written for (:class:`~cortex_ti.scene.Scene`)."""
-        from ..scene import scene_from_yaml
+        """The scene the trajectory was written for (:class:`~cortex_ti.scene.Scene`).
 
-        return scene_from_yaml(self.ds.attrs["scene"])
+        A ``field`` pattern whose values the file stores (``field_values_<i>``, written by a run)
+        reads them from the trajectory, not from the file the run read, so the scene answers after
+        that file moved or changed."""
+        from ..scene import scene_from_yaml
+        from ..scene.yamltext import dump_yaml, load_yaml
+
+        text = self.ds.attrs["scene"]
+        stored = {int(name[len(FIELD_PREFIX):]): name for name in self.ds.variables
+                  if name.startswith(FIELD_PREFIX) and name[len(FIELD_PREFIX):].isdigit()}
+        if not stored:
+            return scene_from_yaml(text)
+        import tempfile
+
+        data = load_yaml(text)
+        self._field_dir = tempfile.TemporaryDirectory(prefix="cortex-ti-fields-")
+        for i, name in stored.items():
+            file = Path(self._field_dir.name) / f"{name}.npy"
+            np.save(file, np.asarray(self.ds[name].values, dtype=float))
+            data["active_stress"][i] = {"type": "field", "file": str(file)}
+        return scene_from_yaml(dump_yaml(data))
 
     @property
     def settings(self):

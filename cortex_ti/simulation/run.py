@@ -4,12 +4,21 @@ A static scene solves once and writes one frame. A dynamic scene advances the sh
 (:func:`cortex_ti.dynamics.integrate.integrate`) and writes a frame every ``time.save_every``,
 flushed as it goes to ``<output>.partial``; an interrupted run continues from there with
 ``resume`` (:class:`cortex_ti.io.trajectory.ResumeState`), and the finished file is renamed
-atomically to ``output``.
+atomically to ``output``. ``resume`` on a finished trajectory with a later ``time.t_end`` extends it:
+its frames are copied to the partial file and the run continues from the last one.
+
+How a run ended is one of :data:`STOP_REASONS` (the summary's ``stopped``); a run that fails or is
+interrupted still leaves its :class:`RunReport` (real step and solve counts) on the simulation.
+:func:`interruptible` makes SIGTERM end a run the way Ctrl-C does (:class:`Interrupted`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+import shutil
+import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,20 +28,94 @@ import numpy as np
 
 from .. import __version__
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-from ..dynamics.guard import StabilityGuard
+from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
 from ..dynamics.schemes import make_scheme
-from ..errors import CortexError
 from ..dynamics.state import State
-from ..io.trajectory import ResumeState, TrajectoryWriter
+from ..errors import CortexError, SolverError, StabilityError
+from ..io.claim import OutputClaim
+from ..io.files import OutputError, describe_os_error
+from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
+from ..physics.patterns import evaluate_active_stress
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SOLVE_DIAGNOSTICS", "FRAME_EXTRAS", "RunReport", "run_scene", "run_summary"]
+__all__ = ["SOLVE_DIAGNOSTICS", "FRAME_EXTRAS", "STOP_REASONS", "EXIT_CODES", "Interrupted", "RunReport",
+           "interruptible", "run_scene", "run_summary", "stop_reason"]
+
+#: Why a run ended (the summary's ``stopped``): the value, and what it means.
+STOP_REASONS = {
+    "static": "a static scene: solved once",
+    "t_end": "reached time.t_end",
+    "steady": "max |v_n| fell below time.steady_tol",
+    "interrupted": "SIGINT (Ctrl-C) or SIGTERM: the frames so far are kept for --resume",
+    "guard": "the stability guard stopped it (dynamics.guard)",
+    "solver": "a solve failed",
+    "io": "writing a file failed (full disk, I/O error)",
+    "error": "another error",
+}
+
+#: Exit status of ``cortex-ti`` by how it ended.
+EXIT_CODES = {
+    "ok": 0,
+    "error": 2,           # bad input, a failed solve, the guard, a file that cannot be written: one line
+    "internal": 1,        # a bug: the traceback is kept
+    "SIGINT": 130,        # 128 + 2, as a shell reports Ctrl-C
+    "SIGTERM": 143,       # 128 + 15
+}
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived: the run ends as after Ctrl-C (frames kept, summary written)."""
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+    @property
+    def name(self) -> str:
+        return signal.Signals(self.signum).name
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+
+@contextlib.contextmanager
+def interruptible():
+    """While in the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only)."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, _frame):
+        raise Interrupted(signum)
+
+    old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def stop_reason(exc: BaseException | None) -> str:
+    """The :data:`STOP_REASONS` value of a run that raised ``exc``."""
+    if isinstance(exc, KeyboardInterrupt):
+        return "interrupted"
+    if isinstance(exc, StabilityError):
+        return "guard"
+    if isinstance(exc, SolverError):
+        return "solver"
+    if isinstance(exc, (OutputError, OSError)):
+        return "io"
+    return "error"
 
 #: Per-frame diagnostics of the solve written with every frame
 SOLVE_DIAGNOSTICS = {
@@ -57,14 +140,17 @@ _DYNAMIC_EXTRAS = {
 
 @dataclass
 class RunReport:
-    """What a run did: the file it wrote and, for a dynamic run, its steps and solves."""
+    """What a run did: the file it wrote (or the partial file it kept) and, for a dynamic run, its
+    steps and solves; ``stopped`` one of :data:`STOP_REASONS`."""
 
     path: Path
     stats: RunStats | None = None      # None for a static run
+    stopped: str = "static"
+    solved: int = 1                    # solves of a static run (0 if it failed before its solve)
 
     @property
     def solves(self) -> int:
-        return 1 if self.stats is None else self.stats.solves
+        return self.solved if self.stats is None else self.stats.solves
 
 
 def output_attrs(sim: "Simulation") -> dict:
@@ -80,17 +166,53 @@ def output_attrs(sim: "Simulation") -> dict:
     }
 
 
+def field_values(sim: "Simulation") -> dict:
+    """The node values of each ``field`` pattern of the scene (``field_values_<i>``, pattern i), written
+    once into the trajectory so that it answers for itself after the field's file moved
+    (:attr:`cortex_ti.io.trajectory.Trajectory.scene`)."""
+    out = {}
+    for i, pattern in enumerate(sim.settings.patterns):
+        if pattern.get("type") == "field":
+            out[f"{FIELD_PREFIX}{i}"] = (
+                evaluate_active_stress(sim.mesh.points, [pattern]),
+                {"units": "zeta_0", "long_name": f"values of the field pattern active_stress.{i} at the nodes "
+                                                 f"(read from {pattern.get('file')}, times its scale)"})
+    return out
+
+
 def run_scene(sim: "Simulation", output: Path, resume: bool = False, progress: bool = True) -> RunReport:
     """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring)."""
     sim.seconds = {}
-    if sim.settings.dynamic:
-        return _run_dynamic(sim, output, resume, progress)
-    return _run_static(sim, output)
+    sim.report = None
+    with OutputClaim.acquire(output):
+        if sim.settings.dynamic:
+            return _run_dynamic(sim, output, resume, progress)
+        return _run_static(sim, output)
+
+
+def _failed(sim: "Simulation", output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
+    """Leave what a run that raised ``exc`` did on ``sim.report``: why it stopped, its real counts."""
+    reason = stop_reason(exc)
+    partial = partial_path(output)
+    if stats is not None:
+        stats.stopped = reason
+        stats.wall = time.perf_counter() - t0
+    sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason,
+                           solved=0)
 
 
 def _run_static(sim: "Simulation", output: Path) -> RunReport:
+    t0 = time.perf_counter()
+    try:
+        return _write_static(sim, output)
+    except BaseException as exc:
+        _failed(sim, output, exc, None, t0)
+        raise
+
+
+def _write_static(sim: "Simulation", output: Path) -> RunReport:
     with TrajectoryWriter(output, sim.mesh.faces, sim.mesh.n_nodes, output_attrs(sim),
-                          extra_vars=FRAME_EXTRAS) as writer:
+                          extra_vars=FRAME_EXTRAS, node_vars=field_values(sim)) as writer:
         ev = sim.evaluate(sim.mesh.points)
         sol = ev.solution
         log.info("solved %d nodes: residual %.2e, constraints %.1e, %s",
@@ -103,10 +225,41 @@ def _run_static(sim: "Simulation", output: Path) -> RunReport:
     return RunReport(path=output)
 
 
+def extend_finished(output: Path) -> bool:
+    """``resume`` of a finished trajectory: copy ``output`` to its partial file (under a temporary
+    name, then renamed) so that the run continues from its last frame; the finished file stays until
+    the longer one replaces it. True if it copied."""
+    partial = partial_path(output)
+    if partial.exists() or not output.is_file():
+        return False
+    tmp = partial.with_name(partial.name + ".copy")
+    try:
+        shutil.copyfile(output, tmp)
+        os.replace(tmp, partial)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); "
+                          f"'{output}' is unchanged") from None
+    log.info("extending the finished run %s from its last frame", output)
+    return True
+
+
 def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) -> RunReport:
+    start = time.perf_counter()
+    seen: dict = {}
+    try:
+        return _integrate_to_file(sim, output, resume, progress, seen)
+    except BaseException as exc:
+        _failed(sim, output, exc, seen.get("stats"), start)
+        raise
+
+
+def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
     st = sim.settings.time
     scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max)
     start, t0, dt = sim.state0, 0.0, st.dt
+    if resume:
+        extend_finished(output)
     state = ResumeState.read(output) if resume else None
     if state is not None:
         t0 = state.time
@@ -118,13 +271,17 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
+    physical = extensile_tension(sim.zeta)
+    if physical is not None:
+        log.warning("scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name,
+                    physical)
     faces, axis = sim.mesh.faces, sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
     stored = stored_fields(sim)
     writer = TrajectoryWriter(output, faces, sim.mesh.n_nodes, output_attrs(sim),
                               extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS,
                                           **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored}},
-                              resume=state is not None)
+                              resume=state is not None, node_vars=field_values(sim))
 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
@@ -133,24 +290,37 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
                       ev.pressure if has_p else float("nan"), normal=ev.normal, dt=dt_next,
                       **ev.solution.diagnostics, **diag, **{spec.var: fields[spec.name] for spec in stored})
 
+    if state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12):
+        log.info("%s reaches t = %.6g already (time.t_end = %.6g): nothing to compute", output, state.time, st.t_end)
+        seen["stats"] = RunStats(t=state.time)
+        return RunReport(path=writer.finish(), stats=seen["stats"], stopped="t_end")
     bar = _ProgressBar(t0, st.t_end) if progress else None
+
+    def watch(t, ev, dt, stats):
+        seen["stats"] = stats     # the counts so far, for the summary of a run that does not finish
+        if bar is not None:
+            bar(t, ev, dt, stats)
+
     try:
         stats = integrate(sim.evaluate, start, t0, st.t_end, dt, scheme, st.save_every, on_frame,
-                          steady_tol=st.steady_tol, progress=bar, write_first=state is None,
-                          implicit=st.implicit_tension, guard=StabilityGuard(faces=faces),
+                          steady_tol=st.steady_tol, progress=watch, write_first=state is None,
+                          implicit=st.implicit_tension, guard=StabilityGuard(faces=faces, zeta=sim.zeta),
                           save_times=st.save_times)
     except BaseException:
         writer.close_partial()
+        if seen.get("stats") is not None and writer.n_frames:
+            seen["stats"].t = writer.last_time
         raise
     finally:
         if bar is not None:
             bar.close()
+    seen["stats"] = stats
     path = writer.finish()
     per = {k: v / max(stats.solves, 1) * 1e3 for k, v in sim.seconds.items()}
     log.info("%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
              sim.settings.name, stats.t, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
              ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()))
-    return RunReport(path=path, stats=stats)
+    return RunReport(path=path, stats=stats, stopped=stats.stopped)
 
 
 def stored_fields(sim: "Simulation") -> list:
@@ -179,13 +349,15 @@ def resumed_state(sim: "Simulation", resume: ResumeState) -> State:
 def run_summary(sim: "Simulation") -> dict:
     """What ``sim``'s last run took (steps, solves, time per stage), and how it was set up."""
     s = sim.settings
+    report = sim.report
     st = sim.stats
-    solves = st.solves if st is not None else 1
+    solves = report.solves if report is not None else 0
+    stopped = report.stopped if report is not None else "static"
     out = {"scene": s.name, "model": s.model, "n_nodes": sim.mesh.n_nodes, "fit": s.numerics.fit,
            "solver_backend": s.solver.backend, "effects": sorted(s.effects),
            "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
            "solves": solves, "t_reached": st.t if st is not None else 0.0,
-           "stopped": st.stopped if st is not None else "static",
+           "stopped": stopped,
            "implicit_tension": s.time.implicit_tension,
            "formulation": s.numerics.formulation,
            "fit_residual_weight": s.numerics.fit_residual_weight}
