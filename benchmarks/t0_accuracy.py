@@ -5,7 +5,7 @@ with ``--no-bending`` also without the bending viscosity) is compared with the e
 the scene's own pattern and viscosities (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`,
 degree by degree, independent of the 3D code): eps_rel (paper Eq. 58), the normal velocity at
 the pole against the exact one, and the pressure. Without bending viscosity the exact flow of a
-ring is ``v = -(R / 2 eta_b)(zeta - zeta_bar) n`` (conventions.md).
+ring is ``v = -(R / 2 eta_b)(zeta - zeta_bar) n`` (docs/method/conventions.md).
 
 Usage::
 

@@ -6,4 +6,9 @@ C_ab = -n . d_a d_b X (a sphere has C = 2/R > 0), zeta > 0 is contractile tensio
 P = p_inside - p_outside.
 """
 
-__version__ = "0.1.0"
+from .about import package_version, provenance
+
+#: The version from the repository's tags (setuptools-scm), see :mod:`cortex_ti.about`
+__version__ = package_version()
+
+__all__ = ["__version__", "provenance"]

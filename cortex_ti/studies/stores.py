@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..about import provenance
 from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, fold_radii
 from ..io.files import read_benchmark
@@ -122,7 +123,8 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
         coords[col] = ("run", values, {"long_name": f"sweep parameter {col}"})
     coords["label"] = ("run", np.asarray([run_label(r) for r in rows], dtype=object), {"long_name": "run label"})
     return xr.Dataset(out, coords=coords, attrs={"description": STUDIES[study].description, "study": study,
-                                                 "units": "lengths R0, times t_a = eta_s / zeta_0"})
+                                                 "units": "lengths R0, times t_a = eta_s / zeta_0",
+                                                 **provenance()})
 
 
 _COST_ATTRS = {
@@ -196,7 +198,8 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     return xr.Dataset(variables, coords=coords,
                       attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
                                             "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
-                                            "run summaries; error against the axisymmetric reference where one exists."})
+                                            "run summaries; error against the axisymmetric reference where one exists.",
+                             **provenance()})
 
 
 def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
