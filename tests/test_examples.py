@@ -23,8 +23,8 @@ EXAMPLES = sorted((ROOT / "docs" / "examples").glob("plot_*.py"))
 
 
 def _run(script: Path, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-           "CORTEX_TI_THREADS": "2"}
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": path, "CORTEX_TI_THREADS": "2"}
     return subprocess.run([sys.executable, str(script)], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
 
 
@@ -47,7 +47,8 @@ def test_example_runs(script, tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(importlib.util.find_spec("sphinx") is None, reason="Sphinx is not installed (pip install -e '.[docs]')")
+@pytest.mark.skipif(importlib.util.find_spec("sphinx") is None,
+                    reason="Sphinx is not installed (pip install -e '.[docs]')")
 def test_the_documentation_builds_without_warnings(tmp_path):
     env = {**os.environ, "CORTEX_TI_DOCS_GALLERY": "False", "PYTHONPATH": str(ROOT)}
     res = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", "-d",

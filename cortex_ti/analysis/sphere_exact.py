@@ -277,7 +277,7 @@ def real_sph_harm(l: int, m: int, points) -> np.ndarray:
     if am > l:
         raise ValueError("|m| > l")
     q = None
-    for ll, qq, _ in _legendre_rows(u[:, 2], l, mmax=am):
+    for _ll, qq, _ in _legendre_rows(u[:, 2], l, mmax=am):
         q = qq
     val = q[:, am]
     if m == 0:

@@ -56,7 +56,7 @@ def convergence_figure(ds: xr.Dataset) -> Figure:
                           marker=markers.get(str(fit), "^"), mfc=colour if form == "paper" else "none",
                           label=f"{harmonic} {form} {fit}")
     n = ds["nodes"].values.astype(float)
-    for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only")):
+    for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only"), strict=True):
         for power, style in ((1, ":"), (2, "--")):
             ref = ds["eps_rel"].max().item() * (n / n[0]) ** (-power)
             ax.loglog(n, ref, "k" + style, lw=0.8, label=f"$\\propto N^{{-{power}}}$")
@@ -93,7 +93,7 @@ def radii_figure(ds: xr.Dataset, axisym: xr.Dataset | None = None) -> Figure:
     fig = Figure(figsize=(4.2 * len(groups), 3.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(groups), squeeze=False)[0])
     t = ds["time"].values
-    for ax, ((scene, p, zh), idx) in zip(axes, groups.items()):
+    for ax, ((scene, p, zh), idx) in zip(axes, groups.items(), strict=True):
         for i in idx:
             lab = f"3D N={ds['nodes'].values[i]}, {ds['scheme'].values[i]}"
             ok = np.isfinite(ds["pole_radius"].values[i])
@@ -306,7 +306,7 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     top = np.nanmax(err[ok]) * 2.5 if ok.any() else 1.0
     twin_wall = ds["wall_s"].values[(study == "axisymmetric")] if "axisymmetric" in set(study) else []
     handles = []
-    for ax, form in zip(panels, forms):
+    for ax, form in zip(panels, forms, strict=True):
         mine = form_of == form
         for i in np.flatnonzero(ok & mine):
             c = colours[nodes[i]]
@@ -336,8 +336,8 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     panels[0].set_ylabel(r"max |radius - axisymmetric| / $R_0$")
     _common_limits(panels, np.r_[wall[np.isfinite(wall)], list(twin_wall)],
                    np.r_[err[ok], [top] if (~ok).any() else []])
-    scenes = ", ".join(sorted({m.group(1) for m in map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
-                               if m}))
+    found = map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
+    scenes = ", ".join(sorted({m.group(1) for m in found if m}))
     fig.suptitle(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=10)
     _pareto_table(tab, sel, front)
     tab.legend(handles=handles, fontsize=7, loc="lower center", ncol=2, frameon=False)
@@ -429,7 +429,7 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
         line = np.linspace(0.0, np.pi, 181)
         meridian = radius * np.stack([np.sin(line), np.zeros_like(line), np.cos(line)], -1)
 
-        def value(w, normals):
+        def value(w, normals, tangential=tangential):
             wn = np.einsum("nc,nc->n", w, normals)
             return np.linalg.norm(w - wn[:, None] * normals, axis=1) if tangential else wn
 
@@ -469,11 +469,11 @@ def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str
         return draw(list(inputs), *extra)
     runs, start = {}, 0
     for study in spec.data:
-        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])]))
+        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])], strict=True))
         start += len(rows[study])
     if spec.draw == "profiles_figure":
         return draw(runs[spec.data[0]], *extra, *(runs[s] for s in spec.data[1:]))
     from .stores import short_labels
 
     main = runs[spec.data[0]]
-    return draw(list(zip(short_labels([r for r, _ in main]), [p for _, p in main])), *extra)
+    return draw(list(zip(short_labels([r for r, _ in main]), [p for _, p in main], strict=True)), *extra)

@@ -263,7 +263,7 @@ class _Edges:
     start: np.ndarray   # (E,) first position of each edge in ``order``
 
     @classmethod
-    def of(cls, fc: np.ndarray, n: int) -> "_Edges":
+    def of(cls, fc: np.ndarray, n: int) -> _Edges:
         heads = fc.ravel()
         tails = fc[:, [1, 2, 0]].ravel()
         ukey = np.minimum(heads, tails) * n + np.maximum(heads, tails)
