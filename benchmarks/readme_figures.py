@@ -13,6 +13,8 @@ workflow's own figure functions. Prints the numbers quoted in the README.
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 from pathlib import Path
 
@@ -30,9 +32,16 @@ TIMES = (0.0035, 0.035, 0.087, 3.5)   # paper Figs. 10-12 B-E
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--runs", type=Path, required=True)
+    p.add_argument("--runs", type=Path, default=None, help="folder of the runs (required)")
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:  # one fold and one shear scene, tiny, to t = 0.1
+        args.runs = args.out = _smoke.folder()
+        for name in ("fold_narrow", "shear_035"):
+            _smoke.tiny_run(name, t_end=0.1, where=args.runs)
+    if args.runs is None:
+        p.error("--runs is required")
     args.out.mkdir(parents=True, exist_ok=True)
     for study, names, fig_name in (("fold", FOLD, "fold"), ("reorientation", SHEAR, "shear")):
         # a finished run, else the frames of an interrupted one (<name>.h5.partial)

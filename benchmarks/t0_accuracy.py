@@ -19,6 +19,8 @@ count in brackets).
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import json
 import sys
 import time
@@ -69,7 +71,10 @@ def main(argv=None) -> int:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.scenes, args.nodes = ["furrow_p8_a1"], [162]
     from cortex_ti import runtime
 
     runtime.init(threads=args.threads)
