@@ -1,7 +1,7 @@
 """The axisymmetric model measured: resolution and tolerance study, the external reference,
 speed, stiffness with and without bending viscosity, non-symmetric patterns, integrators.
 
-Usage (one core; a few minutes for all sections; the README's tables come from it):
+Usage (one core; a few minutes for all sections; the tables of docs/validation/axisymmetric_truth.md come from it):
 
     python benchmarks/axisymmetric_convergence.py [section ...]
 

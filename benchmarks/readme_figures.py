@@ -1,4 +1,5 @@
-"""The README's pictures of the non-axisymmetric scenes (paper Figs. 9-12) from finished runs.
+"""The pictures of the non-axisymmetric scenes (paper Figs. 9-12) from finished runs, for
+docs/validation/nonaxisymmetric.md.
 
 Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes, t_end = 3.5)::
 
@@ -7,7 +8,7 @@ Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes,
 expects ``fold_narrow.h5, fold_broad.h5, shear_035.h5, shear_035_tilted.h5, shear_075.h5`` in
 RUNS_DIR (missing ones are skipped; ``<name>.h5.partial`` of a stopped run is used if that is all there is) and writes ``fold.png``, ``shear.png`` (snapshots at the
 paper's times) and ``orientation.png`` (orientation angle and fold depth over time), using the
-workflow's own figure functions. Prints the numbers quoted in the README.
+workflow's own figure functions. Prints the numbers quoted on that page.
 """
 
 from __future__ import annotations
