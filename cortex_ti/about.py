@@ -38,7 +38,10 @@ UNKNOWN = "unknown"
 
 def package_version() -> str:
     """The package's version: from setuptools-scm at build time (``cortex_ti/_version.py``: the
-    latest tag, or ``0.1.1.devN+g<commit>`` without one, counted from the fallback 0.1.0), else the installed metadata, else unknown."""
+    latest tag, or ``0.1.1.devN+g<commit>`` without one, counted from the fallback 0.1.0), else the
+    installed metadata, else unknown. The file is written when the package is built or installed,
+    so in a checkout it can lag behind later commits: the commit in :func:`provenance` is read
+    from git at run time."""
     try:
         from ._version import version  # written by setuptools-scm when the package is built or installed
         return str(version)
