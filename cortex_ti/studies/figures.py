@@ -143,7 +143,7 @@ def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
 
 def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
                     twins: Sequence[tuple[Mapping, str]] = ()) -> Figure:
-    """|v_t| and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
+    """``|v_t|`` and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
     pair per 3D run; the axisymmetric solution of the same scene (its twin) as a black line.
     Times beyond a run's end are left empty."""
     from .sweeps import twin_key
@@ -372,7 +372,7 @@ def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
 
 
 def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], view=(20.0, -60.0)) -> Figure:
-    """3D snapshots (paper Figs. 9-12): per run a row, the active stress at t = 0 and then |v|
+    """3D snapshots (paper Figs. 9-12): per run a row, the active stress at t = 0 and then ``|v|``
     with arrows at each time of ``times`` up to the run's end (and at its end)."""
     from ..plotting import plot_frame
 
@@ -402,7 +402,7 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
 
 def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
     """The flow on a static sphere (paper Figs. 2B-E, 3B-E): per scene the surface coloured by
-    |v| with arrows, and the velocity against the polar angle theta at the nodes (the normal
+    ``|v|`` with arrows, and the velocity against the polar angle theta at the nodes (the normal
     part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
     pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
     from ..analysis.analytic import scene_solution

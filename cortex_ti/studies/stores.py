@@ -217,7 +217,7 @@ def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
 
 
 def twin_deviation(path, twin_path) -> dict[str, float]:
-    """Largest |3D - axisymmetric| of pole and furrow radius over the frames of a run, against
+    """Largest ``|3D - axisymmetric|`` of pole and furrow radius over the frames of a run, against
     its axisymmetric twin (the same scene solved with ``model: axisymmetric``; its frames
     interpolated in time, linearly, to the run's frame times up to the twin's end)."""
     with Trajectory(path, lazy=True) as run, Trajectory(twin_path, lazy=True) as twin:
