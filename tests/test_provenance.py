@@ -88,3 +88,18 @@ def test_a_source_archive_without_git_builds_with_the_fallback_version(tmp_path)
     fallback = "0.1.0"  # [tool.setuptools_scm] fallback_version in pyproject.toml
     assert wheel.name.startswith(f"cortex_ti-{fallback}-")
     assert fallback in zipfile.ZipFile(wheel).read("cortex_ti/_version.py").decode()
+
+
+def test_citation_and_license_agree_with_the_package():
+    """CITATION.cff (format 1.2.0) names the license pyproject.toml declares and the paper by its DOI;
+    LICENSE is that license's text."""
+    import yaml
+
+    tomllib = pytest.importorskip("tomllib")  # Python >= 3.11
+
+    cff = yaml.safe_load((ROOT / "CITATION.cff").read_text())
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert cff["cff-version"] == "1.2.0" and cff["type"] == "software"
+    assert cff["license"] == project["license"]["text"] == "MIT"
+    assert any(ref.get("doi") == "10.3389/fphy.2021.753230" for ref in cff["references"])
+    assert (ROOT / "LICENSE").read_text().startswith("MIT License")
