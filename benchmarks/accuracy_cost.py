@@ -24,6 +24,8 @@ Expected cost: about 3 minutes for the default node counts on a 2-core machine.
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import csv
 import json
 import os
@@ -94,7 +96,10 @@ def main(argv=None) -> int:
     p.add_argument("--backend", default="auto")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/static.csv"))
     p.add_argument("--one", nargs=2, metavar=("NODES", "METHOD"), help=argparse.SUPPRESS)
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.nodes, args.methods, args.out = [162], ["paper:quartic", "rayleigh_p1:quadratic"], _smoke.folder() / "static.csv"
     if args.one:
         print(json.dumps(one(int(args.one[0]), args.one[1], args.backend)))
         return 0
@@ -106,6 +111,8 @@ def main(argv=None) -> int:
                                  capture_output=True, text=True)
             if res.returncode != 0:
                 print(f"# {method} N={n} failed: {res.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
+                if args.smoke:
+                    return 1
                 continue
             rows += json.loads(res.stdout.strip().splitlines()[-1])
             print(f"# {method} N={n} done in {time.perf_counter() - t0:.0f} s", file=sys.stderr)

@@ -11,6 +11,8 @@ Usage::
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 import time
 
@@ -26,7 +28,10 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=15)
     p.add_argument("--dt", type=float, default=1e-3, help="step of the semi-implicit tension (0: explicit)")
     p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.nodes, args.repeat = [162], 2
     from cortex_ti import runtime
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation

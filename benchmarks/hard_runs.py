@@ -22,6 +22,8 @@ Usage::
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import itertools
 import json
 import subprocess
@@ -120,7 +122,7 @@ def table(out: Path, scenes, nodes_list, dts) -> None:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--out", type=Path, required=True, help="folder for the runs (created)")
+    p.add_argument("--out", type=Path, default=None, help="folder for the runs (created; required)")
     p.add_argument("--scenes", nargs="+", default=list(SCENES))
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
     p.add_argument("--dts", type=float, nargs="+", default=[5e-3, 1e-3])
@@ -128,7 +130,13 @@ def main(argv=None) -> int:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--jobs", type=int, default=1, help="runs side by side (one thread each)")
     p.add_argument("--table-only", action="store_true")
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:  # one scene, the coarse mesh, one step, a few steps of it
+        args.out, args.scenes, args.nodes, args.dts, args.bending = _smoke.folder(), ["furrow_p4_a1"], [162], [5e-3], "on"
+        args.overrides = [*args.overrides, "time.t_end=0.05"]
+    if args.out is None:
+        p.error("--out is required")
     args.out.mkdir(parents=True, exist_ok=True)
     bendings = {"both": (False, True), "on": (True,), "off": (False,)}[args.bending]
     if not args.table_only:

@@ -1,4 +1,5 @@
-"""The README's pictures of the non-axisymmetric scenes (paper Figs. 9-12) from finished runs.
+"""The pictures of the non-axisymmetric scenes (paper Figs. 9-12) from finished runs, for
+docs/validation/nonaxisymmetric.md.
 
 Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes, t_end = 3.5)::
 
@@ -7,12 +8,14 @@ Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes,
 expects ``fold_narrow.h5, fold_broad.h5, shear_035.h5, shear_035_tilted.h5, shear_075.h5`` in
 RUNS_DIR (missing ones are skipped; ``<name>.h5.partial`` of a stopped run is used if that is all there is) and writes ``fold.png``, ``shear.png`` (snapshots at the
 paper's times) and ``orientation.png`` (orientation angle and fold depth over time), using the
-workflow's own figure functions. Prints the numbers quoted in the README.
+workflow's own figure functions. Prints the numbers quoted on that page.
 """
 
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 from pathlib import Path
 
@@ -30,9 +33,16 @@ TIMES = (0.0035, 0.035, 0.087, 3.5)   # paper Figs. 10-12 B-E
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--runs", type=Path, required=True)
+    p.add_argument("--runs", type=Path, default=None, help="folder of the runs (required)")
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:  # one fold and one shear scene, tiny, to t = 0.1
+        args.runs = args.out = _smoke.folder()
+        for name in ("fold_narrow", "shear_035"):
+            _smoke.tiny_run(name, t_end=0.1, where=args.runs)
+    if args.runs is None:
+        p.error("--runs is required")
     args.out.mkdir(parents=True, exist_ok=True)
     for study, names, fig_name in (("fold", FOLD, "fold"), ("reorientation", SHEAR, "shear")):
         # a finished run, else the frames of an interrupted one (<name>.h5.partial)

@@ -12,6 +12,8 @@ Usage::
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import json
 import os
 import resource
@@ -47,7 +49,10 @@ def main(argv=None) -> int:
     p.add_argument("--formulation", default="paper")
     p.add_argument("--json", default=None)
     p.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.nodes = [162]
     if args.one:
         print(json.dumps(one(args.scene, int(args.one[0]), args.fit, args.formulation, args.one[1] == "1")))
         return 0
@@ -61,6 +66,8 @@ def main(argv=None) -> int:
                                  capture_output=True, text=True)
             if res.returncode:
                 print(f"| {n} | {refine} | failed: {res.stderr.strip().splitlines()[-1:]} |")
+                if args.smoke:
+                    return 1
                 continue
             r = json.loads(res.stdout.strip().splitlines()[-1])
             print(f"| {n} | {'yes' if refine else 'no'} | {r['eps_rel']:.3e} | "

@@ -24,6 +24,8 @@ Cost (one core): 642 nodes a few seconds, 2562 about a minute (dense), 10242 a f
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import copy
 import json
 import sys
@@ -87,7 +89,10 @@ def main(argv=None) -> int:
     p.add_argument("--k", type=int, default=12, help="eigenvalues ARPACK computes above 3000 nodes")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="append one JSON record per case to this file")
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:  # the uniformly tense 162-node sphere of the furrow scene
+        args.scene, args.uniform, args.nodes, args.trajectory = args.scene or "furrow_p4_a1", True, [162], None
     if (args.scene is None) == (args.trajectory is None):
         p.error("give a scene or --trajectory, not both")
 

@@ -16,6 +16,8 @@ Prints two Markdown tables. Timings depend on the machine: report them with it.
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 
 import numpy as np
@@ -53,7 +55,10 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--dt", type=float, default=1e-3, help="step of the semi-implicit solve timed")
     p.add_argument("--threads", type=int, default=None)
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.nodes, args.fits, args.repeat = [162], ["quadratic"], 1
     runtime.init(threads=args.threads)
 
     print("| nodes | fit | rows weight | geometry (ms) | assembly (ms) | solve (ms) | total (ms) | vs rows off |")

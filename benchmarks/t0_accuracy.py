@@ -5,7 +5,7 @@ with ``--no-bending`` also without the bending viscosity) is compared with the e
 the scene's own pattern and viscosities (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`,
 degree by degree, independent of the 3D code): eps_rel (paper Eq. 58), the normal velocity at
 the pole against the exact one, and the pressure. Without bending viscosity the exact flow of a
-ring is ``v = -(R / 2 eta_b)(zeta - zeta_bar) n`` (conventions.md).
+ring is ``v = -(R / 2 eta_b)(zeta - zeta_bar) n`` (docs/method/conventions.md).
 
 Usage::
 
@@ -19,6 +19,8 @@ count in brackets).
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import json
 import sys
 import time
@@ -69,7 +71,10 @@ def main(argv=None) -> int:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.scenes, args.nodes = ["furrow_p8_a1"], [162]
     from cortex_ti import runtime
 
     runtime.init(threads=args.threads)

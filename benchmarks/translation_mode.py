@@ -21,6 +21,8 @@ Cost (one core): about 30 s per frame at 2562 nodes.
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import copy
 import sys
 
@@ -34,11 +36,16 @@ from cortex_ti.simulation.core import Simulation
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("trajectory")
-    p.add_argument("times", type=float, nargs="+")
+    p.add_argument("trajectory", nargs="?")
+    p.add_argument("times", type=float, nargs="*")
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
                    help="change the run's scene, e.g. translation=centroid")
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.trajectory, args.times = str(_smoke.tiny_run("furrow_p4_a1", t_end=0.05)), [0.05]
+    if args.trajectory is None or not args.times:
+        p.error("give a trajectory and the times of its frames")
     with Trajectory(args.trajectory) as tr:
         scene, tt = scene_from_dict(copy.deepcopy(tr.scene.data), args.overrides), tr.ds["time"].values
         frames = [(float(tt[k]), tr.ds["points"].isel(time=k).values, tr.ds["active_stress"].isel(time=k).values)

@@ -14,6 +14,8 @@ Usage::
 from __future__ import annotations
 
 import argparse
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import os
 import sys
 import tempfile
@@ -65,7 +67,10 @@ def main(argv=None) -> int:
     p.add_argument("--jitter", type=float, default=0.3)
     p.add_argument("--formulations", nargs="+", default=["paper", "rayleigh_p1"])
     p.add_argument("--set", dest="overrides", action="append", default=[])
+    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
+    if args.smoke:
+        args.nodes = [162]
     from cortex_ti import runtime
     from cortex_ti.analysis import analytic
     from cortex_ti.scene import load_scene

@@ -11,8 +11,11 @@ The Python front door (:mod:`cortex_ti.api`)::
     ds = ct.run("furrow_p8_a1", nodes=642, t_end=0.3)   # an xarray Dataset
 """
 
-__version__ = "0.1.0"
+from .about import package_version, provenance
+
+#: The version from the repository's tags (setuptools-scm), see :mod:`cortex_ti.about`
+__version__ = package_version()
 
 from .api import load_scene, open_trajectory, run, scenes  # noqa: E402  (light: imports nothing heavy)
 
-__all__ = ["run", "load_scene", "open_trajectory", "scenes", "__version__"]
+__all__ = ["__version__", "provenance", "run", "load_scene", "open_trajectory", "scenes"]

@@ -1,4 +1,4 @@
-"""Tests of cortex_ti.analytic: static-sphere solutions (conventions.md) and error measures.
+"""Tests of cortex_ti.analytic: static-sphere solutions (docs/method/conventions.md) and error measures.
 
 Besides limits and reference values, the solutions are checked against an independent
 finite-difference evaluation of the force balance on the sphere: with
@@ -119,7 +119,7 @@ def test_full_solution_ring_p4_pole_value_and_scaling():
     # v_n = -(R / (2 eta_b)) (zeta - zbar): R / (2 eta_b) = 2
     zp = 1.0 + math.exp(-10 * (math.pi / 2) ** 4)
     np.testing.assert_allclose(v[:, 2] * [1, -1], -2.0 * (zp - zbar), rtol=1e-12)
-    assert v[0, 2] / 4 == pytest.approx(0.2415, abs=5e-5)  # the R = 1, eta_b = 1 value of conventions.md
+    assert v[0, 2] / 4 == pytest.approx(0.2415, abs=5e-5)  # the R = 1, eta_b = 1 value of docs/method/conventions.md
     assert P == pytest.approx(2 * zbar / 2.0, rel=1e-14)
 
 

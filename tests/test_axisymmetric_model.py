@@ -1,6 +1,6 @@
 """Scenes run with ``model: axisymmetric``: the same model as the 3D code on surfaces of revolution.
 
-Truths: the analytic sphere flows (conventions.md), the exact spectral sphere solution with
+Truths: the analytic sphere flows (docs/method/conventions.md), the exact spectral sphere solution with
 bending viscosity (cortex_ti.analysis.sphere_exact, derived independently), the shipped
 external reference run, and the refusals of every way a scene can break the symmetry.
 """
@@ -47,7 +47,7 @@ def test_static_sphere_matches_the_analytic_flow(tmp_path, name, exact):
 
 @pytest.mark.parametrize("name", FURROWS)
 def test_ring_at_t0_without_bending_is_the_closed_form(name):
-    """v = -(R / 2 eta_b) (zeta - zeta_bar) n on the sphere for any ring (conventions.md)."""
+    """v = -(R / 2 eta_b) (zeta - zeta_bar) n on the sphere for any ring (docs/method/conventions.md)."""
     run = AxisymmetricRun(load_scene(name, ["model=axisymmetric", *NO_BENDING]))
     res = run.solve()
     theta = np.linspace(0.0, np.pi, 201)

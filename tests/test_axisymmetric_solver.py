@@ -1,5 +1,5 @@
 """The axisymmetric solver's numerical core (cortex_ti.axisymmetric), each test against an
-independent truth: the closed-form sphere flows (conventions.md), a per-degree Legendre solution
+independent truth: the closed-form sphere flows (docs/method/conventions.md), a per-degree Legendre solution
 with the bending viscosity, the general covariant 2D formulas on deformed shapes, closed-form
 spheroid geometry, conservation of volume, self-convergence, and the external reference run
 (cortex_ti/data/axisym)."""
@@ -134,7 +134,7 @@ def test_static_rings(symmetric, zeta, zbar_quoted):
     e = s.at(th)  # spectral interpolation between the nodes
     assert np.max(np.abs(e["v_n"] + 0.5 * (zeta(th) - zbar))) < 1e-8
     if zeta is P8:
-        assert abs(e["v_n"][0] - 0.3227) < 5e-5  # conventions.md
+        assert abs(e["v_n"][0] - 0.3227) < 5e-5  # docs/method/conventions.md
 
 
 def test_static_l1_pattern_translation_gauge():

@@ -535,7 +535,7 @@ def test_scene_from_dict_does_not_modify_input():
     ("furrow_p4_a3", 4, 3.0, 1e-4, 3.5e-3),
 ])
 def test_furrow_scenes_carry_the_paper_parameters(name, p, amp, bend, bend_b):
-    """conventions.md, 'Scenes of the paper': Eq. 59 with zeta_0 = 1, sigma = 10, eta_s = eta_b = 1."""
+    """docs/method/conventions.md, 'Scenes of the paper': Eq. 59 with zeta_0 = 1, sigma = 10, eta_s = eta_b = 1."""
     scene = load_scene(name)
     (ring,) = scene["active_stress"]
     assert ring["type"] == "ring" and ring["p"] == p and ring["amplitude"] == amp

@@ -2,7 +2,7 @@
 flows, exact invariants (constraints, rigid-body kernel, frame independence, rotation
 covariance) and the singular problems it must refuse.
 
-Systems (conventions.md):
+Systems (docs/method/conventions.md):
   full        tangential + normal balance, eta_s = eta_b = 1, incompressible interior;
               v = -(R / 2 eta_b) (zeta - zeta_bar) n, P = 2 zeta_bar / R;
   tangential  eta_s = 1, eta_b = 0, v_n = 0 imposed; v = R^2 / (eta_s (L - 2)) grad_s zeta_l.
@@ -317,7 +317,7 @@ def test_bending_viscosity_matches_its_analytic_solution(lab, scheme):
 
 
 def test_furrow_ring_analytic_value():
-    """conventions.md: for Eq. 59 with p = 8, zeta_hat = 1: zeta_bar = 1.64548, v_n = +0.3227 at
+    """docs/method/conventions.md: for Eq. 59 with p = 8, zeta_hat = 1: zeta_bar = 1.64548, v_n = +0.3227 at
     the poles, P = 2 zeta_bar."""
     pts = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
     v, p = sphere_full_solution(pts, RING_P8)

@@ -161,7 +161,8 @@ def _terms(terms) -> list[tuple[int, int, float]]:
         out = []
         for i, t in enumerate(terms):
             if t["type"] != "harmonics":
-                raise ValueError(f"pattern {i} has type {t['type']!r}; only 'harmonics' patterns have this analytic solution")
+                raise ValueError(f"pattern {i} has type {t['type']!r}; "
+                                 "only 'harmonics' patterns have this analytic solution")
             out.extend(harmonic_terms(t.get("terms", [])))
         return out
     try:
@@ -204,7 +205,8 @@ def sphere_tangential_solution(points, terms, radius: float = 1.0, eta_s: float 
             continue
         if l == 1:
             raise ValueError(
-                f"term l = 1, m = {m}: no static-sphere solution (a degree-1 tension gradient would need an external force)"
+                f"term l = 1, m = {m}: no static-sphere solution "
+                "(a degree-1 tension gradient would need an external force)"
             )
         L = l * (l + 1)
         # grad_s on radius R = grad on the unit sphere / R
@@ -221,9 +223,9 @@ def bending_coefficients(l: int, radius: float, eta_s: float, eta_b: float, eta_
     ``-2 eta_b L alpha / R^3 + (4 eta_b / R^2 + kappa_l) beta = -2 zeta_l / R``,
     ``kappa_l = (2 eta_bar_b L + 8 eta_bar - 4 eta_bar_b) / R^3``, with ``zeta_l = 1``.
     Closed form: ``D = eta_s (L-2) (4 eta_b / R^2 + kappa_l) + eta_b L kappa_l``,
-    ``alpha = R^2 kappa_l / D``, ``beta = -2 eta_s (L-2) / (R D)``.  So ``alpha >= 0``: the residual tangential flow runs up the
-    tension gradient (toward high tension), and ``|beta| <= R / (2 eta_b)``: bending viscosity
-    slows the normal motion.
+    ``alpha = R^2 kappa_l / D``, ``beta = -2 eta_s (L-2) / (R D)``.  So ``alpha >= 0``: the residual
+    tangential flow runs up the tension gradient (toward high tension), and ``|beta| <= R / (2 eta_b)``:
+    bending viscosity slows the normal motion.
     """
     if l < 2:
         raise ValueError(f"need l >= 2, got l = {l}")
@@ -285,7 +287,8 @@ def sphere_bending_solution(points, terms, radius: float, eta_s: float, eta_b: f
             continue
         if l == 1:
             raise ValueError(
-                f"term l = 1, m = {m}: no static-sphere solution (a degree-1 tension gradient would need an external force)"
+                f"term l = 1, m = {m}: no static-sphere solution "
+                "(a degree-1 tension gradient would need an external force)"
             )
         alpha, beta = bending_coefficients(l, R, eta_s, eta_b, eta_bar, eta_bar_b)
         if alpha != 0.0:

@@ -351,7 +351,7 @@ def _second_moment(surf: _Surface, c: np.ndarray) -> np.ndarray:
     for i in range(3):
         weighted = [t[i] * a for t in terms]
         for k in range(i, 3):
-            j[i, k] = j[k, i] = sum(w @ t[k] for w, t in zip(weighted, terms))
+            j[i, k] = j[k, i] = sum(w @ t[k] for w, t in zip(weighted, terms, strict=True))
     return j / 12.0
 
 

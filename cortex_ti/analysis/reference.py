@@ -2,7 +2,7 @@
 
 The reference (its README) gives, for the furrow of paper Fig. 5 (p = 8,
 zeta_hat = 1): pole and furrow radius every 0.01 t_a, and the flow along the
-meridian at t = 0, 0.1, 1.5, 3 (columns z, r, s, |v_t|, signed v_t, v_n, zeta).
+meridian at t = 0, 0.1, 1.5, 3 (columns z, r, s, ``|v_t|``, signed v_t, v_n, zeta).
 Its pole radius is half the pole-to-pole distance and its furrow radius the
 cylindrical radius at the equator, the definitions of :mod:`cortex_ti.analysis.diagnostics`.
 """
@@ -65,7 +65,7 @@ def matches_reference(settings) -> bool:
 
 
 def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
-    """Largest |3D - reference| of pole and furrow radius at the frame times (R0).
+    """Largest ``|3D - reference|`` of pole and furrow radius at the frame times (R0).
 
     Only frame times that fall on the reference's 0.01 grid are compared.
     """
@@ -82,7 +82,7 @@ def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
 
 
 def profile_deviation(points, velocity, normals, t: float, path=None) -> dict[str, float]:
-    """Deviation of v_n(z) and |v_t|(z) at the nodes from the reference profile at ``t``.
+    """Deviation of v_n(z) and ``|v_t|(z)`` at the nodes from the reference profile at ``t``.
 
     The reference is interpolated in z (single-valued along the meridian). Returns
     the largest and rms deviations in units of v_a = R0 / t_a.

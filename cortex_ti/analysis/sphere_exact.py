@@ -2,7 +2,7 @@ r"""Exact (spectral) solution of the viscous active cortex force balance on a st
 
 Independent reference ("truth") for the tests of the 3D and axisymmetric solvers: written from
 its own derivation (``docs/derivations/sphere_exact.md``), it imports nothing of the package.
-The conventions are those of the README's "Method in brief" (conventions.md):
+The conventions are those of docs/method/conventions.md:
 outward normal ``n``, ``C_ab = g_ab / R``, surface stress
 ``t^ab = 2 eta_s (v^ab - v^c_c g^ab / 2) + eta_b v^c_c g^ab + zeta g^ab`` (``zeta > 0``
 contractile), tangential balance ``nabla_a t^ab = 0``, normal balance
@@ -277,7 +277,7 @@ def real_sph_harm(l: int, m: int, points) -> np.ndarray:
     if am > l:
         raise ValueError("|m| > l")
     q = None
-    for ll, qq, _ in _legendre_rows(u[:, 2], l, mmax=am):
+    for _ll, qq, _ in _legendre_rows(u[:, 2], l, mmax=am):
         q = qq
     val = q[:, am]
     if m == 0:

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
+from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
 from ..errors import CortexError, SceneError
 from ..io.trajectory import TrajectoryWriter
@@ -159,7 +159,7 @@ class AxisymmetricRun:
         s = self.settings
         return {"scene": self.scene.to_yaml(), "effects": ",".join(sorted(s.effects)), "model": "axisymmetric",
                 "fit_scheme": "spectral", "solver_backend": "dense LU", "n_meridian_points": 2 * s.axisymmetric.n,
-                "cortex_ti_version": __version__}
+                **provenance()}
 
     def _extra_vars(self) -> dict:
         out = {"normal": (("time", "node", "xyz"), {"units": "1", "long_name": "outward unit normal at the nodes"})}

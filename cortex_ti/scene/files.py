@@ -4,8 +4,9 @@ they resolve (relative to the scene file's folder, or to the working directory f
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any, Iterator, Sequence
+from typing import Any
 
 from ..errors import SceneError
 

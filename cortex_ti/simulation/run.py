@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import __version__
+from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
 from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
@@ -154,7 +154,7 @@ class RunReport:
 
 
 def output_attrs(sim: "Simulation") -> dict:
-    """The global attributes of the scene's trajectory."""
+    """The global attributes of the scene's trajectory (with :func:`cortex_ti.provenance`)."""
     s = sim.settings
     return {
         "scene": sim.scene.to_yaml(),
@@ -162,7 +162,7 @@ def output_attrs(sim: "Simulation") -> dict:
         "fit_scheme": s.numerics.fit,
         "solver_backend": s.solver.backend,
         "n_nodes": sim.mesh.n_nodes,
-        "cortex_ti_version": __version__,
+        **provenance(),
     }
 
 

@@ -7,6 +7,7 @@ from collections.abc import Iterable
 import numpy as np
 import xarray as xr
 
+from ..about import provenance
 from ..analysis.analytic import error_measures, scene_solution
 from ..io.trajectory import Trajectory
 
@@ -46,5 +47,5 @@ def convergence_dataset(paths: Iterable) -> xr.Dataset:
         coords={"scene": values["scene"], "formulation": values["formulation"], "fit": values["fit"],
                 "nodes": ("nodes", values["nodes"], {"long_name": "number of mesh nodes N"})},
         attrs={"description": "Static sphere scenes (paper Figs. 2F,G and 3F,G) against the analytic solutions of "
-                              "conventions.md"},
+                              "docs/method/conventions.md", **provenance()},
     )

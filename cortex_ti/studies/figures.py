@@ -56,7 +56,7 @@ def convergence_figure(ds: xr.Dataset) -> Figure:
                           marker=markers.get(str(fit), "^"), mfc=colour if form == "paper" else "none",
                           label=f"{harmonic} {form} {fit}")
     n = ds["nodes"].values.astype(float)
-    for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only")):
+    for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only"), strict=True):
         for power, style in ((1, ":"), (2, "--")):
             ref = ds["eps_rel"].max().item() * (n / n[0]) ** (-power)
             ax.loglog(n, ref, "k" + style, lw=0.8, label=f"$\\propto N^{{-{power}}}$")
@@ -93,7 +93,7 @@ def radii_figure(ds: xr.Dataset, axisym: xr.Dataset | None = None) -> Figure:
     fig = Figure(figsize=(4.2 * len(groups), 3.8), layout="constrained")
     axes = np.atleast_1d(fig.subplots(1, len(groups), squeeze=False)[0])
     t = ds["time"].values
-    for ax, ((scene, p, zh), idx) in zip(axes, groups.items()):
+    for ax, ((scene, p, zh), idx) in zip(axes, groups.items(), strict=True):
         for i in idx:
             lab = f"3D N={ds['nodes'].values[i]}, {ds['scheme'].values[i]}"
             ok = np.isfinite(ds["pole_radius"].values[i])
@@ -143,7 +143,7 @@ def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
 
 def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
                     twins: Sequence[tuple[Mapping, str]] = ()) -> Figure:
-    """|v_t| and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
+    """``|v_t|`` and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
     pair per 3D run; the axisymmetric solution of the same scene (its twin) as a black line.
     Times beyond a run's end are left empty."""
     from .sweeps import twin_key
@@ -306,7 +306,7 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     top = np.nanmax(err[ok]) * 2.5 if ok.any() else 1.0
     twin_wall = ds["wall_s"].values[(study == "axisymmetric")] if "axisymmetric" in set(study) else []
     handles = []
-    for ax, form in zip(panels, forms):
+    for ax, form in zip(panels, forms, strict=True):
         mine = form_of == form
         for i in np.flatnonzero(ok & mine):
             c = colours[nodes[i]]
@@ -336,8 +336,8 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     panels[0].set_ylabel(r"max |radius - axisymmetric| / $R_0$")
     _common_limits(panels, np.r_[wall[np.isfinite(wall)], list(twin_wall)],
                    np.r_[err[ok], [top] if (~ok).any() else []])
-    scenes = ", ".join(sorted({m.group(1) for m in map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
-                               if m}))
+    found = map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
+    scenes = ", ".join(sorted({m.group(1) for m in found if m}))
     fig.suptitle(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=10)
     _pareto_table(tab, sel, front)
     tab.legend(handles=handles, fontsize=7, loc="lower center", ncol=2, frameon=False)
@@ -372,7 +372,7 @@ def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
 
 
 def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], view=(20.0, -60.0)) -> Figure:
-    """3D snapshots (paper Figs. 9-12): per run a row, the active stress at t = 0 and then |v|
+    """3D snapshots (paper Figs. 9-12): per run a row, the active stress at t = 0 and then ``|v|``
     with arrows at each time of ``times`` up to the run's end (and at its end)."""
     from ..plotting import plot_frame
 
@@ -402,7 +402,7 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
 
 def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
     """The flow on a static sphere (paper Figs. 2B-E, 3B-E): per scene the surface coloured by
-    |v| with arrows, and the velocity against the polar angle theta at the nodes (the normal
+    ``|v|`` with arrows, and the velocity against the polar angle theta at the nodes (the normal
     part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
     pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
     from ..analysis.analytic import scene_solution
@@ -429,7 +429,7 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
         line = np.linspace(0.0, np.pi, 181)
         meridian = radius * np.stack([np.sin(line), np.zeros_like(line), np.cos(line)], -1)
 
-        def value(w, normals):
+        def value(w, normals, tangential=tangential):
             wn = np.einsum("nc,nc->n", w, normals)
             return np.linalg.norm(w - wn[:, None] * normals, axis=1) if tangential else wn
 
@@ -469,11 +469,11 @@ def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str
         return draw(list(inputs), *extra)
     runs, start = {}, 0
     for study in spec.data:
-        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])]))
+        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])], strict=True))
         start += len(rows[study])
     if spec.draw == "profiles_figure":
         return draw(runs[spec.data[0]], *extra, *(runs[s] for s in spec.data[1:]))
     from .stores import short_labels
 
     main = runs[spec.data[0]]
-    return draw(list(zip(short_labels([r for r, _ in main]), [p for _, p in main])), *extra)
+    return draw(list(zip(short_labels([r for r, _ in main]), [p for _, p in main], strict=True)), *extra)

@@ -34,7 +34,7 @@ def _convergence(stores) -> pd.DataFrame:
                     continue
                 order = np.polyfit(np.log(n[ok]), np.log(e[ok]), 1)[0] if ok.sum() > 1 else np.nan
                 rows.append({"scene": scene, "formulation": form, "fit": fit,
-                             **{f"eps_rel N={int(k)}": f"{v:.2e}" for k, v in zip(n, e)},
+                             **{f"eps_rel N={int(k)}": f"{v:.2e}" for k, v in zip(n, e, strict=True)},
                              "slope d log eps / d log N": f"{order:.2f}",
                              "paper": "quadratic: eps ~ 1/N (slope -1)"})
     return pd.DataFrame(rows)
@@ -157,9 +157,9 @@ def _reference_check(stores) -> pd.DataFrame:
 
     ref = reference.load_radii()
     res = AxisymmetricRun(load_scene("furrow_p8_a1", REFERENCE_PROBLEM)).simulate()
+    dev = reference.radii_deviation(res.t, res.pole_radius, res.furrow_radius)
     rows = [{"axisymmetric run": "no bending viscosity (the reference's problem)",
-             **{f"max |dev| {k} (t <= 3)": f"{reference.radii_deviation(res.t, res.pole_radius, res.furrow_radius)[k]:.2e}"
-                for k in ("pole", "furrow")}}]
+             **{f"max |dev| {k} (t <= 3)": f"{dev[k]:.2e}" for k in ("pole", "furrow")}}]
     axisym = stores[0]
     j = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
     if j is not None:
@@ -216,8 +216,8 @@ def figure_numbers(name: str, inputs: Sequence, options: Mapping, rows: Mapping,
     if spec.draw == "snapshots_figure" and spec.data == ("furrow",):
         from .stores import short_labels
 
-        main = list(zip(rows["furrow"], inputs))
-        numbers = _furrow_pictures(list(zip(short_labels([r for r, _ in main]), [p for _, p in main])))
+        main = list(zip(rows["furrow"], inputs, strict=False))  # inputs may hold more than the furrow runs
+        numbers = _furrow_pictures(list(zip(short_labels([r for r, _ in main]), [p for _, p in main], strict=True)))
     elif func is not None:
         if spec.source == "store":
             numbers = func([xr.load_dataset(p, engine="h5netcdf") for p in inputs])
@@ -225,7 +225,8 @@ def figure_numbers(name: str, inputs: Sequence, options: Mapping, rows: Mapping,
             numbers = func(list(inputs))
         else:
             first = spec.data[0]
-            numbers = func(list(zip(rows[first], inputs[: len(rows[first])])), [options[k] for k in spec.options][0])
+            numbers = func(list(zip(rows[first], inputs[: len(rows[first])], strict=True)),
+                           [options[k] for k in spec.options][0])
     return numbers, (_cost(name, cost) if cost is not None else None)
 
 

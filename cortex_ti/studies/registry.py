@@ -96,7 +96,7 @@ _FIGURES = (
         "sphere of 2562 nodes with the paper's quadratic fit, for the full force balance (i: normal flow, inward at "
         "the poles and outward at the equator for Y20) and the tangential one (ii: v_n = 0, flow from the equator to "
         "the poles). Right: the velocity at the nodes against the polar angle with the analytic solution "
-        "(conventions.md), which the paper reports as 'very good agreement'."),
+        "(docs/method/conventions.md), which the paper reports as 'very good agreement'."),
     FigureSpec(
         "convergence", "store", ("convergence",), "convergence_figure", _SPHERE,
         "Paper Figs. 2F,G and 3F,G: the relative velocity error eps_rel (Eq. 58) against the number of nodes N, "

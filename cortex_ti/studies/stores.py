@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from ..about import provenance
 from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, fold_radii
 from ..io.files import read_benchmark
@@ -93,7 +94,8 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             for name in STUDIES[study].variables:
                 if name in ds:
                     data[name] = ds[name].values.astype(float)
-                    attrs[name] = {k: v for k, v in ds[name].attrs.items() if k in ("units", "long_name", "description")}
+                    attrs[name] = {k: v for k, v in ds[name].attrs.items()
+                                   if k in ("units", "long_name", "description")}
             if study == "fold":
                 data.update(fold_series(tr))
                 attrs.update(_FOLD_ATTRS)
@@ -101,7 +103,8 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
                 data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
         times.append(t)
         series.append((t, data))
-    attrs["volume_change"] = {"units": "1", "long_name": "relative change of the enclosed volume", "description": "V(t)/V(0) - 1"}
+    attrs["volume_change"] = {"units": "1", "long_name": "relative change of the enclosed volume",
+                              "description": "V(t)/V(0) - 1"}
     grid = np.unique(np.concatenate(times)) if times else np.zeros(0)
     names = sorted({k for _, d in series for k in d})
     out = {}
@@ -122,7 +125,8 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
         coords[col] = ("run", values, {"long_name": f"sweep parameter {col}"})
     coords["label"] = ("run", np.asarray([run_label(r) for r in rows], dtype=object), {"long_name": "run label"})
     return xr.Dataset(out, coords=coords, attrs={"description": STUDIES[study].description, "study": study,
-                                                 "units": "lengths R0, times t_a = eta_s / zeta_0"})
+                                                 "units": "lengths R0, times t_a = eta_s / zeta_0",
+                                                 **provenance()})
 
 
 _COST_ATTRS = {
@@ -157,7 +161,8 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         data["max_rss_mb"][i] = b.get("max_rss", np.nan)
         data["cpu_time_s"][i] = b.get("cpu_time", np.nan)
         s = json.loads(Path(e["summary"]).read_text()) if e.get("summary") else {}
-        for k in ("steps", "solves", "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve", "t_reached"):
+        for k in ("steps", "solves", "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve",
+                  "t_reached"):
             if s.get(k) is not None:
                 data[k][i] = float(s[k])
         if s.get("steps"):
@@ -182,7 +187,8 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
                  for k, v in data.items() for u, ln, d in [_COST_ATTRS[k]]}
     obj = lambda xs: np.asarray(xs, dtype=object)  # noqa: E731
     coords = {"run": ("run", obj(labels), {"long_name": "study and parameters of the run"}),
-              "study": ("run", obj(studies)), "status": ("run", obj(status), {"long_name": "ok or failed (with why in the summary)"}),
+              "study": ("run", obj(studies)),
+              "status": ("run", obj(status), {"long_name": "ok or failed (with why in the summary)"}),
               "nodes": ("run", np.asarray(nodes)), "scheme": ("run", obj(scheme)), "fit": ("run", obj(fit)),
               "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
               "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
@@ -196,7 +202,8 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     return xr.Dataset(variables, coords=coords,
                       attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
                                             "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
-                                            "run summaries; error against the axisymmetric reference where one exists."})
+                                            "run summaries; error against the axisymmetric reference where one exists.",
+                             **provenance()})
 
 
 def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
@@ -205,11 +212,12 @@ def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
         if not reference.matches_reference(tr.settings):
             return None
         ds = tr.ds
-        return reference.radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values, ref_path)
+        return reference.radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values,
+                                         ref_path)
 
 
 def twin_deviation(path, twin_path) -> dict[str, float]:
-    """Largest |3D - axisymmetric| of pole and furrow radius over the frames of a run, against
+    """Largest ``|3D - axisymmetric|`` of pole and furrow radius over the frames of a run, against
     its axisymmetric twin (the same scene solved with ``model: axisymmetric``; its frames
     interpolated in time, linearly, to the run's frame times up to the twin's end)."""
     with Trajectory(path, lazy=True) as run, Trajectory(twin_path, lazy=True) as twin:

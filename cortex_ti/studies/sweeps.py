@@ -107,7 +107,8 @@ def _settings_value(settings, column: str):
         return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
     if column == "model":
         return settings.model
-    section, key = {"nodes": ("mesh", "nodes"), "formulation": ("numerics", "formulation"), "fit": ("numerics", "fit"), "scheme": ("time", "scheme"),
+    section, key = {"nodes": ("mesh", "nodes"), "formulation": ("numerics", "formulation"), "fit": ("numerics", "fit"),
+                    "scheme": ("time", "scheme"),
                     "implicit": ("time", "implicit_tension"), "residual": ("numerics", "fit_residual_weight"),
                     "dt": ("time", "dt"), "t_end": ("time", "t_end"), "gamma": ("mesh", "shear")}[column]
     return getattr(getattr(settings, section), key)
@@ -189,7 +190,7 @@ def _combinations(study: str, i: int, rec, columns) -> Iterable[dict]:
             raise SceneError(f"{study} runs[{i}].{k} is an empty list")
     keys = list(lists)
     for combo in itertools.product(*(lists[k] for k in keys)):
-        yield dict(zip(keys, combo))
+        yield dict(zip(keys, combo, strict=True))
 
 
 def scene_overrides(row: Mapping) -> list[str]:
@@ -230,5 +231,6 @@ def job_resources(benchmarks: Iterable, nodes: int, margin: float = 1.5) -> dict
             rss.append(bench["max_rss"])
             wall.append(bench["s"])
     if rss:
-        return {"mem_mb": int(math.ceil(margin * max(rss))), "runtime": max(5, int(math.ceil(margin * max(wall) / 60.0)))}
+        return {"mem_mb": int(math.ceil(margin * max(rss))),
+                "runtime": max(5, int(math.ceil(margin * max(wall) / 60.0)))}
     return {"mem_mb": int(1000 + 0.5 * nodes), "runtime": int(60 + nodes // 20)}

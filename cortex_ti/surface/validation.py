@@ -25,7 +25,7 @@ logger = logging.getLogger(__name__)
 MERGE_TOLERANCE = 1e-10
 #: A face with area below this fraction of the mean face area is degenerate.
 DEGENERATE_AREA = 1e-12
-#: |enclosed volume| below this fraction of area**1.5 counts as "no volume".
+#: ``|enclosed volume|`` below this fraction of area**1.5 counts as "no volume".
 FLAT_VOLUME = 1e-9
 
 
@@ -263,7 +263,7 @@ class _Edges:
     start: np.ndarray   # (E,) first position of each edge in ``order``
 
     @classmethod
-    def of(cls, fc: np.ndarray, n: int) -> "_Edges":
+    def of(cls, fc: np.ndarray, n: int) -> _Edges:
         heads = fc.ravel()
         tails = fc[:, [1, 2, 0]].ravel()
         ukey = np.minimum(heads, tails) * n + np.maximum(heads, tails)
