@@ -62,6 +62,8 @@ _TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each tr
 _EXTRA_DIMS = ("time", "node", "xyz")
 _RESERVED = {"time", "triangles", *FRAME_VARIABLES}
 _TIME_CHUNK = 1024
+#: Variables renamed since older files were written: old name -> the name a reader sees
+RENAMED_VARIABLES = {"lsq_residual": "force_residual"}
 
 
 def _same_scene_but_time(a, b) -> bool:
@@ -252,7 +254,7 @@ class TrajectoryWriter:
     extra_vars : dict, optional
         Extra per-frame float64 variables: ``name -> (dims, attrs)``, dims a
         tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")`` and
-        ``extra_dims`` (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
+        ``extra_dims`` (e.g. ``{"force_residual": (("time",), {"units": "1", "long_name": ...})}``);
         attrs must give ``units`` and ``long_name``.
     extra_dims : dict, optional
         Further fixed dimensions ``name -> size`` (e.g. the axisymmetric model's ``meridian``).
@@ -494,6 +496,12 @@ def _existing(path: str | os.PathLike) -> Path:
     raise CortexError(f"trajectory file '{p}' not found")
 
 
+def _current_names(ds):
+    """``ds`` with the variables of :data:`RENAMED_VARIABLES` under their current names."""
+    old = {k: v for k, v in RENAMED_VARIABLES.items() if k in ds.variables and v not in ds.variables}
+    return ds.rename(old) if old else ds
+
+
 def open_trajectory(path: str | os.PathLike):
     """Open a trajectory (final or ``.partial``) as an :class:`xarray.Dataset`.
 
@@ -514,7 +522,7 @@ def open_trajectory(path: str | os.PathLike):
     """
     import xarray as xr  # local import: writing does not need xarray
 
-    return xr.open_dataset(_existing(path), engine="h5netcdf")
+    return _current_names(xr.open_dataset(_existing(path), engine="h5netcdf"))
 
 
 def load_trajectory(path: str | os.PathLike):
@@ -558,7 +566,7 @@ def load_trajectory(path: str | os.PathLike):
         bad = np.flatnonzero(~ok)
         if bad.size:
             ds = ds.isel(time=slice(0, int(bad[0])))
-    return ds
+    return _current_names(ds)
 
 
 def last_frame(path: str | os.PathLike) -> dict[str, Any]:
@@ -593,7 +601,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
                 out[name] = np.asarray(nc[name][n - 1, ...])
             out["pressure"] = float(out["pressure"])
             out["extra"] = {
-                name: np.asarray(var[n - 1, ...])
+                RENAMED_VARIABLES.get(name, name): np.asarray(var[n - 1, ...])
                 for name, var in nc.variables.items()
                 if name not in _RESERVED and var.dimensions[:1] == ("time",)
             }

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..dynamics.schemes import Evaluation
 from ..scene.loader import Scene
-from ..solve.constrained import ConstrainedLeastSquares, SolveInfo
+from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
@@ -45,7 +45,7 @@ class Solution:
     def diagnostics(self) -> dict:
         """The solve's per-frame diagnostics (:data:`cortex_ti.simulation.run.SOLVE_DIAGNOSTICS`)."""
         return {
-            "lsq_residual": self.info.lsq_residual,
+            "force_residual": self.info.force_residual,
             "relative_residual": self.info.relative_residual,
             "constraint_violation": self.info.constraint_violation,
             "kkt_residual": self.info.kkt_residual,
@@ -71,7 +71,7 @@ class Simulation:
         self.zeta = active_tension(undeformed, self.settings)
         self.mesh = initial_shape(undeformed, self.settings)
         s = self.settings.solver
-        self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
+        self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
         self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
 

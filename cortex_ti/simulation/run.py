@@ -34,8 +34,10 @@ __all__ = ["SOLVE_DIAGNOSTICS", "FRAME_EXTRAS", "RunReport", "run_scene", "run_s
 
 #: Per-frame diagnostics of the solve written with every frame
 SOLVE_DIAGNOSTICS = {
-    "lsq_residual": (("time",), {"units": "zeta_0/R0", "long_name": "least-squares residual |M x + p P - r| of the force balance"}),
-    "relative_residual": (("time",), {"units": "1", "long_name": "least-squares residual relative to |r|"}),
+    "force_residual": (("time",), {"units": "zeta_0/R0", "long_name": "force the solve leaves unbalanced: "
+                                   "|K x + F^T lambda - f| (rayleigh_p1), |M x + p P - r| (paper); "
+                                   "lsq_residual in older files"}),
+    "relative_residual": (("time",), {"units": "1", "long_name": "force_residual relative to |f| (or |r|)"}),
     "constraint_violation": (("time",), {"units": "1", "long_name": "largest relative violation of the constraints (Eqs. 35-37)"}),
     "kkt_residual": (("time",), {"units": "1", "long_name": "relative residual of the bordered normal equations"}),
 }

@@ -1,4 +1,4 @@
-r"""Constrained least squares for the discrete force balance (paper Eqs. 38-40).
+r"""The constrained solve of the discrete force balance: least squares (paper Eqs. 38-40) or energy.
 
 We minimise ``|M x + p P - r|^2`` over the velocity unknowns ``x`` and the pressure
 ``P`` subject to ``G x = 0`` (Lagrange multipliers ``lambda``). The optimality
@@ -62,7 +62,7 @@ System = LinearSystem | EnergySystem
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ConstrainedLeastSquares", "SolveInfo", "PIN_NODES", "pin_rows"]
+__all__ = ["ConstrainedSolver", "ConstrainedLeastSquares", "SolveInfo", "PIN_NODES", "pin_rows"]
 
 
 @dataclass
@@ -70,8 +70,9 @@ class SolveInfo:
     """What the solve achieved; all values are measured, none assumed."""
 
     backend: str
-    lsq_residual: float           # |M x + p P - r|
-    rhs_norm: float               # |r|
+    force_residual: float         # the unbalanced force: |M x + p P - r| (least squares) or
+                                  # |K x + F^T lambda - f| (energy system)
+    rhs_norm: float               # |r| or |f|
     constraint_violation: float   # max_j |G_j x| / (|G_j| |x|)
     kkt_residual: float           # relative residual of the bordered normal equations
     iterations: int = 0           # GMRES iterations (0: direct solve)
@@ -80,7 +81,7 @@ class SolveInfo:
 
     @property
     def relative_residual(self) -> float:
-        return self.lsq_residual / self.rhs_norm if self.rhs_norm > 0 else self.lsq_residual
+        return self.force_residual / self.rhs_norm if self.rhs_norm > 0 else self.force_residual
 
 
 def _farthest_points(points: np.ndarray, k: int) -> np.ndarray:
@@ -177,7 +178,7 @@ class _BorderedInverse:
         return np.concatenate([zf - self.z_border @ y, y])
 
 
-class ConstrainedLeastSquares:
+class ConstrainedSolver:
     """Solve a :class:`~cortex_ti.solve.system.LinearSystem` or
     :class:`~cortex_ti.solve.system.EnergySystem` (see the module docstring).
 
@@ -350,7 +351,7 @@ class ConstrainedLeastSquares:
         viol = np.abs(system.constraints @ x) / (b.gscale * max(np.linalg.norm(x), 1e-300))
         return SolveInfo(
             backend=self.backend,
-            lsq_residual=res,
+            force_residual=res,
             rhs_norm=rhs_norm,
             constraint_violation=float(viol.max()) if viol.size else 0.0,
             kkt_residual=float(np.linalg.norm(kkt) / max(np.linalg.norm(b.rhs), 1e-300)),
@@ -371,3 +372,7 @@ def _describe(exc: Exception) -> str:
     text = str(exc).strip().splitlines()[0] if str(exc).strip() else "no message"
     code = re.search(r"error code (-?\d+)", text)
     return f"{type(exc).__name__} {'error code ' + code.group(1) if code else text}"
+
+
+#: The solver's name before it also solved energy systems (kept so that older callers still run)
+ConstrainedLeastSquares = ConstrainedSolver
