@@ -1,13 +1,25 @@
 """Sparse factorisations of a symmetric positive definite matrix, chosen by name.
 
 The registry :data:`FACTORIZATIONS` is the vocabulary of the scene key ``solver.backend``
-(plus ``auto``: the fastest one installed). SciPy's SuperLU is always there; Intel MKL PARDISO
-through ``pypardiso`` where its wheels exist (x86_64). A factorisation is kept across solves and
-reuses its symbolic analysis while the sparsity pattern is unchanged (the whole run: the
-topology is fixed).
+(plus ``auto``: the fastest one installed, in the order of :data:`AUTO_ORDER`). SciPy's SuperLU
+is always there; Intel MKL PARDISO through ``pypardiso`` where its wheels exist (x86_64);
+SuiteSparse CHOLMOD through ``scikit-sparse`` where it builds (Debian: ``libsuitesparse-dev``;
+it wants OpenBLAS, not the reference BLAS). A factorisation is kept across solves and reuses its
+symbolic analysis (ordering, elimination tree) while the sparsity pattern is unchanged (the whole
+run: the topology is fixed), so a new matrix costs only its numerical factorisation.
+
+Each backend states ``refactor_cost``: what a numerical refactorisation plus the solves of a
+bordered system's border (:mod:`cortex_ti.solve.constrained`, 14 columns) cost, in units of one
+preconditioned Krylov iteration (one back-substitution and one product with the matrix);
+measured on the 2562-node furrow's matrix (7686 unknowns, 162 k nonzeros) by
+``benchmarks/solver_backends.py`` (docs/validation/speed.md). The constrained solver's rule for
+when to refactorise rather than iterate weighs iterations against it.
 """
 
 from __future__ import annotations
+
+import ctypes
+import os
 
 import numpy as np
 import scipy.sparse as sp
@@ -15,7 +27,8 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 
-__all__ = ["FACTORIZATIONS", "Factorization", "register_factorization", "choose_factorization", "backend_names"]
+__all__ = ["FACTORIZATIONS", "AUTO_ORDER", "Factorization", "register_factorization", "choose_factorization",
+           "backend_names", "same_pattern"]
 
 FACTORIZATIONS: dict[str, type] = {}
 
@@ -38,6 +51,10 @@ class Factorization:
     """
 
     name = "base"
+    #: numerical refactorisation + border solves, in preconditioned iterations (module docstring)
+    refactor_cost = 20.0
+    #: how to install it (for the message when it is asked for and missing)
+    install = ""
 
     @staticmethod
     def available() -> bool:  # pragma: no cover - interface
@@ -52,7 +69,10 @@ class Factorization:
 
 @register_factorization("superlu")
 class SuperLUFactor(Factorization):
-    """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse)."""
+    """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse: SciPy
+    does not expose it). Measured at 2562 nodes: factorisation 67 ms, a solve 1.1 ms."""
+
+    refactor_cost = 60.0
 
     def factorize(self, a):
         self._lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
@@ -67,8 +87,19 @@ class PardisoFactor(Factorization):
     """Intel MKL PARDISO through ``pypardiso``, real SPD (mtype 2), upper triangle.
 
     Phase 11 (analysis, METIS ordering) runs only when the sparsity pattern changes;
-    each new matrix costs only phase 22 (numerical factorisation).
+    each new matrix costs only phase 22 (numerical factorisation). PARDISO's own iterative
+    refinement in the solve phase is switched off (``iparm(8) = 0``): it tripled the cost of a
+    back-substitution (1.6 ms instead of 0.6 ms at 2562 nodes) for a Cholesky solve that is
+    backward stable already (residual 3e-14 without it), and the constrained solver refines
+    against the unsquared system itself. MKL runs on ``CORTEX_TI_THREADS`` threads when that is
+    set (``cortex-ti run --threads`` sets it), not on every core: on a shared machine its idle
+    threads spinning against other jobs made a refactorisation 2x slower in CPU time.
+    Measured at 2562 nodes (one thread): refactorisation 8-10 ms, one solve 0.6 ms,
+    15 right-hand sides 2.9 ms.
     """
+
+    refactor_cost = 15.0
+    install = "pip install pypardiso (x86_64 only)"
 
     @staticmethod
     def available() -> bool:
@@ -82,20 +113,21 @@ class PardisoFactor(Factorization):
         import pypardiso
 
         self._solver = pypardiso.PyPardisoSolver(mtype=2)
+        threads = int(os.environ.get("CORTEX_TI_THREADS", "0") or 0)
+        if threads > 0:   # the run's thread count (cortex_ti.runtime); MKL's default is every core
+            self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None
 
     def factorize(self, a):
         upper = sp.triu(a, format="csr")
         upper.sort_indices()
-        pattern = (upper.shape, upper.indptr.copy(), upper.indices.copy())
-        same = (self._pattern is not None and self._pattern[0] == pattern[0]
-                and np.array_equal(self._pattern[1], pattern[1]) and np.array_equal(self._pattern[2], pattern[2]))
         dummy = np.zeros(upper.shape[0])
-        if not same:
+        if not same_pattern(self._pattern, upper):
             self._solver.set_phase(11)
             self._solver._call_pardiso(upper, dummy)
-            self._pattern = pattern
+            self._solver.set_iparm(8, 0)     # after phase 11, which fills in the defaults (2 steps)
+            self._pattern = upper
         self._solver.set_phase(22)
         self._solver._call_pardiso(upper, dummy)
         self._a = upper
@@ -112,20 +144,66 @@ class PardisoFactor(Factorization):
             pass
 
 
+@register_factorization("cholmod")
+class CholmodFactor(Factorization):
+    """SuiteSparse CHOLMOD (supernodal) through ``scikit-sparse``: ``analyze`` once per sparsity
+    pattern, ``cholesky_inplace`` for each new matrix. Measured at 2562 nodes with OpenBLAS:
+    refactorisation 22 ms, one solve 0.7 ms, 15 right-hand sides 7.6 ms (with the reference BLAS
+    the refactorisation took 55 ms). The fastest where MKL has no wheels (aarch64)."""
+
+    refactor_cost = 35.0
+    install = "pip install scikit-sparse (needs SuiteSparse: apt-get install libsuitesparse-dev)"
+
+    @staticmethod
+    def available() -> bool:
+        try:
+            import sksparse.cholmod  # noqa: F401
+        except Exception:
+            return False
+        return True
+
+    def __init__(self):
+        self._factor = None
+        self._pattern = None
+
+    def factorize(self, a):
+        from sksparse.cholmod import analyze
+
+        a = a.tocsc()
+        a.sort_indices()
+        if self._factor is None or not same_pattern(self._pattern, a):
+            self._factor = analyze(a, mode="supernodal")
+            self._pattern = a
+        self._factor.cholesky_inplace(a)
+
+    def solve(self, b):
+        return self._factor(b)
+
+
+def same_pattern(old: sp.spmatrix | None, new: sp.spmatrix) -> bool:
+    """Whether two compressed sparse matrices (indices sorted) have the same sparsity pattern."""
+    return (old is not None and old.shape == new.shape and np.array_equal(old.indptr, new.indptr)
+            and np.array_equal(old.indices, new.indices))
+
+
+#: The order in which ``auto`` takes the installed backends (fastest first, docs/validation/speed.md)
+AUTO_ORDER = ("pardiso", "cholmod", "superlu")
+
+
 def choose_factorization(name: str = "auto") -> type:
     """The factorisation class for ``name``; ``auto`` takes the fastest installed."""
     if name == "auto":
-        for candidate in ("pardiso", "superlu"):
+        for candidate in AUTO_ORDER:
             if FACTORIZATIONS[candidate].available():
                 return FACTORIZATIONS[candidate]
     if name not in FACTORIZATIONS:
         raise SolverError(f"unknown solver backend {name!r}; choose one of auto, {', '.join(FACTORIZATIONS)}")
     cls = FACTORIZATIONS[name]
     if not cls.available():
-        raise SolverError(f"solver backend {name!r} is not installed here")
+        here = [k for k, c in FACTORIZATIONS.items() if c.available()]
+        raise SolverError(f"solver backend {name!r} is not installed here ({cls.install}); use auto or one of "
+                          f"{', '.join(here)}")
     return cls
-
-
 
 
 def backend_names() -> list[str]:
