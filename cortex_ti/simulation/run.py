@@ -162,6 +162,7 @@ def run_summary(sim: "Simulation") -> dict:
            "formulation": s.numerics.formulation,
            "fit_residual_weight": s.numerics.fit_residual_weight}
     out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
+    out.update(factorizations=sim.solver.n_factorizations, krylov_iterations=sim.solver.n_iterations)
     return out
 
 
