@@ -108,7 +108,8 @@ def commit() -> str:
 def table(rows: list[dict], ref: float, t_end: float | None) -> str:
     load = os.getloadavg()
     head = (f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
-            f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); t_end = {t_end if t_end is not None else 'scene (3)'}; "
+            f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
+            f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
             f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
             f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n")
     lines = ["| scene | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
@@ -116,7 +117,8 @@ def table(rows: list[dict], ref: float, t_end: float | None) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         g, a, s = r["ms"]
-        lines.append(f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {r['wall_s'] / ref:.0f} | "
+        lines.append(f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+                     f"{r['wall_s'] / ref:.0f} | "
                      f"{r['steps']} | {r['solves']} | {r['factorizations']} | {r['iterations']} | "
                      f"{g:.1f} / {a:.1f} / {s:.1f} | {r['err']:.2e} ({r['err_pole']:.1e}, {r['err_furrow']:.1e}) |")
     return head + "\n".join(lines) + "\n"

@@ -52,6 +52,7 @@ import logging
 import re
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
@@ -169,7 +170,8 @@ class _BorderedSystem:
     constraints they enforce (Petrov-Galerkin: ``U`` holds those force rows, ``V`` the
     constraints)."""
 
-    ks: sp.csr_matrix      # K + Q^T Q
+    stiffness: sp.csr_matrix  # K
+    pin: sp.csr_matrix     # Q (scaled), so that K_s = K + Q^T Q
     border: np.ndarray     # U = [k, F^T (scaled), Q^T]
     rows: np.ndarray       # V = [k, G^T (scaled), Q^T]
     dblock: np.ndarray     # D = diag(kappa, 0, I)
@@ -181,9 +183,15 @@ class _BorderedSystem:
     scale: float           # mean diagonal of K (the border is scaled to it)
     npin: int
 
+    @cached_property
+    def ks(self) -> sp.csr_matrix:
+        """``K_s = K + Q^T Q``, formed only for a factorisation (the products do without it)."""
+        return (self.stiffness + self.pin.T @ self.pin).tocsr()
+
     def matvec(self, z: np.ndarray) -> np.ndarray:
         x, y = z[: self.n], z[self.n:]
-        return np.concatenate([self.ks @ x + self.border @ y, self.rows.T @ x + self.dblock @ y])
+        kx = self.stiffness @ x + self.pin.T @ (self.pin @ x)
+        return np.concatenate([kx + self.border @ y, self.rows.T @ x + self.dblock @ y])
 
     def split(self, sol: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
         """``(x, P, lambda)`` of a solution, the multipliers those of the unscaled rows."""
@@ -323,8 +331,8 @@ class ConstrainedSolver:
         dblock[q - npin:, q - npin:] = np.eye(npin)
         rhs = np.concatenate([ne.rhs, [ne.pressure_rhs] if has_p else [], np.zeros(gmat.shape[0] + npin)])
         # the last block row is Q x + w = 0, so K_s x + Q^T w = K x
-        return _BorderedSystem(ks=(kmat + pin.T @ pin).tocsr(), border=border, rows=rows, dblock=dblock, rhs=rhs,
-                               n=ne.rhs.size, has_pressure=has_p, gscale=gscale, fscale=fscale, scale=scale,
+        return _BorderedSystem(stiffness=kmat.tocsr(), pin=pin.tocsr(), border=border, rows=rows, dblock=dblock,
+                               rhs=rhs, n=ne.rhs.size, has_pressure=has_p, gscale=gscale, fscale=fscale, scale=scale,
                                npin=npin)
 
     def _reuse(self, b: _BorderedSystem) -> tuple[np.ndarray | None, int]:
