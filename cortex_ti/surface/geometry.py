@@ -318,9 +318,9 @@ def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.n
     One Taichi kernel (:func:`_fit_kernel`, a Cholesky factorisation per node) instead of NumPy's
     batched ``einsum`` + ``cholesky`` + ``solve``: the same operators to 1e-15 (quadratic) and 5e-14
     (quartic, relative), and the whole of :func:`compute_geometry` at 2562 nodes in 3.2 instead of
-    5.8 ms of CPU (quadratic), 21 instead of 34 ms (quartic) (docs/validation/speed.md). Rank-deficient nodes (quality at most
-    :data:`FIT_QUALITY_MIN`) get a zero operator; the caller widens their stencil and fits them
-    again (that operator is never used).
+    5.8 ms of CPU (quadratic), 21 instead of 34 ms (quartic) (docs/validation/speed.md).
+    Rank-deficient nodes (quality at most :data:`FIT_QUALITY_MIN`) get a zero operator; the
+    caller widens their stencil and fits them again (that operator is never used).
     """
     n, _, p = design.shape
     fit = np.zeros((n, p, design.shape[1]))
