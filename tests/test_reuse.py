@@ -76,7 +76,7 @@ def test_reused_factorisation_solves_to_the_tolerance(drifting):
     here is at most rtol (1.01: its own rounding), and the solution is the dense solve's to
     cond x rtol. The sequence is solved with reuse (most solves iterate on an earlier
     factorisation: at least half) and the rule, told that a factorisation costs 5 iterations
-    (SuperLU's is 60: it would wait longer than 8 steps), refactorises at least once."""
+    (SuperLU's is 25: it would wait longer than 8 steps), refactorises at least once."""
     solver = ConstrainedSolver("superlu", reuse=True, rtol=RTOL)
     solver.rule = RefactorRule(5.0)
     reused = 0

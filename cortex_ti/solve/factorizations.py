@@ -10,10 +10,13 @@ run: the topology is fixed), so a new matrix costs only its numerical factorisat
 
 Each backend states ``refactor_cost``: what a numerical refactorisation plus the solves of a
 bordered system's border (:mod:`cortex_ti.solve.constrained`, 14 columns) cost, in units of one
-preconditioned Krylov iteration (one back-substitution and one product with the matrix);
-measured on the 2562-node furrow's matrix (7686 unknowns, 162 k nonzeros) by
-``benchmarks/solver_backends.py`` (docs/validation/speed.md). The constrained solver's rule for
-when to refactorise rather than iterate weighs iterations against it.
+preconditioned GMRES iteration of the constrained solver (one back-substitution, one product
+with the bordered matrix, the Gram-Schmidt: ~1.5-2 ms of CPU beyond the back-substitution at
+2562 nodes inside a run, where the factor no longer sits in the cache); measured on the 2562-node
+furrow's matrix (7686 unknowns, 162 k nonzeros) by ``benchmarks/solver_backends.py``
+(docs/validation/speed.md). The constrained solver's rule for when to refactorise rather than
+iterate weighs iterations against it (:class:`cortex_ti.solve.constrained.RefactorRule`); the
+value shifts the balance, not the answer, which meets the GMRES tolerance either way.
 """
 
 from __future__ import annotations
@@ -70,9 +73,10 @@ class Factorization:
 @register_factorization("superlu")
 class SuperLUFactor(Factorization):
     """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse: SciPy
-    does not expose it). Measured at 2562 nodes: factorisation 67 ms, a solve 1.1 ms."""
+    does not expose it). Measured at 2562 nodes: factorisation 62-67 ms, a solve 1.1-1.7 ms,
+    14 solves 10 ms: ~75 ms, 25 iterations of ~3 ms."""
 
-    refactor_cost = 60.0
+    refactor_cost = 25.0
 
     def factorize(self, a):
         self._lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
@@ -94,8 +98,9 @@ class PardisoFactor(Factorization):
     against the unsquared system itself. MKL runs on ``CORTEX_TI_THREADS`` threads when that is
     set (``cortex-ti run --threads`` sets it), not on every core: on a shared machine its idle
     threads spinning against other jobs made a refactorisation 2x slower in CPU time.
-    Measured at 2562 nodes (one thread): refactorisation 8-10 ms, one solve 0.6 ms,
-    15 right-hand sides 2.9 ms.
+    Measured at 2562 nodes (one thread): refactorisation 8-10 ms, one solve 0.6-0.7 ms,
+    14 right-hand sides 2.9-3.5 ms. In a run a fresh factorisation and solve cost 35 ms of CPU
+    and a reused solve 2.5-3 ms per iteration: ``refactor_cost`` 15.
     """
 
     refactor_cost = 15.0
@@ -148,10 +153,11 @@ class PardisoFactor(Factorization):
 class CholmodFactor(Factorization):
     """SuiteSparse CHOLMOD (supernodal) through ``scikit-sparse``: ``analyze`` once per sparsity
     pattern, ``cholesky_inplace`` for each new matrix. Measured at 2562 nodes with OpenBLAS:
-    refactorisation 22 ms, one solve 0.7 ms, 15 right-hand sides 7.6 ms (with the reference BLAS
-    the refactorisation took 55 ms). The fastest where MKL has no wheels (aarch64)."""
+    refactorisation 13-22 ms, one solve 0.6-0.7 ms, 14 right-hand sides 2.7-7.6 ms (with the
+    reference BLAS the refactorisation took 55 ms). The fastest where MKL has no wheels
+    (aarch64)."""
 
-    refactor_cost = 35.0
+    refactor_cost = 15.0
     install = "pip install scikit-sparse (needs SuiteSparse: apt-get install libsuitesparse-dev)"
 
     @staticmethod
