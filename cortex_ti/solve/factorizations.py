@@ -113,18 +113,13 @@ class PardisoFactor(Factorization):
     @staticmethod
     def available() -> bool:
         try:
-            import pypardiso  # noqa: F401
+            _pypardiso()
         except Exception:
             return False
         return True
 
     def __init__(self):
-        import pypardiso
-
-        path = _mkl_runtime()
-        if path is not None:
-            os.environ.setdefault("PYPARDISO_MKL_RT", path)
-        self._solver = pypardiso.PyPardisoSolver(mtype=2)
+        self._solver = _pypardiso().PyPardisoSolver(mtype=2)
         threads = int(os.environ.get("CORTEX_TI_THREADS", "0") or 0)
         if threads > 0:   # the run's thread count (cortex_ti.runtime); MKL's default is every core
             self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
@@ -193,13 +188,25 @@ class CholmodFactor(Factorization):
         return self._factor(b)
 
 
+def _pypardiso():
+    """``pypardiso``, imported with MKL's runtime library named (:func:`_mkl_runtime`): its
+    import already makes a solver (``pypardiso.scipy_aliases``), which would search for it."""
+    path = _mkl_runtime()
+    if path is not None:
+        os.environ.setdefault("PYPARDISO_MKL_RT", path)
+    import pypardiso
+
+    return pypardiso
+
+
 @functools.lru_cache(maxsize=None)
 def _mkl_runtime() -> str | None:
     """MKL's runtime library, found once per process where the ``mkl`` wheel puts it (the
     environment's ``lib``), for ``pypardiso`` (``PYPARDISO_MKL_RT``). Left to itself pypardiso
     looks for it in every new solver with ``ctypes.util.find_library`` and a recursive glob of
-    the environment: 0.25 s of CPU and 1.7-2.5 s of wall time per solver, measured on a loaded
-    2-core machine, against 0.3 ms with the path given. None: let pypardiso search."""
+    the environment: 0.25 s of CPU and 1.7-2.5 s of wall time per solver (and once more at its
+    import), measured on a loaded 2-core machine, against 0.3 ms with the path given. None: let
+    pypardiso search."""
     if os.environ.get("PYPARDISO_MKL_RT"):
         return os.environ["PYPARDISO_MKL_RT"]
     for base in (sys.prefix, site.USER_BASE or ""):
