@@ -43,9 +43,9 @@ def test_gmres_right_meets_the_true_residual():
     assert it == 3 and not ok
 
 
-def _drifting_systems(n_nodes=162, steps=8, dt=0.02):
+def _drifting_systems(n_nodes=162, steps=8, dt=0.02, formulation="rayleigh_p1"):
     """The systems of the first Euler steps of a furrow (the shape moves with v_n n)."""
-    sim = Simulation(load_scene("furrow_p4_a1", [f"mesh.nodes={n_nodes}"]))
+    sim = Simulation(load_scene("furrow_p4_a1", [f"mesh.nodes={n_nodes}", f"numerics.formulation={formulation}"]))
     x = sim.mesh.points.copy()
     out = []
     for _ in range(steps):
@@ -89,6 +89,21 @@ def test_reused_factorisation_solves_to_the_tolerance(drifting):
         assert np.linalg.norm(x - xz) <= cond * RTOL * 1.01 * np.linalg.norm(z)
     assert reused >= len(drifting) // 2
     assert 2 <= solver.n_factorizations < len(drifting)
+
+
+def test_least_squares_with_refinement_is_not_reused():
+    """The paper's formulation (least squares, normal equations) with ``refine``: every solve
+    factorises, so the refinement against the unsquared system keeps its accuracy (a GMRES solve
+    of the normal equations would meet rtol on M^T M only). Without ``refine`` GMRES is tried and
+    does not converge in 30 iterations at 162 nodes; the next solve then factorises without
+    trying (backoff 1), the one after tries again, fails, and the backoff doubles."""
+    seq = _drifting_systems(steps=4, formulation="paper")
+    solver = ConstrainedSolver("superlu", reuse=True, refine=True)
+    assert [solver.solve(system, x)[2].refactored for system, x in seq] == [True] * 4
+    assert solver.n_iterations == 0
+    solver = ConstrainedSolver("superlu", reuse=True, refine=False)
+    infos = [solver.solve(system, x)[2] for system, x in seq]
+    assert [i.iterations for i in infos] == [0, 30, 0, 30] and all(i.refactored for i in infos)
 
 
 def test_refactor_rule_follows_the_mean_cost():
