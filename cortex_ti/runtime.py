@@ -6,7 +6,7 @@ other module has to. Settings come from (in order) the arguments of :func:`init`
 environment:
 
 ``CORTEX_TI_ARCH``     ``cpu`` (default), ``gpu``, ``cuda``, ``vulkan``, ``metal``
-``CORTEX_TI_THREADS``  CPU threads for Taichi (default: all cores; Snakemake jobs set it)
+``CORTEX_TI_THREADS``  CPU threads for Taichi and PARDISO (default: all cores; Snakemake jobs set it)
 
 ``default_fp=ti.f64`` matters: with Taichi's default f32, float *literals* inside
 kernels stay single precision even when every field is f64.
@@ -59,6 +59,8 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
         raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(ARCHES)}")
     if threads is None:
         threads = int(os.environ.get("CORTEX_TI_THREADS", "0")) or os.cpu_count() or 1
+    else:   # the sparse factorisations take their thread count from here too (solve.factorizations)
+        os.environ["CORTEX_TI_THREADS"] = str(int(threads))
     wanted = {"arch": arch, "threads": int(threads)}
     if _state == wanted:
         return _state

@@ -118,10 +118,10 @@ class Lab:
 
     def solve(self, geometry, physics, zeta, backend: str = "superlu") -> Solved:
         from cortex_ti.physics.assembly import assemble
-        from cortex_ti.solve.constrained import ConstrainedLeastSquares
+        from cortex_ti.solve.constrained import ConstrainedSolver
 
         system = assemble(geometry, physics, zeta)
-        x, pressure, info = ConstrainedLeastSquares(backend).solve(system, geometry.points)
+        x, pressure, info = ConstrainedSolver(backend).solve(system, geometry.points)
         return Solved(system.velocity(x), pressure, info, geometry, system, x)
 
     def cached_solve(self, key, make_geometry, physics, zeta) -> Solved:

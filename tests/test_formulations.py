@@ -22,7 +22,7 @@ from cortex_ti.errors import SolverError
 from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.solve.constrained import ConstrainedLeastSquares
+from cortex_ti.solve.constrained import ConstrainedSolver
 
 NO_BENDING = ["viscosity.bending=0", "viscosity.bending_bulk=0",
               "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,incompressibility]"]
@@ -93,7 +93,7 @@ def test_p1_active_force_is_minus_the_gradient_of_the_discrete_energy():
 
 def test_p1_keeps_the_triangulated_volume_under_normal_advection():
     sim, x, geo, system = p1_system()
-    u, _, _ = ConstrainedLeastSquares("superlu").solve(system, x)
+    u, _, _ = ConstrainedSolver("superlu").solve(system, x)
     v = system.velocity(u)
     rate = np.einsum("nc,nc->n", v, geo.normal)[:, None] * geo.normal
     eps = 1e-6

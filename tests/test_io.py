@@ -23,7 +23,7 @@ REPO = Path(__file__).resolve().parents[1]
 TRI = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
 N = 4
 EXTRA = {
-    "lsq_residual": (("time",), {"units": "1", "long_name": "least-squares fit residual"}),
+    "force_residual": (("time",), {"units": "1", "long_name": "least-squares fit residual"}),
     "constraint_violation": (("time",), {"units": "R0^3", "long_name": "volume constraint violation"}),
     "normal_speed": (("time", "node"), {"units": "R0/t_a", "long_name": "normal velocity"}),
 }
@@ -38,7 +38,7 @@ def frame(k: int) -> dict:
         velocity=-base / (k + 1.0),
         active_stress=np.arange(N, dtype=float) * k + 0.5,
         pressure=1.5 * k - 0.125,
-        lsq_residual=10.0 ** (-k),
+        force_residual=10.0 ** (-k),
         constraint_violation=-1e-3 * k,
         normal_speed=np.full(N, 7.0 * k),
     )
@@ -63,7 +63,7 @@ def check_frames(ds: xr.Dataset, n: int) -> None:
         np.testing.assert_array_equal(ds["velocity"].values[k], f["velocity"])
         np.testing.assert_array_equal(ds["active_stress"].values[k], f["active_stress"])
         assert ds["pressure"].values[k] == f["pressure"]
-        assert ds["lsq_residual"].values[k] == f["lsq_residual"]
+        assert ds["force_residual"].values[k] == f["force_residual"]
         assert ds["constraint_violation"].values[k] == f["constraint_violation"]
         np.testing.assert_array_equal(ds["normal_speed"].values[k], f["normal_speed"])
     np.testing.assert_array_equal(ds["triangles"].values, TRI)
@@ -91,7 +91,7 @@ def test_three_frames_layout_values_attrs(tmp_path):
             "velocity": ("time", "node", "xyz"),
             "active_stress": ("time", "node"),
             "pressure": ("time",),
-            "lsq_residual": ("time",),
+            "force_residual": ("time",),
             "constraint_violation": ("time",),
             "normal_speed": ("time", "node"),
             "triangles": ("face", "corner"),
@@ -135,7 +135,7 @@ def test_three_frames_layout_values_attrs(tmp_path):
     np.testing.assert_array_equal(last["points"], f["points"])
     np.testing.assert_array_equal(last["velocity"], f["velocity"])
     np.testing.assert_array_equal(last["active_stress"], f["active_stress"])
-    assert last["extra"]["lsq_residual"] == f["lsq_residual"]
+    assert last["extra"]["force_residual"] == f["force_residual"]
     np.testing.assert_array_equal(last["extra"]["normal_speed"], f["normal_speed"])
 
 
@@ -149,6 +149,26 @@ CHILD = textwrap.dedent("""
     write(w, 1)
     os._exit(1)   # killed mid-run: no finish(), no close, no cleanup
 """)
+
+
+def test_files_written_before_a_rename_read_under_the_new_name(tmp_path):
+    """A trajectory written with the solve diagnostic's old name ``lsq_residual`` reads back
+    (whole, lazily, last frame) as ``force_residual``, its values unchanged."""
+    from cortex_ti.io import Trajectory
+
+    path = tmp_path / "old.h5"
+    old = {"lsq_residual" if k == "force_residual" else k: v for k, v in EXTRA.items()}
+    with TrajectoryWriter(path, TRI, N, attrs(), old) as w:
+        for k in range(2):
+            f = frame(k)
+            f["lsq_residual"] = f.pop("force_residual")
+            w.append(f.pop("t"), f.pop("points"), f.pop("velocity"), f.pop("active_stress"), f.pop("pressure"), **f)
+    want = [frame(k)["force_residual"] for k in range(2)]
+    with Trajectory(path) as tr:
+        assert "lsq_residual" not in tr.ds and list(tr.ds["force_residual"].values) == want
+    with open_trajectory(path) as ds:
+        assert list(ds["force_residual"].values) == want
+    assert last_frame(path)["extra"]["force_residual"] == want[-1]
 
 
 def test_killed_writer_leaves_readable_partial_and_resumes(tmp_path):
@@ -239,7 +259,7 @@ def test_append_checks_its_input(tmp_path):
     with pytest.raises(ValueError, match=r"points must have shape \(4, 3\), got \(3, 3\)"):
         w.append(0.0, f["points"][:3], *args[2:], **extra)
     with pytest.raises(ValueError, match="missing extra variables"):
-        w.append(*args, lsq_residual=1.0)
+        w.append(*args, force_residual=1.0)
     with pytest.raises(ValueError, match="undeclared extra variables"):
         w.append(*args, **extra, pole_radius=1.0)
     with pytest.raises(ValueError, match=r"normal_speed must have shape \(4,\)"):

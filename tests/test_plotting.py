@@ -331,7 +331,7 @@ def test_cli_plot_writes_png_and_pdf(traj, tmp_path, capsys):
 
 @pytest.mark.parametrize("args,words", [
     (["--color", "pressure"], ["unknown --color 'pressure'", "speed, active_stress, normal_velocity"]),
-    (["--series", "pole_radius,lsq_residual"], ["unknown series 'lsq_residual'", "pole_radius, furrow_radius"]),
+    (["--series", "pole_radius,force_residual"], ["unknown series 'force_residual'", "pole_radius, furrow_radius"]),
     (["--frame", "3"], ["frame 3 is out of range", "3 frame(s)"]),
     (["--frame", "-4"], ["frame -4 is out of range"]),
     (["--time", "9"], ["time 9 is outside the trajectory", "t = 0 .. 1.25"]),

@@ -256,7 +256,7 @@ def test_error_names_the_scene_file(tmp_path):
     ("time.dt=.nan", "time.dt must be a finite number > 0, got nan"),
     ("active_stress.0.terms.0.coeff=.inf", "active_stress.0.terms.0.coeff must be a finite number, got inf"),
     # enums
-    ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso; got 'mkl'"),
+    ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso, cholmod; got 'mkl'"),
     ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler; got 'rk4'"),
 ])
 def test_schema_errors_name_the_key(override, expected):

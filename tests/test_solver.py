@@ -1,4 +1,4 @@
-"""The discrete force balance (assemble + ConstrainedLeastSquares) against the analytic sphere
+"""The discrete force balance (assemble + ConstrainedSolver) against the analytic sphere
 flows, exact invariants (constraints, rigid-body kernel, frame independence, rotation
 covariance) and the singular problems it must refuse.
 
@@ -30,7 +30,7 @@ from cortex_ti.errors import CortexError, SolverError
 from cortex_ti.physics.assembly import assemble
 from cortex_ti.physics.model import Physics
 from cortex_ti.physics.patterns import evaluate_active_stress
-from cortex_ti.solve.constrained import ConstrainedLeastSquares
+from cortex_ti.solve.constrained import ConstrainedSolver
 from cortex_ti.solve.factorizations import FACTORIZATIONS
 
 pytestmark = pytest.mark.usefixtures("taichi_runtime")
@@ -386,7 +386,7 @@ def test_no_viscosity_is_refused(lab):
 
 def test_unknown_backend_is_refused():
     with pytest.raises(SolverError, match="unknown solver backend"):
-        ConstrainedLeastSquares("mumps")
+        ConstrainedSolver("mumps")
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)

@@ -15,7 +15,7 @@ from cortex_ti.dynamics.spectrum import normal_jacobian, normal_spectrum, transl
 from cortex_ti.io.trajectory import Trajectory
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.solve.constrained import ConstrainedLeastSquares
+from cortex_ti.solve.constrained import ConstrainedSolver
 
 pytestmark = pytest.mark.hard
 
@@ -38,7 +38,7 @@ def test_linearised_jacobian_equals_the_brute_force_one(formulation):
     x0 = sim.mesh.points
     jac = normal_jacobian(sim, x0)
     jd = jac.dense()
-    solver = ConstrainedLeastSquares("superlu")
+    solver = ConstrainedSolver("superlu")
 
     def vn(pts):
         g = sim.shape_geometry(pts)

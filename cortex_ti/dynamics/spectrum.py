@@ -45,7 +45,7 @@ import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 import scipy.sparse.linalg as spla
 
-from ..solve.constrained import ConstrainedLeastSquares
+from ..solve.constrained import ConstrainedSolver
 
 __all__ = ["normal_spectrum", "normal_jacobian", "Spectrum", "NormalJacobian", "distance_colouring", "translation_share"]
 
@@ -98,7 +98,7 @@ class NormalJacobian:
     fx: sp.csr_matrix                  # F_X on the unknowns, (n_unknowns, N)
     fs: np.ndarray                     # F_X on the scalar rows, (q, N)
     dn: sp.csr_matrix                  # (dn_i/dX [s n]) . v_i, (N, N)
-    solver: ConstrainedLeastSquares
+    solver: ConstrainedSolver
     velocity: np.ndarray               # (N, 3) at the base shape
     leak: float                        # relative size of the entries outside every ring (should be ~1e-12)
     seconds: dict = field(default_factory=dict)
@@ -167,7 +167,7 @@ def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None 
     """
     t0 = time.perf_counter()
     x0 = np.asarray(points, dtype=float)
-    solver = ConstrainedLeastSquares(backend, reuse=False)
+    solver = ConstrainedSolver(backend, reuse=False)
     geo = sim.shape_geometry(x0)
     system = sim.system(geo, dt)
     unknowns, pressure, _ = solver.solve(system, x0)

@@ -106,6 +106,8 @@ def _signals_held():
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+#: Variables renamed since older files were written: old name -> the name a reader sees
+RENAMED_VARIABLES = {"lsq_residual": "force_residual"}
 
 
 def _same_scene_but_time(a, b) -> bool:
@@ -359,7 +361,7 @@ class TrajectoryWriter:
     extra_vars : dict, optional
         Extra per-frame float64 variables: ``name -> (dims, attrs)``, dims a
         tuple starting with ``"time"`` drawn from ``("time", "node", "xyz")`` and
-        ``extra_dims`` (e.g. ``{"lsq_residual": (("time",), {"units": "1", "long_name": ...})}``);
+        ``extra_dims`` (e.g. ``{"force_residual": (("time",), {"units": "1", "long_name": ...})}``);
         attrs must give ``units`` and ``long_name``.
     extra_dims : dict, optional
         Further fixed dimensions ``name -> size`` (e.g. the axisymmetric model's ``meridian``).
@@ -692,6 +694,12 @@ def _existing(path: str | os.PathLike) -> Path:
     raise CortexError(f"trajectory file '{p}' not found")
 
 
+def _current_names(ds):
+    """``ds`` with the variables of :data:`RENAMED_VARIABLES` under their current names."""
+    old = {k: v for k, v in RENAMED_VARIABLES.items() if k in ds.variables and v not in ds.variables}
+    return ds.rename(old) if old else ds
+
+
 def open_trajectory(path: str | os.PathLike):
     """Open a trajectory (final or ``.partial``) as an :class:`xarray.Dataset`.
 
@@ -712,7 +720,7 @@ def open_trajectory(path: str | os.PathLike):
     """
     import xarray as xr  # local import: writing does not need xarray
 
-    return xr.open_dataset(_existing(path), engine="h5netcdf")
+    return _current_names(xr.open_dataset(_existing(path), engine="h5netcdf"))
 
 
 def load_trajectory(path: str | os.PathLike):
@@ -754,7 +762,7 @@ def load_trajectory(path: str | os.PathLike):
             ds = ds.load()
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
-    return ds
+    return _current_names(ds)
 
 
 def _open_lazily(file: Path):
@@ -810,7 +818,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
                 out[name] = np.asarray(nc[name][n - 1, ...])
             out["pressure"] = float(out["pressure"])
             out["extra"] = {
-                name: np.asarray(var[n - 1, ...])
+                RENAMED_VARIABLES.get(name, name): np.asarray(var[n - 1, ...])
                 for name, var in nc.variables.items()
                 if name not in _RESERVED and var.dimensions[:1] == ("time",)
             }

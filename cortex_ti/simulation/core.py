@@ -21,7 +21,7 @@ from ..dynamics.schemes import Evaluation
 from ..dynamics.state import FieldTransport, State
 from ..physics.fields import FIELDS, scene_fields, tension_of
 from ..scene.loader import Scene
-from ..solve.constrained import ConstrainedLeastSquares, SolveInfo
+from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
@@ -49,7 +49,7 @@ class Solution:
     def diagnostics(self) -> dict:
         """The solve's per-frame diagnostics (:data:`cortex_ti.simulation.run.SOLVE_DIAGNOSTICS`)."""
         return {
-            "lsq_residual": self.info.lsq_residual,
+            "force_residual": self.info.force_residual,
             "relative_residual": self.info.relative_residual,
             "constraint_violation": self.info.constraint_violation,
             "kkt_residual": self.info.kkt_residual,
@@ -81,7 +81,7 @@ class Simulation:
         self.motion = MESH_MOTIONS[self.settings.mesh.motion]
         self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, self.settings.mesh.ale_time)
         s = self.settings.solver
-        self.solver = ConstrainedLeastSquares(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
+        self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
         self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
 

@@ -119,8 +119,10 @@ def stop_reason(exc: BaseException | None) -> str:
 
 #: Per-frame diagnostics of the solve written with every frame
 SOLVE_DIAGNOSTICS = {
-    "lsq_residual": (("time",), {"units": "zeta_0/R0", "long_name": "least-squares residual |M x + p P - r| of the force balance"}),
-    "relative_residual": (("time",), {"units": "1", "long_name": "least-squares residual relative to |r|"}),
+    "force_residual": (("time",), {"units": "zeta_0/R0", "long_name": "force the solve leaves unbalanced: "
+                                   "|K x + F^T lambda - f| (rayleigh_p1), |M x + p P - r| (paper); "
+                                   "lsq_residual in older files"}),
+    "relative_residual": (("time",), {"units": "1", "long_name": "force_residual relative to |f| (or |r|)"}),
     "constraint_violation": (("time",), {"units": "1", "long_name": "largest relative violation of the constraints (Eqs. 35-37)"}),
     "kkt_residual": (("time",), {"units": "1", "long_name": "relative residual of the bordered normal equations"}),
 }
@@ -362,6 +364,7 @@ def run_summary(sim: "Simulation") -> dict:
            "formulation": s.numerics.formulation,
            "fit_residual_weight": s.numerics.fit_residual_weight}
     out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
+    out.update(factorizations=sim.solver.n_factorizations, krylov_iterations=sim.solver.n_iterations)
     return out
 
 

@@ -1,13 +1,32 @@
 """Sparse factorisations of a symmetric positive definite matrix, chosen by name.
 
 The registry :data:`FACTORIZATIONS` is the vocabulary of the scene key ``solver.backend``
-(plus ``auto``: the fastest one installed). SciPy's SuperLU is always there; Intel MKL PARDISO
-through ``pypardiso`` where its wheels exist (x86_64). A factorisation is kept across solves and
-reuses its symbolic analysis while the sparsity pattern is unchanged (the whole run: the
-topology is fixed).
+(plus ``auto``: the fastest one installed, in the order of :data:`AUTO_ORDER`). SciPy's SuperLU
+is always there; Intel MKL PARDISO through ``pypardiso`` where its wheels exist (x86_64);
+SuiteSparse CHOLMOD through ``scikit-sparse`` where it builds (Debian: ``libsuitesparse-dev``;
+it wants OpenBLAS, not the reference BLAS). A factorisation is kept across solves and reuses its
+symbolic analysis (ordering, elimination tree) while the sparsity pattern is unchanged (the whole
+run: the topology is fixed), so a new matrix costs only its numerical factorisation.
+
+Each backend states ``refactor_cost``: what a numerical refactorisation plus the solves of a
+bordered system's border (:mod:`cortex_ti.solve.constrained`, 14 columns) cost, in units of one
+preconditioned GMRES iteration of the constrained solver (one back-substitution, one product
+with the bordered matrix, the Gram-Schmidt: ~1.5-2 ms of CPU beyond the back-substitution at
+2562 nodes inside a run, where the factor no longer sits in the cache); measured on the 2562-node
+furrow's matrix (7686 unknowns, 162 k nonzeros) by ``benchmarks/solver_backends.py``
+(docs/validation/speed.md). The constrained solver's rule for when to refactorise rather than
+iterate weighs iterations against it (:class:`cortex_ti.solve.constrained.RefactorRule`); the
+value shifts the balance, not the answer, which meets the GMRES tolerance either way.
 """
 
 from __future__ import annotations
+
+import ctypes
+import functools
+import glob
+import os
+import site
+import sys
 
 import numpy as np
 import scipy.sparse as sp
@@ -15,7 +34,8 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 
-__all__ = ["FACTORIZATIONS", "Factorization", "register_factorization", "choose_factorization", "backend_names"]
+__all__ = ["FACTORIZATIONS", "AUTO_ORDER", "Factorization", "register_factorization", "choose_factorization",
+           "backend_names", "same_pattern"]
 
 FACTORIZATIONS: dict[str, type] = {}
 
@@ -38,6 +58,10 @@ class Factorization:
     """
 
     name = "base"
+    #: numerical refactorisation + border solves, in preconditioned iterations (module docstring)
+    refactor_cost = 20.0
+    #: how to install it (for the message when it is asked for and missing)
+    install = ""
 
     @staticmethod
     def available() -> bool:  # pragma: no cover - interface
@@ -52,7 +76,11 @@ class Factorization:
 
 @register_factorization("superlu")
 class SuperLUFactor(Factorization):
-    """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse)."""
+    """SciPy's SuperLU with a symmetric ordering (always available; no analysis reuse: SciPy
+    does not expose it). Measured at 2562 nodes: factorisation 62-67 ms, a solve 1.1-1.7 ms,
+    14 solves 10 ms: ~75 ms, 25 iterations of ~3 ms."""
+
+    refactor_cost = 25.0
 
     def factorize(self, a):
         self._lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
@@ -67,35 +95,46 @@ class PardisoFactor(Factorization):
     """Intel MKL PARDISO through ``pypardiso``, real SPD (mtype 2), upper triangle.
 
     Phase 11 (analysis, METIS ordering) runs only when the sparsity pattern changes;
-    each new matrix costs only phase 22 (numerical factorisation).
+    each new matrix costs only phase 22 (numerical factorisation). PARDISO's own iterative
+    refinement in the solve phase is switched off (``iparm(8) = 0``): it tripled the cost of a
+    back-substitution (1.6 ms instead of 0.6 ms at 2562 nodes) for a Cholesky solve that is
+    backward stable already (residual 3e-14 without it), and the constrained solver refines
+    against the unsquared system itself. MKL runs on ``CORTEX_TI_THREADS`` threads when that is
+    set (``cortex-ti run --threads`` sets it), not on every core: on a shared machine its idle
+    threads spinning against other jobs made a refactorisation 2x slower in CPU time.
+    Measured at 2562 nodes (one thread): refactorisation 8-10 ms, one solve 0.6-0.7 ms,
+    14 right-hand sides 2.9-3.5 ms. In a run a fresh factorisation and solve cost 35 ms of CPU
+    and a reused solve 2.5-3 ms per iteration: ``refactor_cost`` 15.
     """
+
+    refactor_cost = 15.0
+    install = "pip install pypardiso (x86_64 only)"
 
     @staticmethod
     def available() -> bool:
         try:
-            import pypardiso  # noqa: F401
+            _pypardiso()
         except Exception:
             return False
         return True
 
     def __init__(self):
-        import pypardiso
-
-        self._solver = pypardiso.PyPardisoSolver(mtype=2)
+        self._solver = _pypardiso().PyPardisoSolver(mtype=2)
+        threads = int(os.environ.get("CORTEX_TI_THREADS", "0") or 0)
+        if threads > 0:   # the run's thread count (cortex_ti.runtime); MKL's default is every core
+            self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None
 
     def factorize(self, a):
         upper = sp.triu(a, format="csr")
         upper.sort_indices()
-        pattern = (upper.shape, upper.indptr.copy(), upper.indices.copy())
-        same = (self._pattern is not None and self._pattern[0] == pattern[0]
-                and np.array_equal(self._pattern[1], pattern[1]) and np.array_equal(self._pattern[2], pattern[2]))
         dummy = np.zeros(upper.shape[0])
-        if not same:
+        if not same_pattern(self._pattern, upper):
             self._solver.set_phase(11)
             self._solver._call_pardiso(upper, dummy)
-            self._pattern = pattern
+            self._solver.set_iparm(8, 0)     # after phase 11, which fills in the defaults (2 steps)
+            self._pattern = upper
         self._solver.set_phase(22)
         self._solver._call_pardiso(upper, dummy)
         self._a = upper
@@ -112,20 +151,96 @@ class PardisoFactor(Factorization):
             pass
 
 
+@register_factorization("cholmod")
+class CholmodFactor(Factorization):
+    """SuiteSparse CHOLMOD (supernodal) through ``scikit-sparse``: ``analyze`` once per sparsity
+    pattern, ``cholesky_inplace`` for each new matrix. Measured at 2562 nodes with OpenBLAS:
+    refactorisation 13-22 ms, one solve 0.6-0.7 ms, 14 right-hand sides 2.7-7.6 ms (with the
+    reference BLAS the refactorisation took 55 ms). The fastest where MKL has no wheels
+    (aarch64)."""
+
+    refactor_cost = 15.0
+    install = "pip install scikit-sparse (needs SuiteSparse: apt-get install libsuitesparse-dev)"
+
+    @staticmethod
+    def available() -> bool:
+        try:
+            import sksparse.cholmod  # noqa: F401
+        except Exception:
+            return False
+        return True
+
+    def __init__(self):
+        self._factor = None
+        self._pattern = None
+
+    def factorize(self, a):
+        from sksparse.cholmod import analyze
+
+        a = a.tocsc()
+        a.sort_indices()
+        if self._factor is None or not same_pattern(self._pattern, a):
+            self._factor = analyze(a, mode="supernodal")
+            self._pattern = a
+        self._factor.cholesky_inplace(a)
+
+    def solve(self, b):
+        return self._factor(b)
+
+
+def _pypardiso():
+    """``pypardiso``, imported with MKL's runtime library named (:func:`_mkl_runtime`): its
+    import already makes a solver (``pypardiso.scipy_aliases``), which would search for it."""
+    path = _mkl_runtime()
+    if path is not None:
+        os.environ.setdefault("PYPARDISO_MKL_RT", path)
+    import pypardiso
+
+    return pypardiso
+
+
+@functools.lru_cache(maxsize=None)
+def _mkl_runtime() -> str | None:
+    """MKL's runtime library, found once per process where the ``mkl`` wheel puts it (the
+    environment's ``lib``), for ``pypardiso`` (``PYPARDISO_MKL_RT``). Left to itself pypardiso
+    looks for it in every new solver with ``ctypes.util.find_library`` and a recursive glob of
+    the environment: 0.25 s of CPU and 1.7-2.5 s of wall time per solver (and once more at its
+    import), measured on a loaded 2-core machine, against 0.3 ms with the path given. None: let
+    pypardiso search."""
+    if os.environ.get("PYPARDISO_MKL_RT"):
+        return os.environ["PYPARDISO_MKL_RT"]
+    for base in (sys.prefix, site.USER_BASE or ""):
+        hits = [h for pat in ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
+                for h in glob.glob(os.path.join(base, pat))]
+        if hits:
+            return min(hits, key=len)
+    return None
+
+
+def same_pattern(old: sp.spmatrix | None, new: sp.spmatrix) -> bool:
+    """Whether two compressed sparse matrices (indices sorted) have the same sparsity pattern."""
+    return (old is not None and old.shape == new.shape and np.array_equal(old.indptr, new.indptr)
+            and np.array_equal(old.indices, new.indices))
+
+
+#: The order in which ``auto`` takes the installed backends (fastest first, docs/validation/speed.md)
+AUTO_ORDER = ("pardiso", "cholmod", "superlu")
+
+
 def choose_factorization(name: str = "auto") -> type:
     """The factorisation class for ``name``; ``auto`` takes the fastest installed."""
     if name == "auto":
-        for candidate in ("pardiso", "superlu"):
+        for candidate in AUTO_ORDER:
             if FACTORIZATIONS[candidate].available():
                 return FACTORIZATIONS[candidate]
     if name not in FACTORIZATIONS:
         raise SolverError(f"unknown solver backend {name!r}; choose one of auto, {', '.join(FACTORIZATIONS)}")
     cls = FACTORIZATIONS[name]
     if not cls.available():
-        raise SolverError(f"solver backend {name!r} is not installed here")
+        here = [k for k, c in FACTORIZATIONS.items() if c.available()]
+        raise SolverError(f"solver backend {name!r} is not installed here ({cls.install}); use auto or one of "
+                          f"{', '.join(here)}")
     return cls
-
-
 
 
 def backend_names() -> list[str]:

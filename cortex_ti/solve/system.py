@@ -9,7 +9,7 @@ Two kinds, one per family of formulations (:data:`cortex_ti.physics.formulations
   the multipliers act on the rows ``F`` (``G`` unless given: Petrov-Galerkin), the pressure is
   one of them.
 
-Both give the solver (:class:`cortex_ti.solve.constrained.ConstrainedLeastSquares`) the same
+Both give the solver (:class:`cortex_ti.solve.constrained.ConstrainedSolver`) the same
 things: the symmetric block ``K``, its right-hand side, the pressure column if the pressure is a
 separate unknown, the constraint rows, and the residual of the unsquared problem (for iterative
 refinement); and, for :mod:`cortex_ti.dynamics.spectrum`, their optimality conditions split node

@@ -1,0 +1,165 @@
+"""What a paper furrow costs: wall time, steps, solves and time per stage, with the error of the radii.
+
+For the three furrows of the paper (``furrow_p8_a1``, ``furrow_p4_a1``, ``furrow_p4_a3``) at each
+node count, the whole command ``cortex-ti run SCENE -o x.h5 --threads 1 --summary s.json`` is run
+in its own process (start-up and Taichi's cached kernels included, as a user sees it) with the
+scene's defaults, and the table gives:
+
+* wall and CPU seconds of the command (CPU: user + system of the child; on a shared machine the
+  CPU time is the steadier number), and the wall time as a ratio to a fixed SciPy workload timed
+  just before (:func:`reference_seconds`: SuperLU of a 2D Laplacian), which carries from one
+  machine or load to another better than seconds;
+* steps, solves, factorisations and GMRES iterations of the run;
+* milliseconds per solve of geometry, assembly and solve (wall, from the run's summary);
+* the largest radius error (pole and furrow) over the whole run against the axisymmetric twin
+  (:func:`cortex_ti.axisymmetric.compare.compare`, the same model solved along the meridian).
+
+Usage::
+
+    python benchmarks/furrow_cost.py                            # 642 and 2562 nodes, t_end = 3
+    python benchmarks/furrow_cost.py --nodes 10242 --scenes furrow_p4_a1
+    python benchmarks/furrow_cost.py --smoke                    # 642 nodes, t_end = 0.1 (~1 min)
+    python benchmarks/furrow_cost.py --write docs/validation/speed.md
+
+``--write`` replaces the block between ``<!-- furrow_cost:begin -->`` and
+``<!-- furrow_cost:end -->`` of that page with the table (date, commit, machine in its header).
+Expected cost on a 2-core machine: ~1 min per furrow at 642 nodes and ~1-2 min at 2562 nodes,
+with Euler at dt = 5e-3 (600 steps); minutes per furrow at 10242.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from accuracy_cost import machine  # noqa: E402  (a sibling script)
+
+SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
+BEGIN, END = "<!-- furrow_cost:begin -->", "<!-- furrow_cost:end -->"
+
+
+def reference_seconds(repeats: int = 5) -> float:
+    """Best of ``repeats`` wall times of a fixed SciPy workload: SuperLU factorisation and solve
+    of the 5-point Laplacian on a 160 x 160 grid (~0.1 s on an idle 2-core machine)."""
+    import numpy as np
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    n = 160
+    lap = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
+    a = (sp.kron(lap, sp.eye(n)) + sp.kron(sp.eye(n), lap)).tocsc()
+    b = np.ones(n * n)
+    best = float("inf")
+    for _ in range(repeats):
+        t = time.perf_counter()
+        spla.splu(a).solve(b)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
+    """One ``cortex-ti run`` in a child process, its summary, CPU time and radius error."""
+    out = workdir / f"{scene}_{nodes}.h5"
+    summary = workdir / f"{scene}_{nodes}.json"
+    cmd = ["cortex-ti", "run", scene, "-o", str(out), "--threads", "1", "--summary", str(summary),
+           "--set", f"mesh.nodes={nodes}"]
+    if t_end is not None:
+        cmd += ["--set", f"time.t_end={t_end}"]
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"furrow_cost: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    s = json.loads(summary.read_text())
+    from cortex_ti.axisymmetric.compare import compare
+
+    c = compare(str(out), times=())
+    return dict(scene=scene, nodes=nodes, wall_s=wall,
+                cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+                steps=s["steps"], solves=s["solves"], factorizations=s.get("factorizations"),
+                iterations=s.get("krylov_iterations"), t_reached=s["t_reached"],
+                ms=[s.get(f"ms_{k}_per_solve", float("nan")) for k in ("geometry", "assembly", "solve")],
+                err=max(c["pole_radius"][0], c["furrow_radius"][0]), err_pole=c["pole_radius"][0],
+                err_furrow=c["furrow_radius"][0])
+
+
+def commit() -> str:
+    try:
+        here = Path(__file__).resolve().parent
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True, text=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True).stdout.strip()
+        return rev.stdout.strip() + ("+changes" if dirty else "")
+    except OSError:
+        return "unknown"
+
+
+def table(rows: list[dict], ref: float, t_end: float | None) -> str:
+    load = os.getloadavg()
+    head = (f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
+            f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
+            f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
+            f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
+            f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n")
+    lines = ["| scene | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
+             "ms geometry / assembly / solve per solve | max radius error (pole, furrow) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        g, a, s = r["ms"]
+        lines.append(f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+                     f"{r['wall_s'] / ref:.0f} | "
+                     f"{r['steps']} | {r['solves']} | {r['factorizations']} | {r['iterations']} | "
+                     f"{g:.1f} / {a:.1f} / {s:.1f} | {r['err']:.2e} ({r['err_pole']:.1e}, {r['err_furrow']:.1e}) |")
+    return head + "\n".join(lines) + "\n"
+
+
+def write_block(page: Path, text: str) -> None:
+    body = page.read_text() if page.exists() else f"{BEGIN}\n{END}\n"
+    if BEGIN not in body or END not in body:
+        body += f"\n{BEGIN}\n{END}\n"
+    pre, rest = body.split(BEGIN, 1)
+    _, post = rest.split(END, 1)
+    tmp = page.with_suffix(".tmp")
+    tmp.write_text(f"{pre}{BEGIN}\n{text}{END}{post}")
+    os.replace(tmp, page)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
+    p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
+    p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's, 3)")
+    p.add_argument("--smoke", action="store_true", help="642 nodes, t_end = 0.1: checks that it runs")
+    p.add_argument("--write", type=Path, default=None, help="markdown page whose furrow_cost block gets the table")
+    p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
+    args = p.parse_args(argv)
+    nodes, t_end = ([642], 0.1) if args.smoke else (args.nodes, args.t_end)
+    ref = reference_seconds()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        work = args.keep or Path(tmp)
+        work.mkdir(parents=True, exist_ok=True)
+        for n in nodes:
+            for scene in args.scenes:
+                rows.append(run_one(scene, n, t_end, work))
+                print(f"{scene} {n}: {rows[-1]['wall_s']:.1f} s", file=sys.stderr, flush=True)
+    text = table(rows, ref, t_end)
+    print(text)
+    if args.write:
+        write_block(args.write, text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
