@@ -18,8 +18,8 @@ A scene is immutable once validated: every override makes a new one.
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 __all__ = ["run", "load_scene", "open_trajectory", "scenes"]
 

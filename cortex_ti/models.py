@@ -10,8 +10,8 @@ Runners are imported when built, so naming a model starts nothing (no Taichi for
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 __all__ = ["MODELS", "Model", "register_model", "make_runner"]
 

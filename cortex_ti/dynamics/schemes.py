@@ -176,7 +176,8 @@ class AdaptiveHeun(Heun):
         if ratio > 1.0 or not np.all(np.isfinite(new.points)):
             if dt <= self.dt_min:
                 raise StabilityError(f"the adaptive step fell below time.dt_min = {self.dt_min:g} at error {err:.2e}")
-            return StepResult(ev.state if ev.state is not None else State(ev.points), dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
+            old = ev.state if ev.state is not None else State(ev.points)
+            return StepResult(old, dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
         return StepResult(new, dt, err, dt_next=dt_next, solves=1)
 
 

@@ -16,9 +16,9 @@ new shape. A field without a rate (``None``: glued to the nodes) keeps its value
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 
@@ -45,11 +45,11 @@ class Rates:
     points: np.ndarray
     fields: Mapping[str, np.ndarray] = field(default_factory=dict)
 
-    def __add__(self, other: "Rates") -> "Rates":
+    def __add__(self, other: Rates) -> Rates:
         keys = set(self.fields) | set(other.fields)
         return Rates(self.points + other.points, {k: _add(self.fields.get(k), other.fields.get(k)) for k in keys})
 
-    def __mul__(self, factor: float) -> "Rates":
+    def __mul__(self, factor: float) -> Rates:
         return Rates(factor * self.points, {k: None if v is None else factor * v for k, v in self.fields.items()})
 
     __rmul__ = __mul__
@@ -76,7 +76,7 @@ class State:
     def n_nodes(self) -> int:
         return self.points.shape[0]
 
-    def with_points(self, points: np.ndarray) -> "State":
+    def with_points(self, points: np.ndarray) -> State:
         """The same fields on other node positions."""
         return State(points, self.fields, self.faces)
 
@@ -86,7 +86,7 @@ class State:
         values = self.fields[name]
         return values * dual_areas(self.points, self.faces) if kind == DENSITY else values
 
-    def advanced(self, dt: float, rates: Rates, transport: Mapping[str, FieldTransport]) -> "State":
+    def advanced(self, dt: float, rates: Rates, transport: Mapping[str, FieldTransport]) -> State:
         """The state after a step ``dt`` with the (combined) ``rates``: explicit update of the
         positions and of the stored quantities, then each field's implicit diffusion and turnover on
         the new shape."""

@@ -35,7 +35,7 @@ __all__ = ["LOCK_SUFFIX", "OutputBusy", "OutputClaim", "claim_output", "check_ou
 #: Suffix of the lock file beside an output being written.
 LOCK_SUFFIX = ".lock"
 
-_HELD: dict[str, "OutputClaim"] = {}
+_HELD: dict[str, OutputClaim] = {}
 
 
 class OutputBusy(CortexError):
@@ -70,7 +70,7 @@ class OutputClaim:
         self._count = 1
 
     @classmethod
-    def acquire(cls, path: str | os.PathLike) -> "OutputClaim":
+    def acquire(cls, path: str | os.PathLike) -> OutputClaim:
         """Claim ``path`` (again, if this process holds it already); refuse with :class:`OutputBusy`
         if another process does. The output's folder is created if needed."""
         path = Path(os.fspath(path))
@@ -132,7 +132,7 @@ class OutputClaim:
         finally:
             os.close(fd)
 
-    def __enter__(self) -> "OutputClaim":
+    def __enter__(self) -> OutputClaim:
         return self
 
     def __exit__(self, *exc) -> None:

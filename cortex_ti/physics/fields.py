@@ -20,8 +20,8 @@ schemes, the trajectory and ``--resume`` take it from here.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

@@ -19,7 +19,7 @@ import numpy as np
 from ..dynamics.motion import MESH_MOTIONS, MotionContext
 from ..dynamics.schemes import Evaluation
 from ..dynamics.state import FieldTransport, State
-from ..physics.fields import FIELDS, scene_fields, tension_of
+from ..physics.fields import scene_fields, tension_of
 from ..scene.loader import Scene
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser

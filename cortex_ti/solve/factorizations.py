@@ -199,7 +199,7 @@ def _pypardiso():
     return pypardiso
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _mkl_runtime() -> str | None:
     """MKL's runtime library, found once per process where the ``mkl`` wheel puts it (the
     environment's ``lib``), for ``pypardiso`` (``PYPARDISO_MKL_RT``). Left to itself pypardiso

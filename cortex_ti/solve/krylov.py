@@ -16,7 +16,7 @@ restart (the caller gives up and refactorises past ``maxiter``).
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
