@@ -41,9 +41,12 @@ def _parser() -> argparse.ArgumentParser:
     chk.add_argument("scene")
     chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
 
-    exp = sub.add_parser("export", help="write a trajectory as a ParaView series (one VTU per frame + .pvd)")
+    exp = sub.add_parser("export", help="write a trajectory for ParaView: one .vtkhdf file with its time steps "
+                                         "(default), or a .pvd with frames named after the run")
     exp.add_argument("trajectory", type=Path)
-    exp.add_argument("-o", "--output", type=Path, default=None, help="folder (default: next to the file)")
+    exp.add_argument("-o", "--output", type=Path, default=None,
+                     help="file (.vtkhdf or .pvd) or folder (default: next to the trajectory, named after it)")
+    exp.add_argument("--format", dest="fmt", default=None, help="vtkhdf (default) or pvd; default from -o's suffix")
     exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
 
     plot = sub.add_parser("plot", help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
@@ -147,11 +150,19 @@ def _check(args) -> int:
 
 
 def _export(args) -> int:
-    from .io.export import export_vtu_series
+    from .io.export import EXPORT_FORMATS, export_trajectory
 
+    fmt = args.fmt
+    if fmt is None:
+        by_suffix = {suffix: name for name, suffix in EXPORT_FORMATS.items()}
+        fmt = by_suffix.get(args.output.suffix.lower(), "vtkhdf") if args.output is not None else "vtkhdf"
+    if fmt not in EXPORT_FORMATS:
+        raise CortexError(f"unknown --format '{fmt}'; choose one of: {', '.join(EXPORT_FORMATS)}")
+    if args.every < 1:
+        raise CortexError(f"--every must be >= 1, got {args.every}")
     if not args.trajectory.exists():
         raise CortexError(f"trajectory file '{args.trajectory}' does not exist")
-    print(export_vtu_series(args.trajectory, args.output, args.every))
+    print(export_trajectory(args.trajectory, args.output, fmt, args.every))
     return 0
 
 
