@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | scenes``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) is reported as one line naming
 it, with exit status 2 and no output file; an unexpected internal error keeps its
@@ -20,6 +20,8 @@ log = logging.getLogger("cortex_ti")
 
 
 def _parser() -> argparse.ArgumentParser:
+    from .viz.commands import add_commands, add_renderer_option
+
     p = argparse.ArgumentParser(prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021).")
     p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
     sub = p.add_subparsers(dest="command", required=True)
@@ -63,6 +65,8 @@ def _parser() -> argparse.ArgumentParser:
                            "orientation_angle, those the file has); '' for none")
     plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60; write --view=-20,30 for a negative elevation)")
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
+    add_renderer_option(plot)
+    add_commands(sub)   # movie, view (cortex_ti.viz.commands)
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser("schema", help="print the scene schema (JSON schema, with every registered fit, scheme, "
@@ -168,27 +172,16 @@ def _export(args) -> int:
 
 def _plot(args) -> int:
     from .io import load_trajectory
-    from .plotting import (
-        COLORS,
-        DEFAULT_SERIES,
-        DEFAULT_VIEW,
-        figure_format,
-        figure_frame_and_series,
-        save_figure,
-        series_names,
-    )
+    from .plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
+    from .viz.commands import announce, parse_view
+    from .viz.figure import frame_figure
+    from .viz.render import choose_renderer
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
     if args.color not in COLORS:
         raise CortexError(f"unknown --color '{args.color}'; choose one of: {', '.join(COLORS)}")
-    view = DEFAULT_VIEW
-    if args.view is not None:
-        try:
-            elev, azim = (float(v) for v in args.view.split(","))
-        except ValueError:
-            raise CortexError(f"--view must be ELEV,AZIM in degrees (e.g. 20,-60), got '{args.view}'") from None
-        view = (elev, azim)
+    view = parse_view(args.view)
     if not args.dpi > 0:
         raise CortexError(f"--dpi must be > 0, got {args.dpi:g}")
     ds = load_trajectory(args.trajectory)
@@ -204,7 +197,10 @@ def _plot(args) -> int:
                 f"{', '.join(available) or 'no per-frame variables'}"
             )
     frame = args.frame if args.frame is not None else args.time if args.time is not None else -1
-    fig = figure_frame_and_series(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi)
+    frame = frame_index(ds, frame)      # refused before anything is said or drawn
+    renderer = choose_renderer(args.renderer)
+    announce(renderer)
+    fig = frame_figure(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi, renderer=renderer)
     print(save_figure(fig, args.output))
     return 0
 
@@ -233,8 +229,9 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
-                "schema": _schema}[args.command](args)
+        commands = {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
+                    "schema": _schema}
+        return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2
