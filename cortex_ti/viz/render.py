@@ -194,44 +194,59 @@ class PyVistaFrames:
         As in :func:`cortex_ti.plotting.plot_frame`.
     edges : bool
         Draw the triangles' edges (faint).
+    lighting : bool
+        Shade the surface; without it every pixel of the surface has exactly a colour of the
+        colour map.
     scalar_bar, time_label : bool
         Draw a horizontal colour bar at the bottom, the time in the upper left corner.
     """
 
     def __init__(self, ds, color: str, frames: Sequence[int], size=(1200, 1000), view=DEFAULT_VIEW, clim=None,
                  cmap=None, arrows: bool = True, max_arrows: int = MAX_ARROWS, scalar_bar: bool = True,
-                 time_label: bool = True, font_size: int = 14, edges: bool = True):
+                 time_label: bool = True, font_size: int = 14, edges: bool = True, lighting: bool = True):
         import pyvista as pv
 
-        if color not in COLORS:
-            raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
-        self.ds, self.color, self.arrows, self.max_arrows = ds, color, arrows, int(max_arrows)
-        self.time_label, self.font_size = time_label, font_size
-        self.clim = tuple(float(c) for c in clim) if clim is not None else colour_limits(ds, color, frames)
-        self.cmap = cmap or COLORS[color][1]
+        self.ds, self.frames, self.arrows, self.max_arrows = ds, list(frames), arrows, int(max_arrows)
+        self.time_label, self.font_size, self.scalar_bar, self.edges = time_label, font_size, scalar_bar, edges
+        self.lighting = lighting
         self.triangles = np.asarray(ds["triangles"].values, dtype=np.int64)
         faces = np.hstack([np.full((len(self.triangles), 1), 3, dtype=np.int64), self.triangles]).ravel()
         self._pv = pv
         self.plotter = pv.Plotter(off_screen=True, window_size=tuple(int(s) for s in size))
         self.plotter.set_background("white")
         self.surface = pv.PolyData(np.asarray(ds["points"][frames[0]].values, dtype=float), faces)
-        self.surface.point_data[color] = node_values(ds, frames[0], color)
-        bar = dict(title=PLAIN_LABELS.get(color, color), vertical=False, position_x=0.2, position_y=0.03, width=0.6, height=0.07,
-                   color="black", title_font_size=font_size, label_font_size=font_size - 2, fmt="%.3g",
-                   n_labels=5)
-        self.plotter.add_mesh(self.surface, scalars=color, cmap=self.cmap, clim=self.clim, smooth_shading=True,
-                              show_edges=edges, edge_color="black", edge_opacity=0.15, line_width=0.5,
-                              show_scalar_bar=scalar_bar, scalar_bar_args=bar, name="surface")
+        self.set_color(color, clim, cmap)
         centre, half = _bounds(ds, frames, arrows)
         self.half_shape = half / (1.0 + 2.0 * ARROW_FRACTION) if arrows else half / 1.02
         eye = centre + 4.0 * half * view_direction(*view)
         self.plotter.camera_position = [tuple(eye), tuple(centre), (0.0, 0.0, 1.0)]
         # the same zoom for all the frames given: the cube that holds them fills the picture
         self.plotter.reset_camera(bounds=tuple(np.ravel(np.column_stack([centre - half, centre + half]))))
-        self.plotter.camera.zoom(1.5)
+        self.plotter.camera.zoom(1.3)
+
+    def set_color(self, color: str, clim=None, cmap=None) -> None:
+        """Colour the surface by ``color`` from now on (limits ``clim``, default over the frames
+        given)."""
+        if color not in COLORS:
+            raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
+        self.color = color
+        self.clim = tuple(float(c) for c in clim) if clim is not None else colour_limits(self.ds, color, self.frames)
+        self.cmap = cmap or COLORS[color][1]
+        k = getattr(self, "frame", self.frames[0])
+        self.surface.point_data[color] = node_values(self.ds, k, color)
+        if self.plotter.scalar_bars:
+            self.plotter.remove_scalar_bar()
+        bar = dict(title=PLAIN_LABELS.get(color, color), vertical=False, position_x=0.2, position_y=0.03, width=0.6,
+                   height=0.07, color="black", title_font_size=self.font_size, label_font_size=self.font_size - 2,
+                   fmt="%.3g", n_labels=5)
+        self.plotter.add_mesh(self.surface, scalars=color, cmap=self.cmap, clim=self.clim, smooth_shading=True,
+                              show_edges=self.edges, edge_color="black", edge_opacity=0.15, line_width=0.5,
+                              show_scalar_bar=self.scalar_bar, scalar_bar_args=bar, lighting=self.lighting,
+                              name="surface")
 
     def _update(self, k: int) -> None:
         ds = self.ds
+        self.frame = k
         pts = np.asarray(ds["points"][k].values, dtype=float)
         self.surface.points = pts
         self.surface.point_data[self.color] = node_values(ds, k, self.color)
@@ -253,6 +268,10 @@ class PyVistaFrames:
             t = float(ds["time"].values[k])
             self.plotter.add_text(f"t = {t:.4g} t_a", position="upper_left", font_size=self.font_size,
                                   color="black", name="time")
+
+    def show(self, k: int) -> None:
+        """Put frame ``k`` in the scene (without drawing it)."""
+        self._update(k)
 
     def render(self, k: int) -> np.ndarray:
         """Frame ``k`` as an ``(H, W, 3)`` ``uint8`` array."""
@@ -276,7 +295,7 @@ class MatplotlibFrames:
 
     def __init__(self, ds, color: str, frames: Sequence[int], size=(1200, 1000), view=DEFAULT_VIEW, clim=None,
                  cmap=None, arrows: bool = True, max_arrows: int = MAX_ARROWS, scalar_bar: bool = True,
-                 time_label: bool = True, font_size: int = 14, edges: bool = True):
+                 time_label: bool = True, font_size: int = 14, edges: bool = True, lighting: bool = True):
         if color not in COLORS:
             raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
         self.ds, self.color, self.view, self.cmap = ds, color, view, cmap
