@@ -59,6 +59,7 @@ from .surface.mesh import vertex_normals
 __all__ = [
     "ARROW_FRACTION",
     "COLORS",
+    "colorbar_below",
     "DEFAULT_SERIES",
     "DEFAULT_VIEW",
     "FORMATS",
@@ -195,7 +196,7 @@ def spread_nodes(points: np.ndarray, candidates: np.ndarray, count: int, start: 
 # the two panels
 # ---------------------------------------------------------------------------------------------
 def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None, view=None,
-               cmap=None, clim=None, max_arrows: int = MAX_ARROWS):
+               cmap=None, clim=None, max_arrows: int = MAX_ARROWS, axes: bool = True):
     """Draw one frame: the surface coloured per face, velocity arrows on the visible side.
 
     Parameters
@@ -222,6 +223,9 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
         ``normal_velocity``).
     max_arrows : int
         Largest number of arrows.
+    axes : bool
+        Draw the axes (panes, ticks, labels in R0); ``False`` for the shape alone, as in small
+        multiples of snapshots where the labels of neighbouring 3D panels would collide.
 
     Returns
     -------
@@ -244,6 +248,9 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     if arrows:
         _velocity_arrows(ax, pts, tri, np.asarray(ds["velocity"][k].values, dtype=float), half, max_arrows)
     _frame_axes(ax, centre, half * (1.0 + 2.0 * ARROW_FRACTION if arrows else 1.02))
+    if not axes:
+        ax.set_axis_off()
+        ax.set_box_aspect((1, 1, 1), zoom=1.4)    # the room of the labels goes to the shape
     ax.set_title(f"t = {float(ds['time'].values[k]):.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})",
                  fontsize=9)
     return ax, surface
@@ -308,6 +315,16 @@ def _frame_axes(ax, centre, half) -> None:
     for axis in "xyz":
         getattr(ax, f"set_{axis}label")(f"{axis} [R0]", fontsize=8, labelpad=2)
     ax.tick_params(labelsize=7, pad=1)
+
+
+def colorbar_below(fig: Figure, ax, mappable, label: str, fontsize: float = 8.0, pad: float = 0.04):
+    """A horizontal colour bar under the panel ``ax`` (a 3D frame or a picture of one), labelled
+    below it: neither its label nor its ticks run into the panel's z axis label, as a vertical
+    bar beside a 3D axes does. Returns the :class:`~matplotlib.colorbar.Colorbar`."""
+    bar = fig.colorbar(mappable, ax=ax, location="bottom", shrink=0.6, pad=0.04, fraction=0.05, aspect=30)
+    bar.set_label(label, fontsize=fontsize)
+    bar.ax.tick_params(labelsize=fontsize - 1)
+    return bar
 
 
 def series_names(ds) -> list[str]:
@@ -443,9 +460,7 @@ def figure_frame_and_series(ds, frame=-1, color: str = "speed", arrows: bool = T
         panel.set_axis_off()
         panel.set_title(f"t = {t:.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})", fontsize=9)
         mappable = ScalarMappable(norm=Normalize(*(float(c) for c in clim)), cmap=cmap or COLORS[color][1])
-    bar = fig.colorbar(mappable, ax=panel, location="bottom", shrink=0.6, pad=0.04, fraction=0.05, aspect=30)
-    bar.set_label(COLORS[color][0], fontsize=8)
-    bar.ax.tick_params(labelsize=7)
+    colorbar_below(fig, panel, mappable, COLORS[color][0])
     if with_series:
         plot_timeseries(ds, series, ax=fig.add_subplot(grid[0, 1]), mark_time=t)
     return fig
