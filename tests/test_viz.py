@@ -330,3 +330,22 @@ def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour
             proc.wait(timeout=20)
         except subprocess.TimeoutExpired:
             proc.kill()
+
+
+# ---------------------------------------------------------------------------------------------
+# the command line stays light
+# ---------------------------------------------------------------------------------------------
+def test_parser_is_light_and_names_every_colour():
+    """Building the parser (every ``cortex-ti run`` does) imports neither matplotlib nor VTK, and
+    the help of ``--color`` names every colour quantity of the registry."""
+    code = ("import sys, cortex_ti.cli as c; p = c._parser(); "
+            "print(sorted(m for m in ('matplotlib', 'vtk', 'pyvista', 'trame') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])}).stdout
+    assert out.strip() == "[]"
+    from cortex_ti.cli import _parser
+
+    sub = next(a for a in _parser()._actions if a.dest == "command")
+    for command in ("movie", "view"):
+        (color,) = [a for a in sub.choices[command]._actions if a.dest == "color"]
+        assert all(name in color.help for name in COLORS), color.help

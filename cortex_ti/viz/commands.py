@@ -1,6 +1,10 @@
 """The ``movie`` and ``view`` subcommands of ``cortex-ti`` and the ``--renderer`` choice of
 ``plot``: their arguments and what they run (:func:`add_commands` is called by
-:mod:`cortex_ti.cli`; each subcommand carries its handler as ``args.handler``)."""
+:mod:`cortex_ti.cli`; each subcommand carries its handler as ``args.handler``).
+
+Light on purpose: building the parser imports no matplotlib nor VTK (every ``cortex-ti run``
+builds it); the handlers import what they use.
+"""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ import sys
 from pathlib import Path
 
 from ..errors import CortexError
-from ..plotting import COLORS, DEFAULT_VIEW
+from .extra import RENDERERS
 
 __all__ = ["add_commands", "add_renderer_option", "announce", "parse_view"]
 
@@ -17,6 +21,8 @@ __all__ = ["add_commands", "add_renderer_option", "announce", "parse_view"]
 def parse_view(text: str | None):
     """``"ELEV,AZIM"`` in degrees (default :data:`cortex_ti.plotting.DEFAULT_VIEW`)."""
     if text is None:
+        from ..plotting import DEFAULT_VIEW
+
         return DEFAULT_VIEW
     try:
         elev, azim = (float(v) for v in text.split(","))
@@ -26,8 +32,6 @@ def parse_view(text: str | None):
 
 
 def add_renderer_option(parser: argparse.ArgumentParser) -> None:
-    from .render import RENDERERS
-
     parser.add_argument("--renderer", default="auto", choices=RENDERERS,
                         help="3D pictures by PyVista off screen (needs OpenGL: EGL or OSMesa) or matplotlib; "
                              "auto (default): PyVista where it works; one line on stderr says which and why")
@@ -39,6 +43,8 @@ def announce(renderer) -> None:
 
 
 def _colour(name: str) -> str:
+    from ..plotting import COLORS
+
     if name not in COLORS:
         raise CortexError(f"unknown --color '{name}'; choose one of: {', '.join(COLORS)}")
     return name
@@ -46,7 +52,7 @@ def _colour(name: str) -> str:
 
 def add_commands(sub) -> None:
     """Add ``movie`` and ``view`` to the subcommands ``sub`` of the ``cortex-ti`` parser."""
-    colours = ", ".join(COLORS)
+    colours = "speed, active_stress, normal_velocity"      # cortex_ti.plotting.COLORS, checked when run
     movie = sub.add_parser("movie", help="write a movie of a trajectory (.mp4 or .gif), coloured by a quantity, "
                                          "the time in the corner (needs the [viz] extra)")
     movie.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")

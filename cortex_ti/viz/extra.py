@@ -7,7 +7,10 @@ import importlib.util
 
 from ..errors import CortexError
 
-__all__ = ["VIZ_EXTRA", "NEEDS", "missing", "require"]
+__all__ = ["VIZ_EXTRA", "NEEDS", "RENDERERS", "missing", "require"]
+
+#: Values of ``--renderer`` (:func:`cortex_ti.viz.render.choose_renderer`).
+RENDERERS: tuple[str, ...] = ("auto", "pyvista", "matplotlib")
 
 #: How to install the optional dependencies of the viewer, the movies and the PyVista pictures.
 VIZ_EXTRA = "pip install 'cortex-ti[viz]'"

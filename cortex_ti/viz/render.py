@@ -55,13 +55,10 @@ from ..plotting import (
     spread_nodes,
     view_direction,
 )
-from .extra import VIZ_EXTRA, missing
+from .extra import RENDERERS, VIZ_EXTRA, missing
 
 __all__ = ["RENDERERS", "Renderer", "choose_renderer", "colour_limits", "frame_renderer", "MatplotlibFrames",
            "PyVistaFrames"]
-
-#: Values of ``--renderer``.
-RENDERERS: tuple[str, ...] = ("auto", "pyvista", "matplotlib")
 
 _PROBE = """
 import json, sys
@@ -266,8 +263,9 @@ class PyVistaFrames:
                 self.plotter.remove_actor("arrows")
         if self.time_label:
             t = float(ds["time"].values[k])
-            self.plotter.add_text(f"t = {t:.4g} t_a", position="upper_left", font_size=self.font_size,
-                                  color="black", name="time")
+            w, h = self.plotter.window_size
+            self.plotter.add_text(f"t = {t:.3f} t_a", position=(int(0.03 * w), int(h - 0.03 * w - 1.6 * self.font_size)),
+                                  font_size=self.font_size, color="black", name="time")
 
     def show(self, k: int) -> None:
         """Put frame ``k`` in the scene (without drawing it)."""
