@@ -45,8 +45,8 @@ from __future__ import annotations
 import os
 import secrets
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from matplotlib.colors import Normalize
@@ -59,11 +59,11 @@ from .surface.mesh import vertex_normals
 __all__ = [
     "ARROW_FRACTION",
     "COLORS",
-    "colorbar_below",
     "DEFAULT_SERIES",
     "DEFAULT_VIEW",
     "FORMATS",
     "MAX_ARROWS",
+    "colorbar_below",
     "figure_format",
     "figure_frame_and_series",
     "frame_index",

@@ -68,7 +68,7 @@ def test_vtkhdf_layout_follows_the_specification(run, tmp_path):
     tr = Trajectory(run)
     with h5py.File(tmp_path / "g.vtkhdf", "r") as h5:
         root = h5["VTKHDF"]
-        assert root.attrs["Type"] == b"UnstructuredGrid" and tuple(root.attrs["Version"])[0] == 2
+        assert root.attrs["Type"] == b"UnstructuredGrid" and int(root.attrs["Version"][0]) == 2
         steps = root["Steps"]
         kept = list(range(0, len(tr.times), 2))
         assert steps.attrs["NSteps"] == len(kept)

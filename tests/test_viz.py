@@ -77,11 +77,12 @@ def chromaticity(rgb: np.ndarray) -> np.ndarray:
 def colormap_distance(pixels: np.ndarray, cmap: str, lit: bool = False) -> np.ndarray:
     """Distance of each RGB pixel (0..1) to the nearest of 1024 colours of the colour map; for
     a lit surface (``lit``) the distance of the chromaticities."""
+    from scipy.spatial import cKDTree
+
     table = colormaps[cmap](np.linspace(0.0, 1.0, 1024))[:, :3]
     if lit:
         pixels, table = chromaticity(pixels), chromaticity(table)
-    d = np.linalg.norm(pixels[:, None, :] - table[None, :, :], axis=2)
-    return d.min(axis=1)
+    return cKDTree(table).query(pixels)[0]
 
 
 def fits_better(pixels: np.ndarray, cmap: str, other: str) -> bool:
@@ -181,7 +182,7 @@ def test_cli_plot_with_pyvista_says_so_in_one_line(run, tmp_path, capsys, pyvist
 def test_cli_plot_with_matplotlib_says_so(run, tmp_path, capsys):
     out = tmp_path / "m.png"
     assert main(["plot", str(run), "-o", str(out), "--renderer", "matplotlib", "--series", ""]) == 0
-    stdout, stderr = capsys.readouterr()
+    stderr = capsys.readouterr().err
     assert stderr.strip() == "cortex-ti: 3D pictures by matplotlib: asked for (--renderer matplotlib)"
     assert imread(out).shape[:2] == (825, 975)
 
@@ -196,15 +197,20 @@ def read_movie(path):
     return frames, iio.immeta(path)
 
 
-@pytest.mark.parametrize("suffix, every, size, fps", [(".mp4", 1, "320x240", 12.0), (".gif", 2, "251x200", 5.0)])
-def test_movie_has_one_picture_per_frame_of_the_asked_size(run, tmp_path, capsys, suffix, every, size, fps):
-    if not (HAVE_MOVIE and HAVE_PYVISTA):
+@pytest.mark.parametrize("suffix, every, size, fps, renderer", [
+    (".mp4", 1, "320x240", 12.0, "auto"),
+    (".gif", 2, "251x200", 5.0, "auto"),
+    (".mp4", 3, "300x300", 4.0, "matplotlib"),       # the fallback without OpenGL
+])
+def test_movie_has_one_picture_per_frame_of_the_asked_size(run, tmp_path, capsys, suffix, every, size, fps, renderer):
+    if not HAVE_MOVIE:
         pytest.skip(VIZ_SKIP)
     out = tmp_path / f"m{suffix}"
     assert main(["movie", str(run), "-o", str(out), "--every", str(every), "--size", size, "--fps", str(fps),
-                 "--color", "normal_velocity"]) == 0
+                 "--color", "normal_velocity", "--renderer", renderer]) == 0
     stdout, stderr = capsys.readouterr()
-    assert stdout.strip() == str(out) and len(stderr.strip().splitlines()) == 1
+    assert stdout.strip() == str(out)
+    assert stderr.strip().splitlines() == [choose_renderer(renderer).line]
     frames, meta = read_movie(out)
     w, h = (int(v) for v in size.split("x"))
     n = len(range(0, 6, every))
@@ -282,6 +288,7 @@ def view_image(page) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(page.locator("img").first.screenshot())).convert("RGB")) / 255.0
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not CHROMIUM, reason="the viewer test needs Chromium: apt-get install chromium")
 @pytest.mark.skipif(not (HAVE_VIEW and HAVE_PLAYWRIGHT),
                     reason="the viewer test needs the [viz] extra and Playwright: pip install -e '.[test,viz]'")

@@ -82,7 +82,7 @@ def export_path(trajectory, output=None, fmt: str = "vtkhdf") -> Path:
         raise CortexError(f"-o '{output}' has the suffix of another format than --format {fmt} ({suffix})")
     name = trajectory.name
     for end in (".partial", ".h5", ".nc"):
-        name = name[: -len(end)] if name.endswith(end) else name
+        name = name.removesuffix(end)
     folder = Path(output) if output is not None else trajectory.parent
     return folder / (name + suffix)
 

@@ -7,7 +7,7 @@ import importlib.util
 
 from ..errors import CortexError
 
-__all__ = ["VIZ_EXTRA", "NEEDS", "RENDERERS", "missing", "require"]
+__all__ = ["NEEDS", "RENDERERS", "VIZ_EXTRA", "missing", "require"]
 
 #: Values of ``--renderer`` (:func:`cortex_ti.viz.render.choose_renderer`).
 RENDERERS: tuple[str, ...] = ("auto", "pyvista", "matplotlib")

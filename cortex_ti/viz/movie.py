@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import os
 import secrets
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from ..errors import CortexError
 from ..plotting import COLORS, DEFAULT_VIEW, MAX_ARROWS
@@ -70,10 +70,10 @@ def write_movie(ds, path, color: str = "speed", frames: Sequence[int] | None = N
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.tmp{path.suffix}")
     if fmt == "mp4":
-        options = dict(format="FFMPEG", fps=float(fps), codec="libx264", pixelformat="yuv420p", quality=8,
-                       macro_block_size=2, ffmpeg_log_level="error")
+        options = {"format": "FFMPEG", "fps": float(fps), "codec": "libx264", "pixelformat": "yuv420p",
+                   "quality": 8, "macro_block_size": 2, "ffmpeg_log_level": "error"}
     else:
-        options = dict(format="GIF", mode="I", duration=1000.0 / float(fps), loop=0)
+        options = {"format": "GIF", "mode": "I", "duration": 1000.0 / float(fps), "loop": 0}
     try:
         with frame_renderer(ds, color, ks, renderer, size=size, view=view, arrows=arrows, max_arrows=max_arrows,
                             clim=clim) as fr, iio.get_writer(tmp, **options) as writer:

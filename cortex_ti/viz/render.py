@@ -39,8 +39,8 @@ import json
 import os
 import subprocess
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -57,8 +57,15 @@ from ..plotting import (
 )
 from .extra import RENDERERS, VIZ_EXTRA, missing
 
-__all__ = ["RENDERERS", "Renderer", "choose_renderer", "colour_limits", "frame_renderer", "MatplotlibFrames",
-           "PyVistaFrames"]
+__all__ = [
+    "RENDERERS",
+    "MatplotlibFrames",
+    "PyVistaFrames",
+    "Renderer",
+    "choose_renderer",
+    "colour_limits",
+    "frame_renderer",
+]
 
 _PROBE = """
 import json, sys
@@ -104,7 +111,7 @@ def _probe(window: str | None, timeout: float = 120.0) -> dict | None:
         env["VTK_DEFAULT_OPENGL_WINDOW"] = window
     try:
         res = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True,
-                             timeout=timeout)
+                             timeout=timeout, check=False)
     except (subprocess.TimeoutExpired, OSError):
         return None
     lines = [ln for ln in res.stdout.splitlines() if ln.startswith("{")]
@@ -114,7 +121,7 @@ def _probe(window: str | None, timeout: float = 120.0) -> dict | None:
     return info if info.get("ok") else None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def choose_renderer(prefer: str = "auto") -> Renderer:
     """The renderer for ``prefer`` (one of :data:`RENDERERS`); see the module docstring.
 
@@ -233,9 +240,9 @@ class PyVistaFrames:
         self.surface.point_data[color] = node_values(self.ds, k, color)
         if self.plotter.scalar_bars:
             self.plotter.remove_scalar_bar()
-        bar = dict(title=PLAIN_LABELS.get(color, color), vertical=False, position_x=0.2, position_y=0.03, width=0.6,
-                   height=0.07, color="black", title_font_size=self.font_size, label_font_size=self.font_size - 2,
-                   fmt="%.3g", n_labels=5)
+        bar = {"title": PLAIN_LABELS.get(color, color), "vertical": False, "position_x": 0.2, "position_y": 0.03,
+               "width": 0.6, "height": 0.07, "color": "black", "title_font_size": self.font_size,
+               "label_font_size": self.font_size - 2, "fmt": "%.3g", "n_labels": 5}
         self.plotter.add_mesh(self.surface, scalars=color, cmap=self.cmap, clim=self.clim, smooth_shading=True,
                               show_edges=self.edges, edge_color="black", edge_opacity=0.15, line_width=0.5,
                               show_scalar_bar=self.scalar_bar, scalar_bar_args=bar, lighting=self.lighting,

@@ -77,11 +77,10 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
             v3.VSlider(v_model=("frame",), min=0, max=n - 1, step=1, label="frame", density="compact",
                        hide_details=True, style="max-width: 380px; margin-left: 16px;")
             html.Div("{{ time_text }}", style="margin: 0 16px; min-width: 220px;")
-        with layout.content:
-            with v3.VContainer(fluid=True, classes="pa-0 fill-height"):
-                view = vtk_widgets.VtkRemoteView(window, interactive_ratio=1, interactive_quality=80)
-                ctrl.view_update = view.update
-                ctrl.view_reset_camera = view.reset_camera
+        with layout.content, v3.VContainer(fluid=True, classes="pa-0 fill-height"):
+            view = vtk_widgets.VtkRemoteView(window, interactive_ratio=1, interactive_quality=80)
+            ctrl.view_update = view.update
+            ctrl.view_reset_camera = view.reset_camera
     return server, scene
 
 
