@@ -293,12 +293,18 @@ def view_image(page) -> np.ndarray:
 @pytest.mark.skipif(not (HAVE_VIEW and HAVE_PLAYWRIGHT),
                     reason="the viewer test needs the [viz] extra and Playwright: pip install -e '.[test,viz]'")
 def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour(run, tmp_path, pyvista_renderer):
+    """Loaded in Chromium: a picture with content, the slider to frame 0 changes it, the colour
+    choice changes its colour map; "reload" reads the file again (here cut to 3 frames)."""
     from playwright.sync_api import sync_playwright
 
+    from cortex_ti.io import write_dataset
+
+    live = tmp_path / "live.h5"
+    shutil.copy(run, live)
     port = free_port()
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(Path(__file__).parents[1]),
                                                                      os.environ.get("PYTHONPATH")]))}
-    proc = subprocess.Popen([sys.executable, "-m", "cortex_ti", "view", str(run), "--port", str(port), "--no-browser"],
+    proc = subprocess.Popen([sys.executable, "-m", "cortex_ti", "view", str(live), "--port", str(port), "--no-browser"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         wait_for_port(port, proc)
@@ -330,6 +336,10 @@ def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour
             page.wait_for_timeout(2500)
             stress = not_background(view_image(page))
             assert fits_better(stress, "plasma", "viridis") and fits_better(surface, "viridis", "plasma")
+            # reload: the file now has 3 frames; the viewer goes to the last of them
+            write_dataset(load_trajectory(run).isel(time=slice(0, 3)), live)
+            page.get_by_text("reload").click()
+            page.get_by_text("t = 0.02 t_a  (frame 2; frames 0..2)").wait_for(timeout=30_000)
             browser.close()
     finally:
         proc.terminate()

@@ -112,4 +112,4 @@ def _view(args) -> int:
     from .viewer import serve
 
     return serve(ds, name=args.trajectory.name, color=color, host=args.host, port=args.port,
-                 open_browser=not args.no_browser)
+                 open_browser=not args.no_browser, reload=lambda: load_trajectory(args.trajectory))

@@ -23,9 +23,16 @@ NEEDS: dict[str, tuple[str, ...]] = {
 }
 
 
+def _absent(module: str) -> bool:
+    try:
+        return importlib.util.find_spec(module) is None
+    except (ImportError, ValueError):      # e.g. a parent package that fails to import
+        return True
+
+
 def missing(feature: str) -> list[str]:
-    """The modules of ``feature`` (a key of :data:`NEEDS`) that cannot be imported here."""
-    return [m for m in NEEDS[feature] if importlib.util.find_spec(m) is None]
+    """The modules of ``feature`` (a key of :data:`NEEDS`) that cannot be found here."""
+    return [m for m in NEEDS[feature] if _absent(m)]
 
 
 def require(feature: str, command: str) -> None:

@@ -22,11 +22,13 @@ __all__ = ["build_viewer", "serve"]
 log = logging.getLogger("cortex_ti")
 
 
-def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None, size=(900, 800)):
+def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None, size=(900, 800), reload=None):
     """The trame server of the viewer of ``ds`` (not started) and its :class:`PyVistaFrames`.
 
-    State variables: ``frame`` (index), ``color`` (a key of :data:`cortex_ti.plotting.COLORS`),
-    ``time_text``.
+    State variables: ``frame`` (index), ``last`` (the last frame index), ``color`` (a key of
+    :data:`cortex_ti.plotting.COLORS`), ``time_text``. ``reload``: a function returning the
+    trajectory read again (e.g. the ``.partial`` file of a run still going); with it, a
+    "reload" button shows the frames written since, the colour limits taken over all of them.
     """
     if color not in COLORS:
         raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
@@ -41,8 +43,8 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
     from vtkmodules.vtkRenderingCore import vtkRenderWindowInteractor
 
-    n = int(ds.sizes["time"])
-    times = np.asarray(ds["time"].values, dtype=float)
+    run = {"n": int(ds.sizes["time"]), "times": np.asarray(ds["time"].values, dtype=float)}
+    n = run["n"]
     scene = PyVistaFrames(ds, color, list(range(n)), size=size, view=DEFAULT_VIEW, time_label=False)
     scene.show(n - 1)
     window = scene.plotter.ren_win
@@ -55,18 +57,33 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     state, ctrl = server.state, server.controller
     state.trame__title = f"cortex-ti: {name}"
     state.frame = n - 1
+    state.last = n - 1
     state.color = color
     state.colors = [{"title": COLORS[c][0], "value": c} for c in COLORS]
-    state.time_text = f"t = {times[-1]:.4g} t_a  (frame {n - 1}; frames 0..{n - 1})"
+
+    def describe(k: int) -> str:
+        return f"t = {run['times'][k]:.4g} t_a  (frame {k}; frames 0..{run['n'] - 1})"
+
+    state.time_text = describe(n - 1)
 
     @state.change("frame", "color")
     def _update(frame, color, **_):
-        k = min(max(int(frame), 0), n - 1)
+        k = min(max(int(frame), 0), run["n"] - 1)
         if color != scene.color:
             scene.set_color(color)
         scene.show(k)
-        state.time_text = f"t = {times[k]:.4g} t_a  (frame {k}; frames 0..{n - 1})"
+        state.time_text = describe(k)
         ctrl.view_update()
+
+    def _reload():
+        new = reload()
+        run["n"], run["times"] = int(new.sizes["time"]), np.asarray(new["time"].values, dtype=float)
+        scene.ds, scene.frames = new, list(range(run["n"]))
+        scene.set_color(scene.color)              # colour limits over the frames now there
+        state.last = run["n"] - 1
+        if state.frame == run["n"] - 1:           # the slider did not move: draw anyway
+            _update(state.frame, state.color)
+        state.frame = run["n"] - 1
 
     with SinglePageLayout(server) as layout:
         layout.title.set_text(f"cortex-ti: {name}")
@@ -74,9 +91,12 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
             v3.VSpacer()
             v3.VSelect(v_model=("color",), items=("colors",), label="colour", density="compact",
                        hide_details=True, style="max-width: 260px;")
-            v3.VSlider(v_model=("frame",), min=0, max=n - 1, step=1, label="frame", density="compact",
+            v3.VSlider(v_model=("frame",), min=0, max=("last",), step=1, label="frame", density="compact",
                        hide_details=True, style="max-width: 380px; margin-left: 16px;")
             html.Div("{{ time_text }}", style="margin: 0 16px; min-width: 220px;")
+            if reload is not None:
+                v3.VBtn("reload", click=_reload, variant="outlined", density="compact",
+                        title="read the trajectory again (a run still going has more frames)")
         with layout.content, v3.VContainer(fluid=True, classes="pa-0 fill-height"):
             view = vtk_widgets.VtkRemoteView(window, interactive_ratio=1, interactive_quality=80)
             ctrl.view_update = view.update
@@ -85,9 +105,15 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
 
 
 def serve(ds, name: str = "trajectory", color: str = "speed", host: str = "127.0.0.1", port: int = 8080,
-          open_browser: bool = True) -> int:
-    """Build the viewer and serve it until interrupted; returns 0."""
-    server, scene = build_viewer(ds, name, color)
+          open_browser: bool = True, reload=None) -> int:
+    """Build the viewer and serve it until interrupted (port 0: a free one); returns 0."""
+    if port == 0:
+        import socket
+
+        with socket.socket() as s:
+            s.bind((host, 0))
+            port = s.getsockname()[1]
+    server, scene = build_viewer(ds, name, color, reload=reload)
     print(f"cortex-ti: viewing {name} at http://{host}:{port}/ (Ctrl+C to stop)", flush=True)
     try:
         server.start(host=host, port=port, open_browser=open_browser, show_connection_info=False)
