@@ -40,8 +40,9 @@ EXPORT_FORMATS: dict[str, str] = {"vtkhdf": ".vtkhdf", "pvd": ".pvd"}
 #: VTK's cell type number of a linear triangle.
 VTK_TRIANGLE = 5
 
-#: VTKHDF version written (2.0 added time steps).
-_VTKHDF_VERSION = (2, 2)
+#: VTKHDF version written: 2.0, the first with time steps (the layout used here has not changed since),
+#: so that older readers (ParaView 5.12, VTK 9.3) take it too.
+_VTKHDF_VERSION = (2, 0)
 
 
 def _frames(path, every: int):
