@@ -457,7 +457,7 @@ def test_cli_plot_reads_the_partial_file_of_a_running_simulation(tmp_path, capsy
         np.testing.assert_array_equal(ds["time"].values, TIMES[:2])
         for given in (partial_path(path), path):                   # the .partial name, or the final one
             out = tmp_path / "live.png"
-            rc, stdout, stderr = run(["plot", str(given), "-o", str(out)], capsys)
+            rc, _, stderr = run(["plot", str(given), "-o", str(out)], capsys)
             assert rc == 0, stderr
             assert imread(out).shape[:2] == (720, 1650)
     finally:

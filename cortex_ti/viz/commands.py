@@ -60,7 +60,8 @@ def add_commands(sub) -> None:
     movie.add_argument("--color", default="speed", help=f"colour quantity: {colours} (default speed)")
     movie.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
     movie.add_argument("--every", type=int, default=1, help="every k-th frame of the trajectory (default 1)")
-    movie.add_argument("--size", default="800x800", help="WIDTHxHEIGHT in pixels, rounded down to even (default 800x800)")
+    movie.add_argument("--size", default="800x800",
+                       help="WIDTHxHEIGHT in pixels, rounded down to even numbers (default 800x800)")
     movie.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60)")
     movie.add_argument("--no-arrows", action="store_true", help="no velocity arrows")
     add_renderer_option(movie)

@@ -25,8 +25,9 @@ What a PyVista picture shows
 ----------------------------
 The surface with the node values of the quantity (:func:`cortex_ti.plotting.node_values`)
 interpolated across each triangle and smooth shading; velocity arrows (black) at an evenly
-spread subset of the moving nodes (at most ``max_arrows``; the fastest one 12 % of the size of
-the shape, as in :mod:`cortex_ti.plotting`); the camera at the view angles ``(elev, azim)`` of
+spread subset of the moving nodes (at most ``max_arrows``; the fastest node of all the frames
+given has an arrow 12 % of the size of the shape, as in :mod:`cortex_ti.plotting` for one
+frame); the camera at the view angles ``(elev, azim)`` of
 matplotlib's convention (:func:`cortex_ti.plotting.view_direction`, z up) and a zoom that stays
 fixed across the frames given to :func:`frame_renderer`; optionally a horizontal colour bar and
 the time in the upper left corner.
@@ -219,7 +220,7 @@ class PyVistaFrames:
         self.plotter = pv.Plotter(off_screen=True, window_size=tuple(int(s) for s in size))
         self.plotter.set_background("white")
         self.surface = pv.PolyData(np.asarray(ds["points"][frames[0]].values, dtype=float), faces)
-        self.set_color(color, clim, cmap)
+        self.set_frames(ds, frames, color, clim, cmap)
         centre, half = _bounds(ds, frames, arrows)
         self.half_shape = half / (1.0 + 2.0 * ARROW_FRACTION) if arrows else half / 1.02
         eye = centre + 4.0 * half * view_direction(*view)
@@ -227,6 +228,19 @@ class PyVistaFrames:
         # the same zoom for all the frames given: the cube that holds them fills the picture
         self.plotter.reset_camera(bounds=tuple(np.ravel(np.column_stack([centre - half, centre + half]))))
         self.plotter.camera.zoom(1.3)
+
+    def set_frames(self, ds, frames: Sequence[int], color: str | None = None, clim=None, cmap=None) -> None:
+        """Draw from ``ds`` (the same mesh, e.g. the file read again with more frames) and the
+        ``frames`` given: the colour limits (unless ``clim``), one arrow scale for them all (a
+        slowing flow shows shorter arrows) and the decimals of the time (as many as the frame
+        spacing needs) are taken over them. The zoom stays."""
+        self.ds, self.frames = ds, list(frames)
+        speeds = [np.linalg.norm(np.asarray(ds["velocity"][k].values, dtype=float), axis=1).max() for k in self.frames]
+        self.speed_max = float(max(speeds))
+        spacing = np.diff(np.sort(np.asarray(ds["time"].values, dtype=float)[self.frames]))
+        spacing = spacing[spacing > 0]
+        self.decimals = int(np.clip(np.ceil(-np.log10(spacing.min())), 1, 8)) if spacing.size else 3
+        self.set_color(color or self.color, clim, cmap)
 
     def set_color(self, color: str, clim=None, cmap=None) -> None:
         """Colour the surface by ``color`` from now on (limits ``clim``, default over the frames
@@ -236,7 +250,8 @@ class PyVistaFrames:
         self.color = color
         self.clim = tuple(float(c) for c in clim) if clim is not None else colour_limits(self.ds, color, self.frames)
         self.cmap = cmap or COLORS[color][1]
-        k = getattr(self, "frame", self.frames[0])
+        k = getattr(self, "frame", None)
+        k = k if k is not None and k < self.ds.sizes["time"] else self.frames[0]
         self.surface.point_data[color] = node_values(self.ds, k, color)
         if self.plotter.scalar_bars:
             self.plotter.remove_scalar_bar()
@@ -262,7 +277,7 @@ class PyVistaFrames:
                 chosen = spread_nodes(pts, moving, self.max_arrows, int(moving[np.argmax(speed[moving])]))
                 cloud = self._pv.PolyData(pts[chosen])
                 cloud["velocity"] = vel[chosen]
-                scale = ARROW_FRACTION * 2.0 * self.half_shape / float(speed.max())
+                scale = ARROW_FRACTION * 2.0 * self.half_shape / self.speed_max
                 glyphs = cloud.glyph(orient="velocity", scale="velocity", factor=scale,
                                      geom=self._pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04))
                 self.plotter.add_mesh(glyphs, color="black", name="arrows")
@@ -271,8 +286,9 @@ class PyVistaFrames:
         if self.time_label:
             t = float(ds["time"].values[k])
             w, h = self.plotter.window_size
-            self.plotter.add_text(f"t = {t:.3f} t_a", position=(int(0.03 * w), int(h - 0.03 * w - 1.6 * self.font_size)),
-                                  font_size=self.font_size, color="black", name="time")
+            corner = (int(0.03 * w), int(h - 0.03 * w - 1.6 * self.font_size))
+            self.plotter.add_text(f"t = {t:.{self.decimals}f} t_a", position=corner, font_size=self.font_size,
+                                  color="black", name="time")
 
     def show(self, k: int) -> None:
         """Put frame ``k`` in the scene (without drawing it)."""

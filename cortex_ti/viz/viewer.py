@@ -78,8 +78,7 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     def _reload():
         new = reload()
         run["n"], run["times"] = int(new.sizes["time"]), np.asarray(new["time"].values, dtype=float)
-        scene.ds, scene.frames = new, list(range(run["n"]))
-        scene.set_color(scene.color)              # colour limits over the frames now there
+        scene.set_frames(new, range(run["n"]))   # colour limits and arrow scale over the frames now there
         state.last = run["n"] - 1
         if state.frame == run["n"] - 1:           # the slider did not move: draw anyway
             _update(state.frame, state.color)
