@@ -85,7 +85,8 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
         state.frame = run["n"] - 1
 
     with SinglePageLayout(server) as layout:
-        layout.title.set_text(f"cortex-ti: {name}")
+        layout.title.set_text(name)
+        layout.title.style = "min-width: 8em;"
         with layout.toolbar:
             v3.VSpacer()
             v3.VSelect(v_model=("color",), items=("colors",), label="colour", density="compact",
