@@ -268,7 +268,7 @@ def test_figure_frame_and_series(ds, frames):
 
 def collisions(fig) -> list[tuple[str, str]]:
     """Pairs of parts of a drawn figure that overlap: the colour bars (with their ticks and
-    labels), the 3D panels' axis labels (when their axes are drawn) and titles."""
+    labels), the 3D panels' axis labels (when their axes are drawn), the panels' titles."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.transforms import Bbox
 
@@ -279,8 +279,8 @@ def collisions(fig) -> list[tuple[str, str]]:
     for i, ax in enumerate(fig.axes):
         if ax.get_label() == "<colorbar>":
             parts.append((f"colour bar {i}", ax.get_tightbbox(r)))
-        elif ax.name == "3d":
-            if ax._axis3don:          # mplot3d's own switch of set_axis_on/off
+        else:
+            if ax.name == "3d" and ax._axis3don:          # mplot3d's own switch of set_axis_on/off
                 parts += [(f"{a.label.get_text()} of panel {i}", a.label.get_window_extent(r))
                           for a in (ax.xaxis, ax.yaxis, ax.zaxis)]
             if ax.title.get_text():

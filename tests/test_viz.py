@@ -187,6 +187,33 @@ def test_cli_plot_with_matplotlib_says_so(run, tmp_path, capsys):
     assert imread(out).shape[:2] == (825, 975)
 
 
+@pytest.mark.parametrize("renderer_name", ["pyvista", "matplotlib"])
+def test_report_snapshot_panels(ds, renderer_name, request):
+    """Bare frames in a grid as the report draws them (cortex_ti.viz.figure.frame_panel): nothing
+    collides, and each PyVista panel is its picture cut to the shape (content up to the edges)."""
+    from matplotlib.figure import Figure
+    from test_plotting import collisions
+
+    from cortex_ti.viz.figure import frame_panel
+
+    renderer = request.getfixturevalue("pyvista_renderer") if renderer_name == "pyvista" else choose_renderer(
+        "matplotlib")
+    fig = Figure(figsize=(2.6 * 3, 2.7 * 2), layout="constrained")
+    for i in range(6):
+        ax, bar = frame_panel(fig, (2, 3, i + 1), ds, i, "speed" if i % 2 else "active_stress", renderer=renderer,
+                              pixels=300)
+        ax.set_title(f"t = {float(ds['time'][i]):.4g}", fontsize=8)
+        assert bar.ax.get_label() == "<colorbar>"
+        if renderer_name == "pyvista":
+            (image,) = ax.get_images()
+            picture = np.asarray(image.get_array())
+            ink = np.any(picture[..., :3] < 245, axis=-1)          # what crop_to_content keeps
+            extent = max(np.ptp(np.flatnonzero(ink.any(axis=1))), np.ptp(np.flatnonzero(ink.any(axis=0)))) + 1
+            assert extent >= 0.9 * max(picture.shape[:2])          # the shape spans the panel (3 % margins)
+            assert not_background(np.asarray(picture)).shape[0] > 0.4 * picture.shape[0] * picture.shape[1]
+    assert collisions(fig) == []
+
+
 # ---------------------------------------------------------------------------------------------
 # movies
 # ---------------------------------------------------------------------------------------------
