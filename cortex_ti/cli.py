@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | scenes | schema``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) and every operating-system or file error
 (a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
@@ -23,6 +23,8 @@ log = logging.getLogger("cortex_ti")
 
 
 def _parser() -> argparse.ArgumentParser:
+    from .viz.commands import add_commands, add_renderer_option
+
     p = argparse.ArgumentParser(prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021).")
     p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
     sub = p.add_subparsers(dest="command", required=True)
@@ -48,12 +50,14 @@ def _parser() -> argparse.ArgumentParser:
     chk.add_argument("scene")
     chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
 
-    exp = sub.add_parser("export", help="write a trajectory as a ParaView series (one VTU per frame + .pvd)")
+    exp = sub.add_parser("export", help="write a trajectory for ParaView: one .vtkhdf file with its time steps "
+                                         "(default), or a .pvd with frames named after the run")
     exp.add_argument("trajectory", type=Path)
     exp.add_argument("-o", "--output", type=Path, default=None,
-                     help="folder, new or empty (default: the trajectory's name without .h5, next to it)")
+                     help="file (.vtkhdf or .pvd) or folder (default: next to the trajectory, named after it)")
+    exp.add_argument("--format", dest="fmt", default=None, help="vtkhdf (default) or pvd; default from -o's suffix")
     exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
-    exp.add_argument("--force", action="store_true", help="replace the folder if it exists and is not empty")
+    exp.add_argument("--force", action="store_true", help="replace an existing export of the same run")
 
     plot = sub.add_parser("plot", help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
                                        "time series; works on the .partial file of a running simulation")
@@ -69,6 +73,8 @@ def _parser() -> argparse.ArgumentParser:
                            "orientation_angle, those the file has); '' for none")
     plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60; write --view=-20,30 for a negative elevation)")
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
+    add_renderer_option(plot)
+    add_commands(sub)   # movie, view (cortex_ti.viz.commands)
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser("schema", help="print the scene schema (JSON schema, with every registered fit, scheme, "
@@ -224,37 +230,34 @@ def _check(args) -> int:
 
 
 def _export(args) -> int:
-    from .io.export import export_vtu_series
+    from .io.export import EXPORT_FORMATS, export_trajectory
 
+    fmt = args.fmt
+    if fmt is None:
+        by_suffix = {suffix: name for name, suffix in EXPORT_FORMATS.items()}
+        fmt = by_suffix.get(args.output.suffix.lower(), "vtkhdf") if args.output is not None else "vtkhdf"
+    if fmt not in EXPORT_FORMATS:
+        raise CortexError(f"unknown --format '{fmt}'; choose one of: {', '.join(EXPORT_FORMATS)}")
+    if args.every < 1:
+        raise CortexError(f"--every must be >= 1, got {args.every}")
     if not args.trajectory.exists():
         raise CortexError(f"trajectory file '{args.trajectory}' does not exist")
-    print(export_vtu_series(args.trajectory, args.output, args.every, force=args.force))
+    print(export_trajectory(args.trajectory, args.output, fmt, args.every, force=args.force))
     return 0
 
 
 def _plot(args) -> int:
     from .io import load_trajectory
-    from .plotting import (
-        COLORS,
-        DEFAULT_SERIES,
-        DEFAULT_VIEW,
-        figure_format,
-        figure_frame_and_series,
-        save_figure,
-        series_names,
-    )
+    from .plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
+    from .viz.commands import announce, parse_view
+    from .viz.figure import frame_figure
+    from .viz.render import choose_renderer
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
     if args.color not in COLORS:
         raise CortexError(f"unknown --color '{args.color}'; choose one of: {', '.join(COLORS)}")
-    view = DEFAULT_VIEW
-    if args.view is not None:
-        try:
-            elev, azim = (float(v) for v in args.view.split(","))
-        except ValueError:
-            raise CortexError(f"--view must be ELEV,AZIM in degrees (e.g. 20,-60), got '{args.view}'") from None
-        view = (elev, azim)
+    view = parse_view(args.view)
     if not args.dpi > 0:
         raise CortexError(f"--dpi must be > 0, got {args.dpi:g}")
     ds = load_trajectory(args.trajectory)
@@ -270,7 +273,10 @@ def _plot(args) -> int:
                 f"{', '.join(available) or 'no per-frame variables'}"
             )
     frame = args.frame if args.frame is not None else args.time if args.time is not None else -1
-    fig = figure_frame_and_series(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi)
+    frame = frame_index(ds, frame)      # refused before anything is said or drawn
+    renderer = choose_renderer(args.renderer)
+    announce(renderer)
+    fig = frame_figure(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi, renderer=renderer)
     print(save_figure(fig, args.output))
     return 0
 
@@ -303,8 +309,9 @@ def main(argv: list[str] | None = None) -> int:
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
         with interruptible():
-            return {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
-                    "schema": _schema}[args.command](args)
+            commands = {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
+                        "schema": _schema}
+            return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2

@@ -45,8 +45,8 @@ from __future__ import annotations
 import os
 import secrets
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from matplotlib.colors import Normalize
@@ -57,11 +57,13 @@ from .errors import CortexError
 from .surface.mesh import vertex_normals
 
 __all__ = [
+    "ARROW_FRACTION",
     "COLORS",
     "DEFAULT_SERIES",
     "DEFAULT_VIEW",
     "FORMATS",
     "MAX_ARROWS",
+    "colorbar_below",
     "figure_format",
     "figure_frame_and_series",
     "frame_index",
@@ -70,6 +72,7 @@ __all__ = [
     "plot_timeseries",
     "save_figure",
     "series_names",
+    "spread_nodes",
     "view_direction",
 ]
 
@@ -93,7 +96,7 @@ FORMATS: tuple[str, ...] = ("png", "pdf", "svg")
 MAX_ARROWS = 150
 
 #: Length of the longest arrow as a fraction of the size of the shape.
-_ARROW_FRACTION = 0.12
+ARROW_FRACTION = 0.12
 
 
 # ---------------------------------------------------------------------------------------------
@@ -174,8 +177,9 @@ def view_direction(elev: float, azim: float) -> np.ndarray:
     return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
 
 
-def _spread(points: np.ndarray, candidates: np.ndarray, count: int, start: int) -> np.ndarray:
-    """Greedy farthest-point subset of ``count`` of the ``candidates`` (indices), from ``start``."""
+def spread_nodes(points: np.ndarray, candidates: np.ndarray, count: int, start: int) -> np.ndarray:
+    """Greedy farthest-point subset of ``count`` of the ``candidates`` (node indices), starting
+    from the node ``start`` (one of them); all of them if there are no more than ``count``."""
     if len(candidates) <= count:
         return candidates
     p = points[candidates]
@@ -192,7 +196,7 @@ def _spread(points: np.ndarray, candidates: np.ndarray, count: int, start: int) 
 # the two panels
 # ---------------------------------------------------------------------------------------------
 def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None, view=None,
-               cmap=None, clim=None, max_arrows: int = MAX_ARROWS):
+               cmap=None, clim=None, max_arrows: int = MAX_ARROWS, axes: bool = True):
     """Draw one frame: the surface coloured per face, velocity arrows on the visible side.
 
     Parameters
@@ -219,6 +223,9 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
         ``normal_velocity``).
     max_arrows : int
         Largest number of arrows.
+    axes : bool
+        Draw the axes (panes, ticks, labels in R0); ``False`` for the shape alone, as in small
+        multiples of snapshots where the labels of neighbouring 3D panels would collide.
 
     Returns
     -------
@@ -240,7 +247,10 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
     if arrows:
         _velocity_arrows(ax, pts, tri, np.asarray(ds["velocity"][k].values, dtype=float), half, max_arrows)
-    _frame_axes(ax, centre, half * (1.0 + 2.0 * _ARROW_FRACTION if arrows else 1.02))
+    _frame_axes(ax, centre, half * (1.0 + 2.0 * ARROW_FRACTION if arrows else 1.02))
+    if not axes:
+        ax.set_axis_off()
+        ax.set_box_aspect((1, 1, 1), zoom=1.4)    # the room of the labels goes to the shape
     ax.set_title(f"t = {float(ds['time'].values[k]):.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})",
                  fontsize=9)
     return ax, surface
@@ -289,8 +299,8 @@ def _velocity_arrows(ax, pts, tri, vel, half, max_arrows) -> None:
     if not candidates.size:
         return
     start = int(candidates[np.argmax(facing[candidates])])
-    chosen = _spread(pts, candidates, int(max_arrows), start)
-    length = _ARROW_FRACTION * 2.0 * half / float(speed.max())
+    chosen = spread_nodes(pts, candidates, int(max_arrows), start)
+    length = ARROW_FRACTION * 2.0 * half / float(speed.max())
     q = ax.quiver(*pts[chosen].T, *vel[chosen].T, length=length, normalize=False,
                   arrow_length_ratio=0.3, color="k", linewidths=0.6, zorder=2)
     q.set_gid("velocity")
@@ -305,6 +315,16 @@ def _frame_axes(ax, centre, half) -> None:
     for axis in "xyz":
         getattr(ax, f"set_{axis}label")(f"{axis} [R0]", fontsize=8, labelpad=2)
     ax.tick_params(labelsize=7, pad=1)
+
+
+def colorbar_below(fig: Figure, ax, mappable, label: str, fontsize: float = 8.0, pad: float = 0.04):
+    """A horizontal colour bar under the panel ``ax`` (a 3D frame or a picture of one), labelled
+    below it: neither its label nor its ticks run into the panel's z axis label, as a vertical
+    bar beside a 3D axes does. Returns the :class:`~matplotlib.colorbar.Colorbar`."""
+    bar = fig.colorbar(mappable, ax=ax, location="bottom", shrink=0.6, pad=0.04, fraction=0.05, aspect=30)
+    bar.set_label(label, fontsize=fontsize)
+    bar.ax.tick_params(labelsize=fontsize - 1)
+    return bar
 
 
 def series_names(ds) -> list[str]:
@@ -396,10 +416,18 @@ def plot_timeseries(ds, names: Sequence[str] = DEFAULT_SERIES, ax=None, mark_tim
 
 def figure_frame_and_series(ds, frame=-1, color: str = "speed", arrows: bool = True,
                             series: Sequence[str] | None = DEFAULT_SERIES, view=DEFAULT_VIEW,
-                            figsize=None, dpi: float = 150.0) -> Figure:
-    """A figure with the 3D frame (and its colorbar) on the left and the time series on the
-    right, with a vertical line at the frame's time.  ``series=None`` or empty: the 3D panel only.
-    Default size 11 x 4.8 inches (6.5 x 5.5 without series); the PNG is ``figsize * dpi`` pixels.
+                            figsize=None, dpi: float = 150.0, image=None, clim=None, cmap=None) -> Figure:
+    """A figure with the 3D frame (its colour bar below it) on the left and the time series on
+    the right, with a vertical line at the frame's time.  ``series=None`` or empty: the 3D panel
+    only.  Default size 11 x 4.8 inches (6.5 x 5.5 without series); the PNG is ``figsize * dpi``
+    pixels.
+
+    ``image``: an ``(H, W, 3)`` picture of the frame drawn elsewhere (e.g. by PyVista,
+    :mod:`cortex_ti.viz.render`) to show instead of the matplotlib 3D panel; ``clim`` (required
+    then) and ``cmap`` are the colours it was drawn with, for the colour bar.
+
+    Layout: the colour bar is horizontal under the 3D panel, so that neither its label nor the
+    panel's z label run into each other; the twin y axes of the series get room on the right.
     """
     k = frame_index(ds, frame)
     if isinstance(series, str):
@@ -410,16 +438,31 @@ def figure_frame_and_series(ds, frame=-1, color: str = "speed", arrows: bool = T
     fig = Figure(figsize=figsize, dpi=dpi)
     if with_series:
         units = {str(ds[n].attrs.get("units", "")) for n in series if n in ds.data_vars}
-        right = 0.90 - 0.07 * max(len(units) - 1, 0)      # room for the twin y axes
-        grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 1.0), left=0.05, right=right, bottom=0.12, top=0.92,
-                                wspace=0.3)
-        ax3d = fig.add_subplot(grid[0, 0], projection="3d")
+        right = 0.92 - 0.07 * max(len(units) - 1, 0)      # room for the twin y axes
+        grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 1.1), left=0.02, right=right, bottom=0.12, top=0.9,
+                                wspace=0.22)
+        slot = grid[0, 0]
     else:
-        ax3d = fig.add_subplot(projection="3d")
-    _, mappable = plot_frame(ds, k, color=color, arrows=arrows, ax=ax3d, view=view)
-    fig.colorbar(mappable, ax=ax3d, shrink=0.7, pad=0.08, label=COLORS[color][0])
+        slot = fig.add_gridspec(1, 1, left=0.02, right=0.98, bottom=0.09, top=0.92)[0, 0]
+    t = float(ds["time"].values[k])
+    if image is None:
+        ax3d = fig.add_subplot(slot, projection="3d")
+        _, mappable = plot_frame(ds, k, color=color, arrows=arrows, ax=ax3d, view=view, clim=clim, cmap=cmap)
+        ax3d.zaxis.labelpad = 0
+        panel = ax3d
+    else:
+        if clim is None:
+            raise ValueError("an image needs the colour limits it was drawn with (clim)")
+        from matplotlib.cm import ScalarMappable
+
+        panel = fig.add_subplot(slot)
+        panel.imshow(np.asarray(image), interpolation="antialiased")
+        panel.set_axis_off()
+        panel.set_title(f"t = {t:.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})", fontsize=9)
+        mappable = ScalarMappable(norm=Normalize(*(float(c) for c in clim)), cmap=cmap or COLORS[color][1])
+    colorbar_below(fig, panel, mappable, COLORS[color][0])
     if with_series:
-        plot_timeseries(ds, series, ax=fig.add_subplot(grid[0, 1]), mark_time=float(ds["time"].values[k]))
+        plot_timeseries(ds, series, ax=fig.add_subplot(grid[0, 1]), mark_time=t)
     return fig
 
 

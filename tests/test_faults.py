@@ -288,7 +288,6 @@ CASES = {
                                "cannot read trajectory"),
     "export a truncated file": (lambda d: ["export", str(_truncated(d)), "-o", str(d / "vtu")],
                                 "cannot read trajectory"),
-    "export into a non-empty folder": (lambda d: ["export", str(_not_hdf5(d)), "-o", str(d)], "is not empty"),
     "export under a file": (lambda d: ["export", str(_not_hdf5(d)), "-o", str(d / "file" / "vtu")],
                             "is a file"),
     "plot a non-HDF5 file": (lambda d: ["plot", str(_not_hdf5(d)), "-o", str(d / "p.png")],
@@ -341,18 +340,21 @@ def test_a_bad_cortex_ti_threads_is_one_line(tmp_path, capsys, monkeypatch, valu
 
 
 @pytest.mark.slow
-def test_export_is_atomic_and_refuses_a_folder_with_files(tmp_path, reference, capsys):
+def test_export_is_atomic_and_never_replaces_without_force(tmp_path, reference, capsys):
+    """An export is named after its run (files of other runs in the folder are left alone); a second
+    export of the same run is refused without --force; nothing temporary is left."""
     target = tmp_path / "vtu"
     target.mkdir()
-    assert main(["export", str(reference), "-o", str(target)]) == 0      # an empty folder is fine
-    files = sorted(p.name for p in target.iterdir())
-    assert "ref.pvd" in files and len(files) == load_trajectory(reference).sizes["time"] + 1
-    assert main(["export", str(reference), "-o", str(target)]) == 2
-    assert "is not empty" in capsys.readouterr().err
     (target / "mine.txt").write_text("x")
+    assert main(["export", str(reference), "-o", str(target)]) == 0
+    assert sorted(p.name for p in target.iterdir()) == ["mine.txt", "ref.vtkhdf"]
+    before = (target / "ref.vtkhdf").read_bytes()
+    assert main(["export", str(reference), "-o", str(target), "--every", "10"]) == 2
+    assert "exists; pass --force" in capsys.readouterr().err
+    assert (target / "ref.vtkhdf").read_bytes() == before
     assert main(["export", str(reference), "-o", str(target), "--force", "--every", "10"]) == 0
-    assert not (target / "mine.txt").exists() and len(list(target.iterdir())) == 8
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["vtu"]      # no temporary folder left
+    assert (target / "ref.vtkhdf").read_bytes() != before and (target / "mine.txt").read_text() == "x"
+    assert sorted(p.name for p in target.iterdir()) == ["mine.txt", "ref.vtkhdf"]   # nothing temporary
 
 
 # ---------------------------------------------------------------------------------------------

@@ -266,6 +266,64 @@ def test_figure_frame_and_series(ds, frames):
     assert tuple(fig.get_size_inches()) == (6.5, 5.5)
 
 
+def collisions(fig) -> list[tuple[str, str]]:
+    """Pairs of parts of a drawn figure that overlap: the colour bars (with their ticks and
+    labels), the 3D panels' axis labels (when their axes are drawn), the panels' titles."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.transforms import Bbox
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    r = canvas.get_renderer()
+    parts = []
+    for i, ax in enumerate(fig.axes):
+        if ax.get_label() == "<colorbar>":
+            parts.append((f"colour bar {i}", ax.get_tightbbox(r)))
+        else:
+            if ax.name == "3d" and ax._axis3don:          # mplot3d's own switch of set_axis_on/off
+                parts += [(f"{a.label.get_text()} of panel {i}", a.label.get_window_extent(r))
+                          for a in (ax.xaxis, ax.yaxis, ax.zaxis)]
+            if ax.title.get_text():
+                parts.append((f"title of panel {i}", ax.title.get_window_extent(r)))
+    found = [(a, "the page edge") for a, box in parts
+             if not (fig.bbox.contains(box.x0, box.y0) and fig.bbox.contains(box.x1, box.y1))]
+    found += [(a, b) for j, (a, ba) in enumerate(parts) for b, bb in parts[j + 1:] if Bbox.intersection(ba, bb)]
+    return found
+
+
+@pytest.mark.parametrize("series", [("pole_radius", "orientation_angle"), None])
+def test_plot_figure_has_no_overlapping_labels(ds, series):
+    fig = figure_frame_and_series(ds, frame=1, color="speed", arrows=True, series=series)
+    assert collisions(fig) == []
+
+
+def test_small_multiples_of_bare_frames_have_no_overlapping_labels(ds):
+    """A grid of snapshots as in the report: bare frames (``axes=False``) with their colour bars
+    below. The same grid with axes and vertical bars beside them (as before) does collide, so
+    the check can fail."""
+    from matplotlib.figure import Figure
+
+    from cortex_ti.plotting import colorbar_below
+
+    def grid(bare: bool):
+        fig = Figure(figsize=(2.6 * 3, 2.7 * 2), layout="constrained")
+        for i in range(6):
+            ax = fig.add_subplot(2, 3, i + 1, projection="3d")
+            _, m = plot_frame(ds, i % 3, arrows=True, ax=ax, axes=not bare)
+            if bare:
+                colorbar_below(fig, ax, m, "|v| / v_a", fontsize=7)
+            else:
+                fig.colorbar(m, ax=ax, shrink=0.6, label="|v| / v_a")
+            ax.set_title(f"t = {i}", fontsize=8)
+        return fig
+
+    assert collisions(grid(bare=True)) == []
+    assert collisions(grid(bare=False)) != []
+    ax = Figure().add_subplot(projection="3d")
+    plot_frame(ds, 0, ax=ax)
+    assert ax._axis3don                                       # the default keeps the axes
+
+
 # ---------------------------------------------------------------------------------------------
 # saving
 # ---------------------------------------------------------------------------------------------
@@ -399,7 +457,7 @@ def test_cli_plot_reads_the_partial_file_of_a_running_simulation(tmp_path, capsy
         np.testing.assert_array_equal(ds["time"].values, TIMES[:2])
         for given in (partial_path(path), path):                   # the .partial name, or the final one
             out = tmp_path / "live.png"
-            rc, stdout, stderr = run(["plot", str(given), "-o", str(out)], capsys)
+            rc, _, stderr = run(["plot", str(given), "-o", str(out)], capsys)
             assert rc == 0, stderr
             assert imread(out).shape[:2] == (720, 1650)
     finally:

@@ -1,106 +1,196 @@
-"""ParaView-ready export of a trajectory: one VTU per frame (meshio) and a .pvd time series.
+"""ParaView-ready export of a trajectory, one run per file name so that runs exported into one
+folder never mix.
 
-meshio's XDMF time-series writer stores the points once, but our nodes move every
-frame, so each frame is its own VTU file; the small ``.pvd`` collection that tells
-ParaView their times is written here (a dozen lines of XML: no library needed).
+Two formats (:data:`EXPORT_FORMATS`):
 
-The export is atomic: the files are written into a temporary folder beside the target, which is
-renamed to the target when complete; the target must be new or empty (or ``force``, which
-replaces it). A failed export (an unreadable trajectory, a full disk) leaves nothing behind.
+``vtkhdf`` (default)
+    ONE file ``<stem>.vtkhdf`` with every frame as a time step (VTKHDF 2.x, an
+    ``UnstructuredGrid`` of triangles; ParaView 5.12 and newer, VTK 9.3 and newer open it with
+    its time steps). Written with h5py from the published layout (VTK's documentation, "VTKHDF
+    format specification"): the points and point data of all frames one after the other, the
+    triangles once, and the ``Steps`` group that tells where each frame's part begins. No
+    library writes a time-dependent VTKHDF from arrays (meshio writes one frame; VTK's
+    ``vtkHDFWriter`` needs a time-aware pipeline), hence the few lines here.
+``pvd``
+    ``<stem>.pvd`` and one ``<stem>_<k>.vtu`` per frame (meshio), all named after the run.
+
+Point data of every frame: ``velocity`` (3-vector), ``speed`` ``|v|``, ``normal_speed``
+``v . n`` (n the solver's normal of the frame, :meth:`Trajectory.normals`) and
+``active_stress``.
 """
 
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-import meshio
 import numpy as np
 
 from ..errors import CortexError
-from .files import OutputError, describe_os_error, refuse_file_parent
+from .files import OutputError, atomic_path, describe_os_error, refuse_file_parent
 from .trajectory import Trajectory
 
+__all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf",
+           "export_vtu_series"]
 
-def _target(out_dir: Path, force: bool) -> None:
-    """Refuse a target that is a file, or a folder with files in it (without ``force``)."""
-    if out_dir.exists() and not out_dir.is_dir():
-        raise CortexError(f"export folder '{out_dir}' is a file")
-    refuse_file_parent(out_dir, "the export folder")
-    if out_dir.is_dir() and any(out_dir.iterdir()) and not force:
-        raise CortexError(f"export folder '{out_dir}' exists and is not empty; choose a new folder or pass --force "
-                          "to replace it")
+#: Export formats: name -> file suffix.
+EXPORT_FORMATS: dict[str, str] = {"vtkhdf": ".vtkhdf", "pvd": ".pvd"}
 
+#: VTK's cell type number of a linear triangle.
+VTK_TRIANGLE = 5
 
-def _put_in_place(tmp: Path, out_dir: Path) -> None:
-    """Rename the finished folder ``tmp`` to ``out_dir``, replacing what is there."""
-    old = None
-    if out_dir.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.old-", dir=out_dir.parent))
-        os.replace(out_dir, old / "x")
-    os.replace(tmp, out_dir)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+#: VTKHDF version written: 2.0, the first with time steps (the layout used here has not changed since),
+#: so that older readers (ParaView 5.12, VTK 9.3) take it too.
+_VTKHDF_VERSION = (2, 0)
 
 
-def export_vtu_series(path, out_dir=None, every: int = 1, force: bool = False) -> Path:
-    """Write ``<out_dir>/frame_00000.vtu ...`` and ``<out_dir>/<stem>.pvd``; return the .pvd path.
-
-    Point data per frame: ``velocity`` (3-vector), ``speed`` |v|, ``normal_speed`` v . n
-    (n the solver's normal of the frame, :meth:`Trajectory.normals`) and ``active_stress``.
-    ``out_dir`` (default: the trajectory's path without its suffix) must be new or empty, unless
-    ``force``; it appears complete or not at all.
-    """
-    path = Path(path)
+def _frames(path, every: int):
+    """``(the trajectory opened lazily, the indices of the exported frames, all times)``."""
     if every < 1:
         raise CortexError(f"--every must be >= 1, got {every}")
-    out_dir = Path(out_dir) if out_dir else path.with_suffix("")
-    _target(out_dir, force)
-    with Trajectory(path, lazy=True) as tr:      # opened first: an unreadable file costs no folder
-        return _export(tr, path, out_dir, every)
-
-
-def _export(tr: Trajectory, path: Path, out_dir: Path, every: int) -> Path:
-    try:
-        out_dir.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp-", dir=out_dir.parent))
-    except OSError as exc:
-        raise OutputError(f"cannot write the export folder '{out_dir}': {describe_os_error(exc)}") from None
-    try:
-        pvd_name = path.stem + ".pvd"
-        _write_series(tr, tmp, every, pvd_name)
-        _put_in_place(tmp, out_dir)
-    except OSError as exc:
-        raise OutputError(f"exporting '{path}' to '{out_dir}' failed ({describe_os_error(exc)}); nothing was "
-                          "written") from None
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-    return out_dir / pvd_name
-
-
-def _write_series(tr: Trajectory, out_dir: Path, every: int, pvd_name: str) -> None:
+    tr = Trajectory(path, lazy=True)
     ds = tr.ds
-    tri = ds["triangles"].values.astype(np.int64)
-    times = ds["time"].values
+    times = np.asarray(ds["time"].values, dtype=float)
+    if len(times) == 0:
+        tr.close()
+        raise CortexError(f"'{path}' has no frames (yet)")
+    return tr, list(range(0, len(times), every)), times
+
+
+def _point_data(tr: Trajectory, k: int) -> dict[str, np.ndarray]:
+    ds = tr.ds
+    vel = np.asarray(ds["velocity"].isel(time=k).values, dtype=float)
+    return {
+        "velocity": vel,
+        "speed": np.linalg.norm(vel, axis=1),
+        "normal_speed": np.einsum("nc,nc->n", vel, tr.normals(k)),
+        "active_stress": np.asarray(ds["active_stress"].isel(time=k).values, dtype=float),
+    }
+
+
+def export_path(trajectory, output=None, fmt: str = "vtkhdf") -> Path:
+    """Where :func:`export_trajectory` writes: ``output`` if it ends in the format's suffix, else
+    ``<output or the trajectory's folder>/<stem><suffix>`` (``stem``: the trajectory's name
+    without ``.h5``/``.partial``)."""
+    if fmt not in EXPORT_FORMATS:
+        raise CortexError(f"unknown export format '{fmt}'; choose one of: {', '.join(EXPORT_FORMATS)}")
+    suffix = EXPORT_FORMATS[fmt]
+    trajectory = Path(trajectory)
+    if output is not None and Path(output).suffix.lower() == suffix:
+        return Path(output)
+    if output is not None and Path(output).suffix.lower() in {s for s in EXPORT_FORMATS.values()}:
+        raise CortexError(f"-o '{output}' has the suffix of another format than --format {fmt} ({suffix})")
+    name = trajectory.name
+    for end in (".partial", ".h5", ".nc"):
+        name = name.removesuffix(end)
+    folder = Path(output) if output is not None else trajectory.parent
+    return folder / (name + suffix)
+
+
+def export_vtkhdf(path, output=None, every: int = 1) -> Path:
+    """Write the trajectory ``path`` as one VTKHDF file with its frames as time steps.
+
+    Returns the written path (see :func:`export_path`). The file is written under a temporary
+    name and renamed when complete.
+    """
+    import h5py
+
+    out = export_path(path, output, "vtkhdf")
+    tr, ks, times = _frames(path, every)
+    with tr:
+        tri = np.asarray(tr.triangles, dtype=np.int64)
+        n, f, m = tr.ds.sizes["node"], len(tri), len(ks)
+        out, tmp = atomic_path(out)
+        try:
+            with h5py.File(tmp, "w") as h5:
+                root = h5.create_group("VTKHDF")
+                root.attrs["Version"] = np.array(_VTKHDF_VERSION, dtype=np.int64)
+                root.attrs.create("Type", np.bytes_("UnstructuredGrid"))
+                # one part, its sizes and its triangles stored once: every step points at them
+                # (PartOffsets, CellOffsets and ConnectivityIdOffsets 0); the points and the point
+                # data of step j begin at row j * n
+                root["NumberOfPoints"] = np.array([n], dtype=np.int64)
+                root["NumberOfCells"] = np.array([f], dtype=np.int64)
+                root["NumberOfConnectivityIds"] = np.array([3 * f], dtype=np.int64)
+                root["Types"] = np.full(f, VTK_TRIANGLE, dtype=np.uint8)
+                root["Offsets"] = np.arange(0, 3 * f + 1, 3, dtype=np.int64)
+                root["Connectivity"] = tri.reshape(-1)
+                points = root.create_dataset("Points", (m * n, 3), dtype=np.float64)
+                pdata = root.create_group("PointData")
+                steps = root.create_group("Steps")
+                steps.attrs["NSteps"] = np.int64(m)
+                steps["Values"] = times[ks]
+                steps["PartOffsets"] = np.zeros(m, dtype=np.int64)
+                steps["NumberOfParts"] = np.ones(m, dtype=np.int64)
+                steps["PointOffsets"] = np.arange(m, dtype=np.int64) * n
+                steps["CellOffsets"] = np.zeros((m, 1), dtype=np.int64)
+                steps["ConnectivityIdOffsets"] = np.zeros((m, 1), dtype=np.int64)
+                offsets = steps.create_group("PointDataOffsets")
+                for j, k in enumerate(ks):
+                    points[j * n:(j + 1) * n] = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
+                    for name, values in _point_data(tr, k).items():
+                        if name not in pdata:
+                            pdata.create_dataset(name, (m * n, *values.shape[1:]), dtype=np.float64)
+                            offsets[name] = np.arange(m, dtype=np.int64) * n
+                        pdata[name][j * n:(j + 1) * n] = values
+            os.replace(tmp, out)
+        finally:
+            tmp.unlink(missing_ok=True)
+    return out
+
+
+def export_vtu_series(path, output=None, every: int = 1) -> Path:
+    """Write ``<stem>.pvd`` and its frames ``<stem>_00000.vtu ...`` beside it; return the .pvd.
+
+    The frames carry the run's name, so two runs exported into one folder do not overwrite each
+    other's frames (see :func:`export_path` for the folder).
+    """
+    import meshio
+
+    pvd = export_path(path, output, "pvd")
+    tr, ks, times = _frames(path, every)
+    out_dir = pvd.parent
+    out_dir.mkdir(parents=True, exist_ok=True)
     entries = []
-    for k in range(0, len(times), every):
-        pts = ds["points"].isel(time=k).values
-        vel = ds["velocity"].isel(time=k).values
-        normals = tr.normals(k)
-        data = {
-            "velocity": vel,
-            "speed": np.linalg.norm(vel, axis=1),
-            "normal_speed": np.einsum("nc,nc->n", vel, normals),
-            "active_stress": ds["active_stress"].isel(time=k).values,
-        }
-        name = f"frame_{k:05d}.vtu"
-        meshio.write(out_dir / name, meshio.Mesh(pts, [("triangle", tri)], point_data=data), file_format="vtu")
-        entries.append((float(times[k]), name))
+    with tr:
+        tri = np.asarray(tr.triangles, dtype=np.int64)
+        for k in ks:
+            pts = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
+            name = f"{pvd.stem}_{k:05d}.vtu"
+            tmp = out_dir / f".{name}.tmp.vtu"
+            try:
+                meshio.write(tmp, meshio.Mesh(pts, [("triangle", tri)], point_data=_point_data(tr, k)),
+                             file_format="vtu")
+                os.replace(tmp, out_dir / name)
+            finally:
+                tmp.unlink(missing_ok=True)
+            entries.append((float(times[k]), name))
     lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]
     lines += [f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(n)}/>' for t, n in entries]
     lines += ["  </Collection>", "</VTKFile>", ""]
-    (out_dir / pvd_name).write_text("\n".join(lines))
+    pvd, tmp = atomic_path(pvd)
+    try:
+        tmp.write_text("\n".join(lines))
+        os.replace(tmp, pvd)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return pvd
+
+
+def export_trajectory(path, output=None, fmt: str = "vtkhdf", every: int = 1, force: bool = False) -> Path:
+    """Export a trajectory for ParaView in the format ``fmt`` (:data:`EXPORT_FORMATS`). An existing
+    export of the same run is replaced only with ``force``; a folder that cannot be written, or a
+    full disk, is one :class:`~cortex_ti.io.files.OutputError` and leaves nothing behind."""
+    if fmt not in EXPORT_FORMATS:
+        raise CortexError(f"unknown export format '{fmt}'; choose one of: {', '.join(EXPORT_FORMATS)}")
+    target = export_path(path, output, fmt)
+    refuse_file_parent(target, "the export")
+    if target.exists() and not force:
+        raise CortexError(f"'{target}' exists; pass --force to replace it, or choose another -o")
+    writer = export_vtkhdf if fmt == "vtkhdf" else export_vtu_series
+    try:
+        return writer(path, output, every)
+    except OSError as exc:
+        raise OutputError(f"exporting '{path}' to '{target}' failed ({describe_os_error(exc)}); nothing was "
+                          "written") from None

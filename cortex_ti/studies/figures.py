@@ -373,8 +373,15 @@ def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
 
 def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], view=(20.0, -60.0)) -> Figure:
     """3D snapshots (paper Figs. 9-12): per run a row, the active stress at t = 0 and then ``|v|``
-    with arrows at each time of ``times`` up to the run's end (and at its end)."""
-    from ..plotting import plot_frame
+    with arrows at each time of ``times`` up to the run's end (and at its end). The frames are
+    drawn by PyVista off screen where it works, else by matplotlib (the log says which)."""
+    import logging
+
+    from ..viz.figure import frame_panel
+    from ..viz.render import choose_renderer
+
+    renderer = choose_renderer()
+    logging.getLogger("cortex_ti").info(renderer.line)
 
     rows = []
     for label, path in runs:
@@ -386,14 +393,12 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
     fig = Figure(figsize=(2.6 * ncol, 2.7 * len(rows)), layout="constrained")
     for r, (label, path, pick) in enumerate(rows):
         with open_trajectory(path) as ds:
-            ax = fig.add_subplot(len(rows), ncol, r * ncol + 1, projection="3d")
-            _, m = plot_frame(ds, frame=0, color="active_stress", arrows=False, ax=ax, view=view)
-            fig.colorbar(m, ax=ax, shrink=0.6, label=r"$\zeta / \zeta_0$")
+            ax, _ = frame_panel(fig, (len(rows), ncol, r * ncol + 1), ds, 0, "active_stress", arrows=False,
+                                view=view, renderer=renderer, label=r"$\zeta / \zeta_0$")
             ax.set_title(f"{label}\nactive stress", fontsize=7)
             for c, k in enumerate(pick):
-                ax = fig.add_subplot(len(rows), ncol, r * ncol + 2 + c, projection="3d")
-                _, m = plot_frame(ds, frame=k, color="speed", arrows=True, ax=ax, view=view)
-                fig.colorbar(m, ax=ax, shrink=0.6, label=r"$|v| / v_a$")
+                ax, _ = frame_panel(fig, (len(rows), ncol, r * ncol + 2 + c), ds, int(k), "speed", view=view,
+                                    renderer=renderer, label=r"$|v| / v_a$")
                 ax.set_title(f"t = {float(ds['time'].values[k]):.4g} $t_a$", fontsize=8)
     for ax in fig.axes:
         ax.tick_params(labelsize=6)
@@ -406,15 +411,15 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
     part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
     pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
     from ..analysis.analytic import scene_solution
-    from ..plotting import plot_frame
+    from ..plotting import colorbar_below, plot_frame
 
     fig = Figure(figsize=(7.2, 2.8 * len(paths)), layout="constrained")
     for r, path in enumerate(paths):
         with Trajectory(path, lazy=True) as tr:
             settings = tr.settings
             ax = fig.add_subplot(len(paths), 2, 2 * r + 1, projection="3d")
-            _, m = plot_frame(tr.ds, frame=0, color="speed", arrows=True, ax=ax, view=view)
-            fig.colorbar(m, ax=ax, shrink=0.6, label=r"$|v| / v_a$")
+            _, m = plot_frame(tr.ds, frame=0, color="speed", arrows=True, ax=ax, view=view, axes=False)
+            colorbar_below(fig, ax, m, r"$|v| / v_a$", fontsize=7)
             ax.set_title(f"{settings.name}, N = {tr.ds.sizes['node']}", fontsize=8)
             ax.tick_params(labelsize=6)
             x = tr.ds["points"].isel(time=0).values
