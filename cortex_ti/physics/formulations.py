@@ -23,8 +23,9 @@ first built (the scene layer reads the registry).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,7 +35,7 @@ from .terms.constraints import PRESSURE_WEIGHTS
 if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
     from ..surface.geometry import Geometry
 
-__all__ = ["FORMULATIONS", "Formulation", "PRESSURE_WEIGHTS"]
+__all__ = ["FORMULATIONS", "PRESSURE_WEIGHTS", "Formulation"]
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,8 @@ class Formulation:
 
 
 def _paper(geometry, physics, zeta, faces, numerics, dt):
-    from .assembly import assemble   # Taichi kernels: loaded with the first system, not the registry
+    # Taichi kernels: loaded with the first system, not with the registry
+    from .assembly import assemble
 
     return assemble(geometry, physics, zeta, numerics.fit_residual_weight, implicit_dt=dt)
 

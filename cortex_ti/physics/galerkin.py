@@ -50,7 +50,7 @@ from .terms import P1Context, terms_for
 from .terms.base import check_inputs, constraint_names, velocity_basis
 from .terms.constraints import PRESSURE_WEIGHTS
 
-__all__ = ["assemble_p1", "PRESSURE_WEIGHTS", "triangle_gradients", "viscous_blocks", "normal_blocks"]
+__all__ = ["PRESSURE_WEIGHTS", "assemble_p1", "normal_blocks", "triangle_gradients", "viscous_blocks"]
 
 
 def triangle_gradients(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -59,8 +59,8 @@ from ..model import Physics
 if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
     from ...surface.geometry import Geometry
 
-__all__ = ["ROW_XI", "ROW_ETA", "ROW_NORMAL", "Constraint", "Context", "PaperContext", "P1Context",
-           "Term", "TERMS", "register", "terms_for", "check_inputs", "velocity_basis"]
+__all__ = ["ROW_ETA", "ROW_NORMAL", "ROW_XI", "TERMS", "Constraint", "Context", "P1Context", "PaperContext",
+           "Term", "check_inputs", "register", "terms_for", "velocity_basis"]
 
 #: Row indices within a node (formulation ``paper``)
 ROW_XI, ROW_ETA, ROW_NORMAL = 0, 1, 2

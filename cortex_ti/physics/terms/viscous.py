@@ -32,7 +32,8 @@ from .base import P1Context, PaperContext, Term, register
 
 def add_viscous(ctx: PaperContext, eta_s: float, eta_b: float) -> None:
     """Add the weights of the viscous stress with coefficients ``eta_s``, ``eta_b`` to ``ctx``."""
-    from .viscous_kernel import viscous_kernel   # Taichi, loaded on the first assembly
+    # Taichi, loaded on the first assembly (the registry imports no Taichi)
+    from .viscous_kernel import viscous_kernel
 
     g = ctx.geometry
     viscous_kernel(g.tangents, g.normal_fit, g.metric_inv, g.curvature, g.christoffel,
