@@ -98,7 +98,8 @@ def test_every_import_goes_to_the_own_layer_or_below():
                     unplaced.add(dst)
                     continue
                 if not ok:
-                    wrong.append(f"{path.relative_to(ROOT)}:{node.lineno} ({src}) imports {'.'.join(target)} ({dst})")
+                    where = f"{path.relative_to(ROOT)}:{node.lineno}"
+                    wrong.append(f"{where} ({src}) imports {'.'.join(target)} ({dst})")
     assert not unplaced, f"modules or subpackages in no layer (add them to LAYERS and CONTRIBUTING.md): {sorted(unplaced)}"
     assert not wrong, "imports running back up the layers:\n" + "\n".join(wrong)
 

@@ -60,7 +60,7 @@ if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed 
     from ...surface.geometry import Geometry
 
 __all__ = ["ROW_ETA", "ROW_NORMAL", "ROW_XI", "TERMS", "Constraint", "Context", "P1Context", "PaperContext",
-           "Term", "check_inputs", "register", "terms_for", "velocity_basis"]
+           "Term", "check_inputs", "effects_without_terms", "register", "terms_for", "velocity_basis"]
 
 #: Row indices within a node (formulation ``paper``)
 ROW_XI, ROW_ETA, ROW_NORMAL = 0, 1, 2
@@ -196,24 +196,30 @@ def terms_for(ctx: Context) -> list[Term]:
     nothing about the formulation, or an effect switched on that no term of the formulation
     implements, is one :class:`~cortex_ti.errors.SolverError`."""
     form, effects = ctx.formulation, ctx.physics.effects
-    chosen, implemented = [], set()
-    for cls in TERMS:
-        if not (cls.effect is None or cls.effect in effects):
-            continue
-        if not hasattr(cls, form):
-            raise SolverError(f"the term {cls.__name__} ({cls.name}) does not say what it adds to formulation "
-                              f"{form!r}: give it a method {form}(ctx), or {form} = None if it has no part there")
-        if getattr(cls, form) is None:
-            continue
-        implemented.add(cls.effect)
-        term = cls()
-        if term.applies(ctx):
-            chosen.append(term)
-    with_terms = {cls.effect for cls in TERMS}
-    missing = sorted(e for e in effects if e in with_terms and e not in implemented)
+    missing = effects_without_terms(effects, form)
     if missing:
         raise SolverError(f"formulation {form!r} has no term for the effect(s) {', '.join(missing)}")
-    return chosen
+    on = (cls() for cls in TERMS if cls.effect is None or cls.effect in effects)
+    return [term for term in on if getattr(term, form) is not None and term.applies(ctx)]
+
+
+def effects_without_terms(effects, formulation: str) -> list[str]:
+    """The effects among ``effects`` that have terms, none of them in ``formulation`` (sorted): a
+    scene asking for one under that formulation would lose physics silently. A term of one of
+    ``effects`` that says nothing about the formulation (neither a method nor ``None``) is one
+    :class:`~cortex_ti.errors.SolverError`."""
+    implemented, with_terms = set(), set()
+    for cls in TERMS:
+        with_terms.add(cls.effect)
+        if not (cls.effect is None or cls.effect in effects):
+            continue
+        if not hasattr(cls, formulation):
+            raise SolverError(f"the term {cls.__name__} ({cls.name}) does not say what it adds to formulation "
+                              f"{formulation!r}: give it a method {formulation}(ctx), or {formulation} = None if it "
+                              "has no part there")
+        if getattr(cls, formulation) is not None:
+            implemented.add(cls.effect)
+    return sorted(e for e in effects if e in with_terms and e not in implemented)
 
 
 def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
