@@ -3,12 +3,13 @@
 Owns the vocabulary of effects and the coefficients a run uses (``model``), the active-stress
 patterns (``patterns``, ``user_patterns``; registry
 :data:`~cortex_ti.physics.patterns.PATTERNS`), functions on the sphere (``spherical``), one module
-per physical term (``terms/``, registry :data:`~cortex_ti.physics.terms.TERMS`), and the
-discretisations of the force balance a scene chooses (``formulations``, registry
-:data:`~cortex_ti.physics.formulations.FORMULATIONS`): the paper's strong form, composing the
-switched-on terms into one least-squares system (``assembly``), and the Rayleighian on the flat
-triangles (``galerkin``). May import ``surface`` and ``solve.system`` (the systems it
-produces); not scenes, dynamics or I/O.
+per physical term (``terms/``, registry :data:`~cortex_ti.physics.terms.TERMS`; each term says
+what it adds to every formulation), and the discretisations of the force balance a scene chooses
+(``formulations``, registry :data:`~cortex_ti.physics.formulations.FORMULATIONS`): the paper's
+strong form (``assembly``) and the Rayleighian on the flat triangles (``galerkin``), each looping
+over the switched-on terms. May import ``surface`` and ``solve.system`` (the systems it
+produces); not scenes, dynamics or I/O. The registries import no Taichi (the scene layer reads
+them); the assemblies and the paper's viscous kernel load it when they first run.
 """
 
 # the pattern types register themselves on import: the built-in ones (patterns) and the user's

@@ -11,8 +11,9 @@ assembled and the velocity of node ``i`` is written ``v_i = u_1 e_xi + u_2 e_eta
 so ``v_n = 0`` holds exactly and the unknowns are the two tangential components;
 otherwise the unknowns are the Cartesian components.
 
-:func:`assemble` runs only the terms of the enabled effects; the geometry-dependent
-weights of every term are summed first and turned into matrix entries by one
+:func:`assemble` runs the ``paper`` method of the terms of the enabled effects
+(:func:`cortex_ti.physics.terms.terms_for`); the geometry-dependent weights of every term are
+summed first and turned into matrix entries by one
 Taichi kernel (:func:`_scatter_kernel`), writing COO triplets that SciPy converts
 to CSR.
 """
@@ -26,7 +27,8 @@ from ..runtime import f64_1, f64_2, f64_3, f64_4, i32_1, i32_2, kernel, ti
 from ..solve.system import LinearSystem
 from ..surface.geometry import Geometry
 from .model import Physics
-from .terms import AssemblyContext, active_terms
+from .terms import PaperContext, terms_for
+from .terms.base import check_inputs, constraint_names, velocity_basis
 
 __all__ = ["assemble", "check_inputs", "velocity_basis", "fit_residual_rows"]
 
@@ -71,16 +73,6 @@ def _scatter_kernel(
                 center -= cv + cn * ni
                 _emit(rows, cols, vals, basis, row_base + (j + 1) * basis.shape[1], i * nrow + r, a, cv + cn * na)
             _emit(rows, cols, vals, basis, row_base, i * nrow + r, i, center)
-
-
-_EYE = np.eye(3)
-
-
-def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
-    """Cartesian unit vectors, or the tangent frame when v_n is fixed to zero."""
-    if physics.normal_balance:
-        return np.broadcast_to(_EYE, (geometry.n_nodes, 3, 3)).copy()
-    return geometry.tangent_frame()
 
 
 def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_s: float) -> sp.csr_matrix:
@@ -130,23 +122,6 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n * k * 3, n * nb))
 
 
-def check_inputs(physics: Physics, zeta, implicit_dt: float) -> np.ndarray:
-    """What every formulation needs before it assembles: shear viscosity (else the force balance
-    has no unique solution), a finite active tension (returned as a contiguous float64 array)
-    and a finite step >= 0; one :class:`~cortex_ti.errors.SolverError` naming what is wrong."""
-    if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
-        raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
-                          "viscosity.shear > 0): without it every area-preserving flow is a solution")
-    zeta = np.ascontiguousarray(zeta, dtype=np.float64)
-    if not np.all(np.isfinite(zeta)):
-        bad = np.flatnonzero(~np.isfinite(zeta))
-        raise SolverError(f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, "
-                          f"value {zeta[bad[0]]})")
-    if not (np.isfinite(implicit_dt) and implicit_dt >= 0.0):
-        raise SolverError(f"implicit_dt must be a finite step >= 0, got {implicit_dt}")
-    return zeta
-
-
 def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0,
              implicit_dt: float = 0.0) -> LinearSystem:
     """Build the least-squares system of the effects in ``physics`` on this shape.
@@ -156,10 +131,10 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
     that length (:mod:`cortex_ti.physics.terms.implicit_tension`).
     """
     zeta = check_inputs(physics, zeta, implicit_dt)
-    ctx = AssemblyContext(geometry, physics, zeta, implicit_dt=float(implicit_dt))
-    terms = [t for t in active_terms(physics) if t.applies(ctx)]
+    ctx = PaperContext(geometry, physics, zeta, implicit_dt=float(implicit_dt))
+    terms = terms_for(ctx)
     for term in terms:
-        term.apply(ctx)
+        term.paper(ctx)
     n, nrow = geometry.n_nodes, physics.rows_per_node
     basis = velocity_basis(geometry, physics)
     nb = basis.shape[1]
@@ -202,8 +177,7 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
         gmat = np.einsum("mnc,nbc->mnb", dense, basis).reshape(dense.shape[0], -1)
     else:
         gmat = np.zeros((0, n * nb))
-    names = [f"{c.name}[{k}]" if c.rows.shape[0] > 1 else c.name
-             for c in ctx.constraints for k in range(c.rows.shape[0])]
+    names = constraint_names(ctx.constraints)
     return LinearSystem(matrix=matrix, rhs=rhs, pressure_column=pcol,
                         constraints=gmat, constraint_names=names, basis=basis,
                         terms=[t.name for t in terms], row_node=row_node)

@@ -14,21 +14,28 @@ its geometry needs the fit residuals.
   velocities integrated exactly over the flat triangles (:mod:`cortex_ti.physics.galerkin`):
   symmetric positive semidefinite, the active force the exact gradient of the discrete energy,
   so no spurious mode can grow; second order.
+
+Every term of :mod:`cortex_ti.physics.terms` says what it adds to each formulation in a method
+named after it (``paper``, ``rayleigh_p1``); a new formulation names its method there.
+Importing this registry starts no Taichi: the builders import their assembly when a system is
+first built (the scene layer reads the registry).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..surface.geometry import Geometry
-from .assembly import assemble
-from .galerkin import PRESSURE_WEIGHTS, assemble_p1
 from .model import Physics
+from .terms.constraints import PRESSURE_WEIGHTS
 
-__all__ = ["FORMULATIONS", "Formulation"]
+if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
+    from ..surface.geometry import Geometry
+
+__all__ = ["FORMULATIONS", "PRESSURE_WEIGHTS", "Formulation"]
 
 
 @dataclass(frozen=True)
@@ -48,10 +55,15 @@ class Formulation:
 
 
 def _paper(geometry, physics, zeta, faces, numerics, dt):
+    # Taichi kernels: loaded with the first system, not with the registry
+    from .assembly import assemble
+
     return assemble(geometry, physics, zeta, numerics.fit_residual_weight, implicit_dt=dt)
 
 
 def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
+    from .galerkin import assemble_p1
+
     return assemble_p1(geometry, physics, zeta, faces, implicit_dt=dt, pressure_weights=numerics.pressure_weights)
 
 

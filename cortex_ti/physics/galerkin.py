@@ -13,39 +13,23 @@ the bending viscosity. Its stationarity conditions are the weak form of the forc
 paper solves in strong form by least squares (:mod:`cortex_ti.physics.assembly`).
 
 Here the velocity is interpolated linearly on each flat triangle ``T`` and every term is
-integrated exactly over the triangles:
+integrated exactly over the triangles. Each term of :mod:`cortex_ti.physics.terms` says what it
+adds in its method ``rayleigh_p1`` (:class:`~cortex_ti.physics.terms.P1Context`), and
+:func:`assemble_p1` loops over the terms of the enabled effects and turns what they add into
+one system:
 
-* **dissipation** ``sum_T A_T [eta_s |U~_T|^2 + eta_b/2 (tr U_T)^2]``, ``U_T = (P G + G^T P)/2``,
-  ``G = sum_k v_k (x) grad psi_k`` the in-plane gradient of the linear velocity,
-  ``P = I - n_T n_T^T``: a symmetric positive semidefinite ``K`` whose kernel on a closed mesh
-  is the rigid motions and nothing else (no hourglass modes, no penalty);
-* **active power** ``sum_T A_T zeta_T tr U_T`` (``zeta_T`` the mean of the corner values): exactly
-  the rate of the discrete energy ``E(X) = sum_T zeta_T A_T(X)``, so the active force is the exact
-  gradient ``-dE/dX`` and the shape dynamics is a gradient flow;
-* **pressure**: the multiplier of a volume constraint. The triangulated volume's exact gradient
-  ``dV/dx_k`` weighs node k with its barycentric area, the tension's (the cotangent formula)
-  with its Voronoi area; they differ by up to 13 % on an icosphere, so a uniform tension would
-  drive an O(h) flow at t = 0 if the pressure pushed along ``dV/dx_k``. By default
-  (``numerics.pressure_weights: petrov``) the pressure pushes on the Meyer areas,
-  ``P A_k n_k`` (the paper's Eq. 35, consistent with the tension's force to O(h^2)), while the
-  constraint it enforces is the exact one, ``sum_k W_k v_n,k = 0`` with ``W_k = n_k . dV/dx_k``,
-  so the triangulated volume is stationary under the normal advection of the nodes.
-  ``area``: both on the Meyer areas; ``exact``: both on ``W`` (then the force is exactly minus
-  the gradient of ``E - P V``, at the price of that O(h) error);
-* **rigid-body gauge** as the paper's (zero mean velocity, or the centroid held: scene key
-  ``translation``);
-* **bending viscosity** as the dissipation ``1/2 int [B^cd d_c v_n d_d v_n + beta_0 v_n^2] dA``
-  with ``B = -beta``, ``beta`` and ``beta_0`` the paper's Eq. 45 coefficients
-  (:func:`cortex_ti.physics.terms.bending.bending_tensors`, from the fitted curvature). Its
-  Euler-Lagrange force is ``-nabla_c (B^cd nabla_d v_n) + beta_0 v_n``; Eq. 45 is
-  ``-B^cd nabla_c nabla_d v_n + beta_0 v_n``: they differ by ``-(nabla_c B^cd) nabla_d v_n``,
-  zero on a sphere and wherever the curvature is uniform. ``v_n`` is interpolated linearly and
-  its gradient integrated exactly per triangle, ``B`` averaged over the corners, projected on
-  the triangle and clipped to its positive semidefinite part; ``beta_0 v_n^2`` is lumped at the
-  nodes;
-* **semi-implicit tension** (a step ``dt``): ``dt zeta |grad v_n|^2`` integrated the same way,
-  the leading part of the tension's Hessian (the paper's ``-zeta dt Lap v_n``, without its
-  indefinite ``-zeta dt C~ v_n``), so the step's matrix stays definite whatever ``dt``.
+* **dissipation**: the in-plane viscosities give ``sum_T A_T [eta_s |U~_T|^2 + eta_b/2 (tr U_T)^2]``,
+  ``U_T = (P G + G^T P)/2``, ``G = sum_k v_k (x) grad psi_k`` the in-plane gradient of the
+  linear velocity, ``P = I - n_T n_T^T``: a symmetric positive semidefinite ``K`` whose kernel
+  on a closed mesh is the rigid motions and nothing else (no hourglass modes, no penalty)
+  (:func:`viscous_blocks`, from the viscous terms); the dissipations in the gradient of the
+  normal speed ``1/2 int B^cd d_c v_n d_d v_n dA`` (bending viscosity, semi-implicit tension),
+  summed, then integrated per triangle with ``B`` averaged over the corners, projected on the
+  triangle and clipped to its positive semidefinite part (:func:`normal_blocks`); a lumped
+  drag ``1/2 sum_k A_k beta_k v_n,k^2``; any further per-triangle blocks a term gives;
+* **power of the forces** (the active tension's): per-triangle forces summed into the nodes;
+* **constraints**, each with a multiplier (the rigid-body gauge, the volume whose multiplier is
+  the pressure, :mod:`cortex_ti.physics.terms.constraints` and its ``numerics.pressure_weights``).
 
 The fits (:mod:`cortex_ti.surface.geometry`) give only the normals (the direction of ``v_n``
 and of the advection) and the curvature of the bending term. What this formulation pays is the
@@ -61,19 +45,12 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from ..solve.system import EnergySystem
 from ..surface.geometry import Geometry
-from .assembly import check_inputs, velocity_basis
 from .model import Physics
-from .terms.bending import bending_tensors
-from .terms.constraints import gauge_rows
+from .terms import P1Context, terms_for
+from .terms.base import check_inputs, constraint_names, velocity_basis
+from .terms.constraints import PRESSURE_WEIGHTS
 
-__all__ = ["assemble_p1", "PRESSURE_WEIGHTS", "triangle_gradients"]
-
-#: How the pressure enters (``numerics.pressure_weights``, see the module docstring).
-PRESSURE_WEIGHTS = {
-    "petrov": "force on the Meyer areas, constraint on the exact rate of the triangulated volume",
-    "area": "force and constraint on the Meyer areas (the paper's Eq. 35)",
-    "exact": "force and constraint on the exact gradient of the triangulated volume",
-}
+__all__ = ["PRESSURE_WEIGHTS", "assemble_p1", "normal_blocks", "triangle_gradients", "viscous_blocks"]
 
 
 def triangle_gradients(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -144,25 +121,7 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
         return area[:, None, None] * blk.reshape(-1, 9, 9)
 
 
-def _normal_form(geometry: Geometry, physics: Physics, zeta: np.ndarray, implicit_dt: float,
-                 terms: list[str]) -> tuple[np.ndarray | None, np.ndarray]:
-    """``B^cd`` (N, 2, 2) of the dissipation ``1/2 B^cd d_c v_n d_d v_n`` (bending viscosity and
-    the semi-implicit tension; None without either) and ``beta_0`` (N,) of ``1/2 beta_0 v_n^2``."""
-    eff = physics.effects
-    bform, beta0 = None, np.zeros(geometry.n_nodes)
-    if "bending_viscosity" in eff and (physics.eta_bar > 0 or physics.eta_bar_b > 0):
-        beta, beta0 = bending_tensors(geometry, physics.eta_bar, physics.eta_bar_b)
-        bform = -beta
-        terms.append("bending viscosity")
-    if implicit_dt > 0.0 and "active_stress" in eff:
-        # dt zeta |grad v_n|^2, zeta clipped at 0: positive semidefinite whatever dt
-        imp = (implicit_dt * np.clip(zeta, 0.0, None))[:, None, None] * geometry.metric_inv
-        bform = imp if bform is None else bform + imp
-        terms.append("semi-implicit active tension")
-    return bform, beta0
-
-
-def _normal_blocks(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray,
+def normal_blocks(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray,
                    grads: np.ndarray, area: np.ndarray) -> np.ndarray:
     """Per-triangle 9x9 blocks of ``int B^cd d_c v_n d_d v_n dA`` with ``v_n = n_k . v_k`` linear."""
     e = geometry.tangents
@@ -191,53 +150,43 @@ def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((nn.ravel(), (r.ravel(), r.transpose(0, 2, 1).ravel())), shape=(3 * n, 3 * n))
 
 
-def _constraint_rows(geometry: Geometry, physics: Physics, pressure_weights: str, terms: list[str]):
-    """The gauge and volume rows (m, N, 3), the rows the multipliers push along (None: the same),
-    and the names and the index of the pressure's multiplier."""
-    rows = [gauge_rows(geometry, physics)]
-    names = [f"momentum[{k}]" for k in range(6)]
-    if not ("incompressibility" in physics.effects and physics.normal_balance):
-        return np.concatenate(rows), None, names, None
-    nrm = geometry.normal
-    exact = np.einsum("nc,nc->n", nrm, geometry.volume_gradient)
-    terms.append("pressure and volume conservation")
-    names.append("volume")
-    force_on = exact if pressure_weights == "exact" else geometry.area
-    enforce = geometry.area if pressure_weights == "area" else exact
-    cons = np.concatenate(rows + [(enforce[:, None] * nrm)[None]])
-    force = None if pressure_weights != "petrov" else np.concatenate(rows + [(force_on[:, None] * nrm)[None]])
-    return cons, force, names, 6
-
-
 def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray,
                 implicit_dt: float = 0.0, pressure_weights: str = "petrov") -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the shape ``geometry`` (module
-    docstring); ``implicit_dt > 0``: the semi-implicit tension of a step of that length."""
+    docstring): the ``rayleigh_p1`` method of each of their terms, then one matrix;
+    ``implicit_dt > 0``: the semi-implicit tension of a step of that length."""
     if pressure_weights not in PRESSURE_WEIGHTS:
         raise SolverError(f"unknown pressure_weights {pressure_weights!r}: choose one of {', '.join(PRESSURE_WEIGHTS)}")
     zeta = check_inputs(physics, zeta, implicit_dt)
-    eff = physics.effects
     n = geometry.n_nodes
     faces = np.asarray(faces)
     area, tnormal, grads = triangle_gradients(geometry.points, faces)
-    eta_b = physics.eta_b if "bulk_viscosity" in eff else 0.0
-    terms = ["shear viscosity"] + (["bulk viscosity"] if eta_b > 0 else [])
+    ctx = P1Context(geometry, physics, zeta, implicit_dt=float(implicit_dt), faces=faces, area=area,
+                    tnormal=tnormal, grads=grads, pressure_weights=pressure_weights)
+    terms = terms_for(ctx)
+    for term in terms:
+        term.rayleigh_p1(ctx)
+
     pattern = _pattern(faces, n)
-    local = viscous_blocks(area, tnormal, grads, physics.eta_s, eta_b)
-    beta0 = np.zeros(n)
-    if physics.normal_balance:
-        bform, beta0 = _normal_form(geometry, physics, zeta, float(implicit_dt), terms)
-        if bform is not None:
-            local = local + _normal_blocks(geometry, faces, bform, tnormal, grads, area)
+    local = viscous_blocks(area, tnormal, grads, ctx.shear, ctx.bulk)
+    if ctx.normal_form is not None:
+        local = local + normal_blocks(geometry, faces, ctx.normal_form, tnormal, grads, area)
+    if ctx.blocks is not None:
+        local = local + ctx.blocks
     kmat = pattern.matrix(local)
-    if np.any(beta0):
-        kmat = (kmat + _lumped_normal(geometry, beta0)).tocsr()
+    if ctx.normal_drag is not None and np.any(ctx.normal_drag):
+        kmat = (kmat + _lumped_normal(geometry, ctx.normal_drag)).tocsr()
     f = np.zeros(3 * n)
-    if "active_stress" in eff:
-        terms.append("active tension")
-        ft = -(area * zeta[faces].mean(axis=1))[:, None] * grads.reshape(-1, 9)   # -A_T zeta_T grad tr U
-        f = np.bincount(pattern.dof.ravel(), weights=ft.ravel(), minlength=3 * n)
-    cons, force, names, pidx = _constraint_rows(geometry, physics, pressure_weights, terms)
+    if ctx.triangle_force is not None:
+        f = np.bincount(pattern.dof.ravel(), weights=ctx.triangle_force.ravel(), minlength=3 * n)
+
+    cons = np.concatenate([c.rows for c in ctx.constraints])
+    force = None
+    if any(c.force_rows is not None for c in ctx.constraints):
+        force = np.concatenate([c.rows if c.force_rows is None else c.force_rows for c in ctx.constraints])
+    offsets = np.cumsum([0] + [c.rows.shape[0] for c in ctx.constraints])
+    pidx = next((int(offsets[k]) for k, c in enumerate(ctx.constraints) if c.pressure), None)
+
     basis = velocity_basis(geometry, physics)
     if basis.shape[1] != 3:          # tangential unknowns only (fixed_normal_velocity)
         bmat = sp.block_diag([basis[i].T for i in range(n)], format="csr")  # (3N, nb N)
@@ -247,6 +196,7 @@ def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: n
     def on_unknowns(rows):
         return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
 
-    return EnergySystem(stiffness=kmat, rhs=f, constraints=on_unknowns(cons), constraint_names=names,
-                        basis=basis, pressure_index=pidx, pressure_sign=-1.0, terms=terms,
+    return EnergySystem(stiffness=kmat, rhs=f, constraints=on_unknowns(cons),
+                        constraint_names=constraint_names(ctx.constraints), basis=basis, pressure_index=pidx,
+                        pressure_sign=-1.0, terms=[t.name for t in terms],
                         force_rows=None if force is None else on_unknowns(force))

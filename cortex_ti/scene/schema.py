@@ -5,7 +5,7 @@ values of the keys that name a registered thing are not written in it but taken 
 registry that defines them, when the schema is built: ``numerics.fit`` from
 :data:`cortex_ti.surface.fits.FIT_SCHEMES`, ``numerics.formulation`` from
 :data:`cortex_ti.physics.formulations.FORMULATIONS` (``numerics.pressure_weights`` from
-:data:`cortex_ti.physics.galerkin.PRESSURE_WEIGHTS`), ``time.scheme`` from
+:data:`cortex_ti.physics.formulations.PRESSURE_WEIGHTS`), ``time.scheme`` from
 :data:`cortex_ti.dynamics.schemes.SCHEMES`, ``solver.backend`` from
 :data:`cortex_ti.solve.factorizations.FACTORIZATIONS` (plus ``auto``), and the active-stress
 pattern types with their parameters from :func:`cortex_ti.physics.patterns.pattern_schemas`.
@@ -30,8 +30,7 @@ from ..dynamics.motion import MESH_MOTIONS
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.fields import FIELDS
-from ..physics.formulations import FORMULATIONS
-from ..physics.galerkin import PRESSURE_WEIGHTS
+from ..physics.formulations import FORMULATIONS, PRESSURE_WEIGHTS
 from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES

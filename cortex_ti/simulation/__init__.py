@@ -5,14 +5,23 @@ shape, active tension: ``setup``), :class:`~cortex_ti.simulation.core.Simulation
 solve on any shape of the scene's mesh (geometry -> assembly -> constrained solve: ``core``),
 and the static and dynamic runs that write, flush and resume trajectories and report what they
 cost (``run``). Imports every layer below it (scene, surface, physics, solve, dynamics,
-analysis, io); ``setup`` needs no Taichi, so ``cortex-ti check`` does not start it.
+analysis, io); ``setup`` needs no Taichi, so ``cortex-ti check`` does not start it
+(``tests/test_layers.py``).
+
+``Simulation`` is ``core.Simulation``, loaded on first use: importing this package (which
+importing ``setup`` does) must not load the Taichi kernels of ``core``, about 1 s that every
+``cortex-ti check`` would pay. Type checkers and editors see the plain import below.
 """
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .core import Simulation
 
 __all__ = ["Simulation"]
 
 
 def __getattr__(name):
-    # lazily: importing cortex_ti.simulation.setup must not load the Taichi kernels of core
     if name == "Simulation":
         from .core import Simulation
 

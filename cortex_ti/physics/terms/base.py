@@ -1,62 +1,117 @@
-r"""How a physical term contributes to the discrete force balance.
+r"""How a physical term contributes to each discretisation of the force balance.
 
-The unknowns are the nodal velocities. At node ``i`` the force balance has
-``R`` rows: the two tangential components (along ``e_xi``, ``e_eta``) and, when
-the normal balance is solved, the normal one. Every row is linear in the fitted
-velocity derivatives ``V_k = [A_v, B_v, C_v, D_v, E_v]`` (3-vectors, paper Eq. 18),
-in the derivatives of the normal speed ``v_n`` (for the bending viscosity) and in
-the node's own velocity. A term therefore only writes *weights*:
+A term is one class registered with :func:`register`. Its ``effect`` names the scene effect
+that switches it on (``None``: always on), one of :data:`cortex_ti.physics.model.EFFECTS`; its
+``applies(ctx)`` says whether it has anything to add on this solve. What it adds to each
+formulation of :data:`cortex_ti.physics.formulations.FORMULATIONS` is a method named after
+that formulation, taking that formulation's context:
 
-``W[i, r, k]``   3-vector multiplying ``V_k`` in row ``r``
-``W0[i, r]``     3-vector multiplying ``v_i``
-``Wn[i, r, k]``  scalar multiplying the k-th fitted derivative of ``v_n = n . v``
-``Wn0[i, r]``    scalar multiplying ``v_n`` at node ``i``
-``rhs[i, r]``    the velocity-independent right-hand side
+``paper(ctx: PaperContext)``
+    The paper's strong form (:mod:`cortex_ti.physics.assembly`). The unknowns are the nodal
+    velocities; at node ``i`` the force balance has ``R`` rows: the two tangential components
+    (along ``e_xi``, ``e_eta``) and, when the normal balance is solved, the normal one. Every
+    row is linear in the fitted velocity derivatives ``V_k = [A_v, B_v, C_v, D_v, E_v]``
+    (3-vectors, paper Eq. 18), in the derivatives of the normal speed ``v_n`` and in the
+    node's own velocity, so the term only writes *weights*:
 
-and :mod:`cortex_ti.physics.assembly` turns the weights into matrix entries through the
-fit operator once for all terms. Dense parts (the pressure column, the
-constraint rows with their Lagrange multipliers) are collected separately so the
-sparse solve never sees them.
+    ``W[i, r, k]``   3-vector multiplying ``V_k`` in row ``r``
+    ``W0[i, r]``     3-vector multiplying ``v_i``
+    ``Wn[i, r, k]``  scalar multiplying the k-th fitted derivative of ``v_n = n . v``
+    ``Wn0[i, r]``    scalar multiplying ``v_n`` at node ``i``
+    ``rhs[i, r]``    the velocity-independent right-hand side
 
-A term is a class registered with :func:`register`; its ``effect`` names the
-scene effect that switches it on (``None``: always on), one of
-:data:`cortex_ti.physics.model.EFFECTS`.
+    and the assembly turns them into matrix entries through the fit operator once for all
+    terms; a pressure (``ctx.pressure``) and dense constraint rows (``ctx.constraints``) are
+    collected apart.
+
+``rayleigh_p1(ctx: P1Context)``
+    The stationary point of the discrete Rayleighian on the flat triangles
+    (:mod:`cortex_ti.physics.galerkin`), piecewise-linear velocities. The term adds to the
+    dissipation (a positive semidefinite quadratic form keeps the formulation stable), to the
+    power of the forces or to the constraints, again as coefficients the assembly turns into
+    one matrix: the in-plane viscosities ``shear``, ``bulk`` of ``A_T [eta_s |U~_T|^2 +
+    eta_b/2 (tr U_T)^2]``, a tensor ``B^cd`` (:meth:`P1Context.add_normal_form`) of
+    ``1/2 int B^cd d_c v_n d_d v_n dA`` (clipped to its positive semidefinite part per
+    triangle), a nodal drag ``normal_drag`` of ``1/2 sum_k A_k beta_k v_n,k^2``, raw per-triangle
+    9x9 blocks (:meth:`P1Context.add_blocks`), per-triangle forces
+    (:meth:`P1Context.add_triangle_force`, the power ``f . v``) and constraint rows with their
+    multipliers.
+
+A term that exists for one formulation only sets the other's method to ``None``; one whose
+contribution is the same in every formulation (the gauge rows) binds one function to both
+names. A term that says nothing about a formulation is refused when that formulation
+assembles (:func:`terms_for`). Adding a formulation adds a method name here.
+
+Nothing here imports Taichi: the registry is read by light layers; the kernels of a term load
+when it is applied.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ...surface.geometry import Geometry
+from ...errors import SolverError
 from ..model import Physics
 
-#: Row indices within a node
+if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
+    from ...surface.geometry import Geometry
+
+__all__ = ["ROW_ETA", "ROW_NORMAL", "ROW_XI", "TERMS", "Constraint", "Context", "P1Context", "PaperContext",
+           "Term", "check_inputs", "effects_without_terms", "register", "terms_for", "velocity_basis"]
+
+#: Row indices within a node (formulation ``paper``)
 ROW_XI, ROW_ETA, ROW_NORMAL = 0, 1, 2
 
 
 @dataclass
 class Constraint:
-    """Dense constraint rows ``sum_i c[j, i] . v_i = 0`` (one Lagrange multiplier each)."""
+    """Dense constraint rows ``sum_i c[j, i] . v_i = 0`` (one Lagrange multiplier each).
+
+    ``force_rows`` (``rayleigh_p1`` only): the rows along which the multipliers push, if not
+    ``rows`` themselves (a Petrov-Galerkin constraint). ``pressure``: its multiplier is the
+    pressure difference ``P``."""
 
     name: str
     rows: np.ndarray  # (m, N, 3)
+    force_rows: np.ndarray | None = None
+    pressure: bool = False
+
+
+def constraint_names(constraints: list[Constraint]) -> list[str]:
+    """One name per row: ``name[k]`` for a constraint of several rows, ``name`` for one row."""
+    return [f"{c.name}[{k}]" if c.rows.shape[0] > 1 else c.name for c in constraints for k in range(c.rows.shape[0])]
 
 
 @dataclass
-class AssemblyContext:
+class Context:
+    """What every formulation gives its terms: the shape, the physics, the active tension and
+    the step of the semi-implicit tension (0: explicit)."""
+
     geometry: Geometry
     physics: Physics
     zeta: np.ndarray
+    implicit_dt: float = 0.0
+    constraints: list = field(default_factory=list)
+
+    #: the formulation whose terms' method of this name is called
+    formulation = ""
+
+
+@dataclass
+class PaperContext(Context):
+    """The weights of the paper's strong form (module docstring)."""
+
     W: np.ndarray = field(init=False)
     W0: np.ndarray = field(init=False)
     Wn: np.ndarray = field(init=False)
     Wn0: np.ndarray = field(init=False)
     rhs: np.ndarray = field(init=False)
-    implicit_dt: float = 0.0   # time step of the semi-implicit tension (0: explicit)
     pressure: bool = False
-    constraints: list = field(default_factory=list)
+
+    formulation = "paper"
 
     def __post_init__(self):
         n, r = self.geometry.n_nodes, self.physics.rows_per_node
@@ -75,18 +130,56 @@ class AssemblyContext:
         return self._zeta_fit
 
 
+def _plus(total: np.ndarray | None, part: np.ndarray) -> np.ndarray:
+    """``total + part``, ``part`` itself for the first one (no rounding against a zero start)."""
+    return part if total is None else total + part
+
+
+@dataclass
+class P1Context(Context):
+    """The coefficients of the discrete Rayleighian on the flat triangles (module docstring).
+
+    ``faces`` (T, 3); ``area`` (T,), ``tnormal`` (T, 3) and ``grads`` (T, 3, 3) (corner, xyz) the
+    triangles' areas, unit normals and the in-plane gradients of their barycentric functions;
+    ``pressure_weights`` the scene's ``numerics.pressure_weights``."""
+
+    faces: np.ndarray = None
+    area: np.ndarray = None
+    tnormal: np.ndarray = None
+    grads: np.ndarray = None
+    pressure_weights: str = "petrov"
+    shear: float = 0.0                      # eta_s of A_T eta_s |U~_T|^2
+    bulk: float = 0.0                       # eta_b of A_T eta_b / 2 (tr U_T)^2
+    normal_form: np.ndarray | None = None   # B^cd (N, 2, 2) of 1/2 int B^cd d_c v_n d_d v_n dA
+    normal_drag: np.ndarray | None = None   # beta (N,) of 1/2 sum_k A_k beta_k v_n,k^2
+    blocks: np.ndarray | None = None        # (T, 9, 9) second derivatives of further dissipation
+    triangle_force: np.ndarray | None = None  # (T, 9): the power sum_T f_T . (v_a, v_b, v_c)
+
+    formulation = "rayleigh_p1"
+
+    def add_normal_form(self, bform: np.ndarray) -> None:
+        self.normal_form = _plus(self.normal_form, bform)
+
+    def add_normal_drag(self, beta: np.ndarray) -> None:
+        self.normal_drag = _plus(self.normal_drag, beta)
+
+    def add_blocks(self, blocks: np.ndarray) -> None:
+        self.blocks = _plus(self.blocks, blocks)
+
+    def add_triangle_force(self, force: np.ndarray) -> None:
+        self.triangle_force = _plus(self.triangle_force, force)
+
+
 class Term:
-    """A physical contribution to the force balance."""
+    """A physical contribution to the force balance (module docstring): ``effect``, ``name``,
+    ``applies`` and one method per formulation."""
 
     effect: str | None = None
     name: str = "term"
 
-    def applies(self, ctx: AssemblyContext) -> bool:
+    def applies(self, ctx: Context) -> bool:
         """Whether the term has anything to add on this solve (beyond its effect being on)."""
         return True
-
-    def apply(self, ctx: AssemblyContext) -> None:  # pragma: no cover - interface
-        raise NotImplementedError
 
 
 TERMS: list[type[Term]] = []
@@ -97,6 +190,57 @@ def register(cls: type[Term]) -> type[Term]:
     return cls
 
 
-def active_terms(physics: Physics) -> list[Term]:
-    """The terms the effects call for, in registration order."""
-    return [cls() for cls in TERMS if cls.effect is None or cls.effect in physics.effects]
+def terms_for(ctx: Context) -> list[Term]:
+    """The terms that add to ``ctx``'s formulation on this solve, in registration order: those
+    whose effect is on, that apply and that contribute to the formulation. A term that says
+    nothing about the formulation, or an effect switched on that no term of the formulation
+    implements, is one :class:`~cortex_ti.errors.SolverError`."""
+    form, effects = ctx.formulation, ctx.physics.effects
+    missing = effects_without_terms(effects, form)
+    if missing:
+        raise SolverError(f"formulation {form!r} has no term for the effect(s) {', '.join(missing)}")
+    on = (cls() for cls in TERMS if cls.effect is None or cls.effect in effects)
+    return [term for term in on if getattr(term, form) is not None and term.applies(ctx)]
+
+
+def effects_without_terms(effects, formulation: str) -> list[str]:
+    """The effects among ``effects`` that have terms, none of them in ``formulation`` (sorted): a
+    scene asking for one under that formulation would lose physics silently. A term of one of
+    ``effects`` that says nothing about the formulation (neither a method nor ``None``) is one
+    :class:`~cortex_ti.errors.SolverError`."""
+    implemented, with_terms = set(), set()
+    for cls in TERMS:
+        with_terms.add(cls.effect)
+        if not (cls.effect is None or cls.effect in effects):
+            continue
+        if not hasattr(cls, formulation):
+            raise SolverError(f"the term {cls.__name__} ({cls.name}) does not say what it adds to formulation "
+                              f"{formulation!r}: give it a method {formulation}(ctx), or {formulation} = None if it "
+                              "has no part there")
+        if getattr(cls, formulation) is not None:
+            implemented.add(cls.effect)
+    return sorted(e for e in effects if e in with_terms and e not in implemented)
+
+
+def velocity_basis(geometry: Geometry, physics: Physics) -> np.ndarray:
+    """Cartesian unit vectors, or the tangent frame when v_n is fixed to zero."""
+    if physics.normal_balance:
+        return np.broadcast_to(np.eye(3), (geometry.n_nodes, 3, 3)).copy()
+    return geometry.tangent_frame()
+
+
+def check_inputs(physics: Physics, zeta, implicit_dt: float) -> np.ndarray:
+    """What every formulation needs before it assembles: shear viscosity (else the force balance
+    has no unique solution), a finite active tension (returned as a contiguous float64 array)
+    and a finite step >= 0; one :class:`~cortex_ti.errors.SolverError` naming what is wrong."""
+    if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
+        raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
+                          "viscosity.shear > 0): without it every area-preserving flow is a solution")
+    zeta = np.ascontiguousarray(zeta, dtype=np.float64)
+    if not np.all(np.isfinite(zeta)):
+        bad = np.flatnonzero(~np.isfinite(zeta))
+        raise SolverError(f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, "
+                          f"value {zeta[bad[0]]})")
+    if not (np.isfinite(implicit_dt) and implicit_dt >= 0.0):
+        raise SolverError(f"implicit_dt must be a finite step >= 0, got {implicit_dt}")
+    return zeta

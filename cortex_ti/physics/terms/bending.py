@@ -24,14 +24,22 @@ Written out, with ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a``:
     \beta_0 = 2\bar\eta (C\tilde C - \bar C) - (\bar\eta_b-\bar\eta) C \tilde C,
 
 and ``nabla_c nabla_d v_n = d_c d_d v_n - Gamma^m_cd d_m v_n`` with the derivatives of
-``v_n = n . v`` fitted from the nodal values ``n_a . v_a``.
+``v_n = n . v`` fitted from the nodal values ``n_a . v_a`` (formulation ``paper``).
+
+Formulation ``rayleigh_p1`` has it as the dissipation
+``1/2 int [B^cd d_c v_n d_d v_n + beta_0 v_n^2] dA`` with ``B = -beta``. Its Euler-Lagrange force
+is ``-nabla_c (B^cd nabla_d v_n) + beta_0 v_n``; Eq. 45 is ``-B^cd nabla_c nabla_d v_n + beta_0 v_n``:
+they differ by ``-(nabla_c B^cd) nabla_d v_n``, zero on a sphere and wherever the curvature is
+uniform. ``v_n`` is interpolated linearly and its gradient integrated exactly per triangle,
+``B`` averaged over the corners, projected on the triangle and clipped to its positive
+semidefinite part (:mod:`cortex_ti.physics.galerkin`); ``beta_0 v_n^2`` is lumped at the nodes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import ROW_NORMAL, AssemblyContext, Term, register
+from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
 
 
 def curvature_invariants(geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -77,7 +85,17 @@ class BendingViscosity(Term):
     effect = "bending_viscosity"
     name = "bending viscosity"
 
-    def apply(self, ctx: AssemblyContext) -> None:
+    def applies(self, ctx: Context) -> bool:
+        # a normal force only; the scene refuses the effect with both coefficients zero
+        p = ctx.physics
+        return p.normal_balance and (p.eta_bar > 0 or p.eta_bar_b > 0)
+
+    def paper(self, ctx: PaperContext) -> None:
         w, w0 = bending_weights(ctx.geometry, ctx.physics.eta_bar, ctx.physics.eta_bar_b)
         ctx.Wn[:, ROW_NORMAL] += w
         ctx.Wn0[:, ROW_NORMAL] += w0
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        beta, beta0 = bending_tensors(ctx.geometry, ctx.physics.eta_bar, ctx.physics.eta_bar_b)
+        ctx.add_normal_form(-beta)
+        ctx.add_normal_drag(beta0)

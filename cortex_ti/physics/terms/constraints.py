@@ -13,6 +13,18 @@ r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multipl
   (Eq. 60), rather than the mixed area ``A_i``: both converge to the same
   ``integral of v_n dS = 0``, but with this choice the discrete volume is exactly
   stationary under normal advection, so it is conserved to O(dt^2) per step.
+
+In formulation ``rayleigh_p1`` the constraints are the same rows; the pressure is the volume
+row's multiplier. The triangulated volume's exact gradient ``dV/dx_k`` weighs node k with its
+barycentric area, the tension's force (the cotangent formula) with its Voronoi area; they differ
+by up to 13 % on an icosphere, so a uniform tension would drive an O(h) flow at t = 0 if the
+pressure pushed along ``dV/dx_k``. Hence the choices of ``numerics.pressure_weights``
+(:data:`PRESSURE_WEIGHTS`): by default (``petrov``) the pressure pushes on the Meyer areas,
+``P A_k n_k`` (the paper's Eq. 35, consistent with the tension's force to O(h^2)), while the
+constraint it enforces is the exact one, ``sum_k W_k v_n,k = 0``, so the triangulated volume is
+stationary under the normal advection of the nodes; ``area``: both on the Meyer areas;
+``exact``: both on ``W`` (then the force is exactly minus the gradient of ``E - P V``, at the
+price of that O(h) error).
 """
 
 from __future__ import annotations
@@ -20,7 +32,14 @@ from __future__ import annotations
 import numpy as np
 
 from ...solve.system import rigid_motion_rows
-from .base import AssemblyContext, Constraint, Term, register
+from .base import Constraint, Context, P1Context, PaperContext, Term, register
+
+#: How the pressure enters formulation ``rayleigh_p1`` (``numerics.pressure_weights``, module docstring).
+PRESSURE_WEIGHTS = {
+    "petrov": "force on the Meyer areas, constraint on the exact rate of the triangulated volume",
+    "area": "force and constraint on the Meyer areas (the paper's Eq. 35)",
+    "exact": "force and constraint on the exact gradient of the triangulated volume",
+}
 
 
 def gauge_rows(geometry, physics) -> np.ndarray:
@@ -36,8 +55,10 @@ class RigidBodyGauge(Term):
     effect = None
     name = "zero total velocity and angular momentum"
 
-    def apply(self, ctx: AssemblyContext) -> None:
+    def paper(self, ctx: Context) -> None:
         ctx.constraints.append(Constraint("momentum", gauge_rows(ctx.geometry, ctx.physics)))
+
+    rayleigh_p1 = paper   # the same rows, the same multipliers
 
 
 @register
@@ -45,8 +66,20 @@ class Incompressibility(Term):
     effect = "incompressibility"
     name = "pressure and volume conservation"
 
-    def apply(self, ctx: AssemblyContext) -> None:
+    def applies(self, ctx: Context) -> bool:
+        return ctx.physics.normal_balance   # the scene refuses the effect without it
+
+    def paper(self, ctx: PaperContext) -> None:
         g = ctx.geometry
         weight = np.einsum("nc,nc->n", g.normal, g.volume_gradient)
         ctx.pressure = True
-        ctx.constraints.append(Constraint("volume", (weight[:, None] * g.normal)[None]))
+        ctx.constraints.append(Constraint("volume", (weight[:, None] * g.normal)[None], pressure=True))
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        g, how = ctx.geometry, ctx.pressure_weights
+        nrm = g.normal
+        exact = np.einsum("nc,nc->n", nrm, g.volume_gradient)
+        force_on = exact if how == "exact" else g.area
+        enforce = g.area if how == "area" else exact
+        force = (force_on[:, None] * nrm)[None] if how == "petrov" else None
+        ctx.constraints.append(Constraint("volume", (enforce[:, None] * nrm)[None], force_rows=force, pressure=True))

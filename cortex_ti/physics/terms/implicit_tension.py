@@ -23,13 +23,18 @@ step multiplies it by ``1 / (1 - lambda dt)`` (backward Euler) instead of
 shape (v_n = 0) is unchanged; at ``dt = 0`` (static solves, frame diagnostics) it is
 absent. It is assembled only when the time integrator asks for it
 (``time.implicit_tension``) and the normal balance is solved.
+
+Formulation ``rayleigh_p1`` adds the dissipation ``dt zeta |grad v_n|^2`` (``zeta`` clipped at 0),
+integrated as the bending viscosity's: the leading part of the tension's Hessian (the
+``-zeta dt Lap v_n`` above, without its indefinite ``-zeta dt C~ v_n``), so the step's matrix stays
+definite whatever ``dt``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import ROW_NORMAL, AssemblyContext, Term, register
+from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
 from .bending import curvature_invariants, hessian_weights
 
 
@@ -45,10 +50,14 @@ class ImplicitTension(Term):
     effect = "active_stress"
     name = "semi-implicit active tension"
 
-    def applies(self, ctx: AssemblyContext) -> bool:
+    def applies(self, ctx: Context) -> bool:
         return ctx.implicit_dt > 0.0 and ctx.physics.normal_balance
 
-    def apply(self, ctx: AssemblyContext) -> None:
+    def paper(self, ctx: PaperContext) -> None:
         w, w0 = implicit_tension_weights(ctx.geometry, ctx.zeta, ctx.implicit_dt)
         ctx.Wn[:, ROW_NORMAL] += w
         ctx.Wn0[:, ROW_NORMAL] += w0
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        # dt zeta |grad v_n|^2, zeta clipped at 0: positive semidefinite whatever dt
+        ctx.add_normal_form((ctx.implicit_dt * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv)

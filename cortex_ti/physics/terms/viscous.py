@@ -19,70 +19,24 @@ The viscous stress ``t^ab = 2 eta_s (u^ab - u g^ab / 2) + eta_b u g^ab`` then gi
 * normal row: ``C_ab t^ab = sum_cd [eta_s (2 C^cd - C g^cd) + eta_b C g^cd] u_cd``.
 
 Shear and bulk viscosity are separate effects sharing one kernel.
+
+Formulation ``paper`` writes these weights with one Taichi kernel (:mod:`.viscous_kernel`,
+loaded when the term is first applied, so the registry imports no Taichi). Formulation
+``rayleigh_p1`` integrates the dissipation ``A_T [eta_s |U~_T|^2 + eta_b/2 (tr U_T)^2]`` exactly on
+each flat triangle (:func:`cortex_ti.physics.galerkin.viscous_blocks`): the terms give its two
+coefficients.
 """
 
-
-from ...runtime import f64_2, f64_3, f64_4, kernel, ti
-from .base import AssemblyContext, Term, register
+from .base import P1Context, PaperContext, Term, register
 
 
-@ti.func
-def _second(a: ti.template(), b: ti.template()):
-    """Index of d_a d_b among the fitted derivatives (C, D, E = 2, 3, 4)."""
-    return ti.static(2 if a == b == 0 else 3 if a == b == 1 else 4)
+def add_viscous(ctx: PaperContext, eta_s: float, eta_b: float) -> None:
+    """Add the weights of the viscous stress with coefficients ``eta_s``, ``eta_b`` to ``ctx``."""
+    # Taichi, loaded on the first assembly (the registry imports no Taichi)
+    from .viscous_kernel import viscous_kernel
 
-
-@ti.func
-def _load2(arr: ti.template(), i):
-    return ti.Matrix([[arr[i, 0, 0], arr[i, 0, 1]], [arr[i, 1, 0], arr[i, 1, 1]]])
-
-
-@ti.func
-def _add(W: ti.template(), i, r, k: ti.template(), v):
-    for c in ti.static(range(3)):
-        W[i, r, k, c] += v[c]
-
-
-@kernel
-def _viscous_kernel(
-    tangents: f64_3, nfit: f64_2, metric_inv: f64_3, curv: f64_3, gamma: f64_4,
-    eta_s: ti.f64, eta_b: ti.f64, with_normal: ti.i32, W: f64_4,
-):
-    for i in range(tangents.shape[0]):
-        es = [ti.Vector([tangents[i, a, 0], tangents[i, a, 1], tangents[i, a, 2]]) for a in ti.static(range(2))]
-        n = ti.Vector([nfit[i, 0], nfit[i, 1], nfit[i, 2]])
-        gi = _load2(metric_inv, i)
-        cab = _load2(curv, i)
-        for b in ti.static(range(2)):
-            for a in ti.static(range(2)):
-                for c in ti.static(range(2)):
-                    for d in ti.static(range(2)):
-                        t = eta_s * (2.0 * gi[a, c] * gi[b, d] - gi[a, b] * gi[c, d]) + eta_b * gi[a, b] * gi[c, d]
-                        ec = es[c]
-                        ed = es[d]
-                        # 1/2 (H_ac . e_d + H_ad . e_c)
-                        _add(W, i, b, _second(a, c), 0.5 * t * ed)
-                        _add(W, i, b, _second(a, d), 0.5 * t * ec)
-                        for m in ti.static(range(2)):
-                            _add(W, i, b, m, -0.5 * t * (gamma[i, m, a, c] * ed + gamma[i, m, a, d] * ec))
-                        # -1/2 C_ad V_c . n - 1/2 C_ac V_d . n
-                        _add(W, i, b, c, -0.5 * t * cab[a, d] * n)
-                        _add(W, i, b, d, -0.5 * t * cab[a, c] * n)
-        if with_normal:
-            cup = gi @ cab @ gi
-            ctr = (gi * cab).sum()
-            for c in ti.static(range(2)):
-                for d in ti.static(range(2)):
-                    s = eta_s * (2.0 * cup[c, d] - ctr * gi[c, d]) + eta_b * ctr * gi[c, d]
-                    ec = es[c]
-                    ed = es[d]
-                    _add(W, i, 2, c, 0.5 * s * ed)
-                    _add(W, i, 2, d, 0.5 * s * ec)
-
-
-def add_viscous(ctx: AssemblyContext, eta_s: float, eta_b: float) -> None:
     g = ctx.geometry
-    _viscous_kernel(g.tangents, g.normal_fit, g.metric_inv, g.curvature, g.christoffel,
+    viscous_kernel(g.tangents, g.normal_fit, g.metric_inv, g.curvature, g.christoffel,
                     float(eta_s), float(eta_b), int(ctx.physics.normal_balance), ctx.W)
 
 
@@ -93,8 +47,11 @@ class ShearViscosity(Term):
     effect = "shear_viscosity"
     name = "shear viscosity"
 
-    def apply(self, ctx):
+    def paper(self, ctx: PaperContext) -> None:
         add_viscous(ctx, ctx.physics.eta_s, 0.0)
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        ctx.shear += ctx.physics.eta_s
 
 
 @register
@@ -104,5 +61,8 @@ class BulkViscosity(Term):
     effect = "bulk_viscosity"
     name = "bulk viscosity"
 
-    def apply(self, ctx):
+    def paper(self, ctx: PaperContext) -> None:
         add_viscous(ctx, 0.0, ctx.physics.eta_b)
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        ctx.bulk += ctx.physics.eta_b
