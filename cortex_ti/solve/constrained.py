@@ -258,7 +258,7 @@ class ConstrainedSolver:
 
     Parameters
     ----------
-    backend : factorisation name (``auto``, ``superlu``, ``pardiso``).
+    backend : factorisation name (``auto`` or a name of :data:`~cortex_ti.solve.factorizations.FACTORIZATIONS`).
     reuse : keep the factorisation and use it to precondition later, nearby systems.
     rtol : GMRES tolerance when reusing (relative to the right-hand side).
     max_iter : GMRES iterations above which the matrix is refactored at once (otherwise
