@@ -34,6 +34,7 @@ class Physics:
     eta_bar: float = 0.0
     eta_bar_b: float = 0.0
     translation: str = "mean_velocity"   # how the free rigid translation is fixed (scene key ``translation``)
+    material_nodes: bool = False         # the nodes move with the full velocity (mesh.motion: lagrangian)
 
     @property
     def centroid_gauge(self) -> bool:

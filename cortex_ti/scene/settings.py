@@ -208,7 +208,7 @@ class RunSettings:
         """What the force-balance terms read: the effects and the viscous coefficients."""
         v = self.viscosity
         return Physics(effects=self.effects, eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk,
-                       translation=self.translation)
+                       translation=self.translation, material_nodes=self.mesh.motion == "lagrangian")
 
     @property
     def pattern_axis(self) -> np.ndarray:

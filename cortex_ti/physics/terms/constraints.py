@@ -73,6 +73,10 @@ class Incompressibility(Term):
         g = ctx.geometry
         weight = np.einsum("nc,nc->n", g.normal, g.volume_gradient)
         ctx.pressure = True
+        if ctx.physics.material_nodes:
+            # the nodes move with v itself: keep the triangulated volume under that motion
+            ctx.constraints.append(Constraint("volume", g.volume_gradient[None], pressure=True))
+            return
         ctx.constraints.append(Constraint("volume", (weight[:, None] * g.normal)[None], pressure=True))
 
     def rayleigh_p1(self, ctx: P1Context) -> None:
@@ -82,4 +86,10 @@ class Incompressibility(Term):
         force_on = exact if how == "exact" else g.area
         enforce = g.area if how == "area" else exact
         force = (force_on[:, None] * nrm)[None] if how == "petrov" else None
-        ctx.constraints.append(Constraint("volume", (enforce[:, None] * nrm)[None], force_rows=force, pressure=True))
+        rows = (enforce[:, None] * nrm)[None]
+        if ctx.physics.material_nodes and how != "area":
+            # the nodes move with v itself (mesh.motion: lagrangian): the rate of the triangulated
+            # volume is sum_k dV/dx_k . v_k, tangential parts included; holding it at zero keeps the
+            # volume and makes a rigid translation satisfy the constraint exactly
+            rows = g.volume_gradient[None]
+        ctx.constraints.append(Constraint("volume", rows, force_rows=force, pressure=True))
