@@ -7,8 +7,7 @@ loop over the terms of the enabled effects. Importing the registry starts no Tai
 
 from ..model import Physics
 from . import active, bending, constraints, implicit_tension, viscous  # noqa: F401  (registration)
-from .base import (TERMS, Constraint, Context, P1Context, PaperContext, Term, effects_without_terms, register,
-                   terms_for)
+from .base import TERMS, Constraint, Context, P1Context, PaperContext, Term, effects_without_terms, register, terms_for
 
 __all__ = ["TERMS", "Constraint", "Context", "P1Context", "PaperContext", "Physics", "Term", "effects_without_terms",
            "register", "terms_for"]
