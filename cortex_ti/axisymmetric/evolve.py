@@ -522,15 +522,20 @@ def simulate(
 
 
 def full_meridian_dynamics(zeta: ZetaFn, n: int, *, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float,
-                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None) -> "_Dynamics":
+                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None,
+                           tension: str = "nodes") -> "_Dynamics":
     """The shape dynamics of ``simulate(..., symmetric=False, parametrization='lagrangian')``:
-    material points at ``n`` labels on the whole meridian moving with ``v_n n``, state
-    ``y = (r, z)``; its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the dynamics about
-    any state (e.g. a saved frame), without the up-down reduction, so modes odd under z -> -z
-    are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
+    points at ``n`` labels on the whole meridian moving with ``v_n n``, state ``y = (r, z)``
+    (``tension='material'``: ``y = (r, z, u)``, ``u`` the material label at each point, initially
+    the point's polar angle); its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the
+    dynamics about any state (e.g. a saved frame), without the up-down reduction, so modes odd
+    under z -> -z are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
     phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
     sp = Spectral(_check_n(n), False)
-    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian")
+    if tension not in ("nodes", "material"):
+        raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
+    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian",
+                              carried=tension == "material")
 
 
 def normal_embedding(dyn: "_Dynamics", y: ArrayF) -> ArrayF:
@@ -578,6 +583,12 @@ def _crossing(solver, t_old: float, stop) -> tuple[float, ArrayF]:
     from scipy.optimize import brentq
 
     dense = solver.dense_output()
+    if not math.isfinite(stop(dense(t_old))):  # no neck yet at the step's start: find where one forms
+        a, b = t_old, solver.t
+        for _ in range(60):
+            mid = 0.5 * (a + b)
+            a, b = (mid, b) if not math.isfinite(stop(dense(mid))) else (a, mid)
+        t_old = b
     if stop(dense(t_old)) <= 0.0:
         return t_old, np.asarray(dense(t_old))
     ts = brentq(lambda t: stop(dense(t)), t_old, solver.t, xtol=1e-12, rtol=1e-12)
