@@ -163,3 +163,22 @@ def test_stop_neck_out_of_range_is_refused(tmp_path, capsys):
     assert code == 2 and not out.exists()
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("cortex-ti: error:") and "stop_neck" in err[0]
+
+
+def test_ill_posed_stop_where_the_bending_force_changes_sign():
+    """The deep ring (amplitude 6, the paper's viscosities): the bending-viscosity normal force's
+    margin ``2 eta_bar k_i + (eta_bar_b - eta_bar) C`` is 2 eta_bar_b / R on the sphere (closed form)
+    and reaches 0 at the neck at a time that does not depend on n (the model's limit, not the
+    discretisation's: derivation Sec. 12); the run stops there cleanly, keeping its frames."""
+    def zeta(theta):
+        return 1.0 + 6.0 * np.exp(-10.0 * (np.asarray(theta) - np.pi / 2) ** 4)
+
+    out = []
+    for n in (24, 32):
+        res = simulate(zeta, **BEND, t_end=2.0, save_times=np.linspace(0.0, 2.0, 21), n=n, rtol=1e-10,
+                       interpolate=True)
+        assert abs(res.bending_margin[0] - 2 * BEND["eta_bar_b"]) <= 1e-9
+        assert res.stopped.startswith("ill-posed") and abs(res.bending_margin[-1]) <= 1e-8
+        assert np.all(res.bending_margin[:-1] > 0) and len(res.t) > 5
+        out.append(res.t[-1])
+    assert abs(out[0] - out[1]) <= 1e-4 and 0.9 < out[1] < 1.2

@@ -26,7 +26,7 @@ def twin_of(tr: Trajectory):
     s = run.settings
     return simulate(run.zeta, **viscosities(s), radius=s.mesh.radius, t_end=float(tr.times[-1]),
                     save_times=tr.times, n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
-                    **dict(evolution_options(s), stop_neck=None))
+                    **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False))
 
 
 def compare(path: str, times=PROFILE_TIMES) -> dict:

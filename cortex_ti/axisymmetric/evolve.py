@@ -194,7 +194,8 @@ class SimulationResult:
     smallest interior local minimum of r; inf without one), ``bending_margin`` (the smallest over
     the nodes of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C``, i = 1, 2: the bending-viscosity
     normal force damps short waves only while it is > 0, derivation Sec. 12; nan without bending
-    viscosity). ``stopped``: ``'t_end'``, or the neck and time at which ``stop_neck`` ended the run.
+    viscosity). ``stopped``: ``'t_end'``, or what ended the run early and when (``stop_neck``
+    reached, or the model ill-posed: ``stop_ill_posed``).
     Run statistics: ``wall_time`` (s, integration only), ``n_rhs`` (force-balance solves),
     ``n_steps`` (accepted steps), ``n_jac``, ``n_lu``.
     """
@@ -360,12 +361,7 @@ def _diagnostics(dyn: _Dynamics, y: ArrayF, g: dict, x: ArrayF, radius: float) -
         u = y[2 * n :].copy()
         us = 1.0 + (u - sp.u) @ sp.D["O"].T
     mat = g["h"] / us / radius  # material line element |dX/du| / R0
-    ph = system.ph
-    if ph.bending:
-        d, C = ph.eta_bar_b - ph.eta_bar, g["k1"] + g["k2"]
-        margin = float(min(np.min(2 * ph.eta_bar * g["k1"] + d * C), np.min(2 * ph.eta_bar * g["k2"] + d * C)))
-    else:
-        margin = float("nan")
+    margin = _bending_margin(system.ph, sp, y) if system.ph.bending else float("nan")
     stretch = float(mat.max() / mat.min()) if np.all(us > 0) else float("inf")  # inf: label map folded
     return dict(
         u=u, r=g["r"], z=z, v_s=vs, v_n=vn, v_r=vs * g["rs"] - vn * g["zs"], v_z=vs * g["zs"] + vn * g["rs"],
@@ -421,6 +417,7 @@ def simulate(
     tension: str = "nodes",
     monitor: float = 0.0,
     stop_neck: float | None = None,
+    stop_ill_posed: bool = True,
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -472,6 +469,11 @@ def simulate(
     stop_neck : float or None
         Stop cleanly (keeping the frames so far, plus one at the time of the crossing) when the
         neck radius falls to this value (R0); ``SimulationResult.stopped`` says so.
+    stop_ill_posed : bool
+        With bending viscosity, stop cleanly the same way when ``2 eta_bar k_i + (eta_bar_b -
+        eta_bar) C`` (i = 1, 2) falls to 0 at a node: past it the bending-viscosity normal force
+        amplifies short waves instead of damping them and the model has no converged solution
+        (derivation, Sec. 12). Off, the run goes on until the integrator fails.
 
     Returns
     -------
@@ -508,14 +510,19 @@ def simulate(
                     carried=tension == "material", monitor=monitor)
     y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if dyn.labelled else [])
     y0 = np.concatenate(y0)  # on the sphere the monitor is uniform: the nodes start equidistributed
-    stop = None if stop_neck is None else (lambda y: _neck(dyn, y) - stop_neck)
+    stops = {}
+    if stop_neck is not None:
+        stops["neck"] = lambda y: _neck(dyn, y) - stop_neck
+    if stop_ill_posed and phys.bending:
+        stops["bending"] = lambda y: _bending_margin(phys, sp, y)
     t0 = time.perf_counter()
     saved, nsteps, nlu, stopped = _integrate(dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF,
-                                             rtol, atol, interpolate, max_steps, stop)
+                                             rtol, atol, interpolate, max_steps, stops)
     stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
     params = dict(eta_s=phys.eta_s, eta_b=phys.eta_b, eta_bar=phys.eta_bar, eta_bar_b=phys.eta_bar_b, radius=R, n=n,
                   rtol=rtol, atol=atol, symmetric=symmetric, method=method, parametrization=parametrization,
-                  gauge=gauge, interpolate=interpolate, tension=tension, monitor=monitor, stop_neck=stop_neck)
+                  gauge=gauge, interpolate=interpolate, tension=tension, monitor=monitor, stop_neck=stop_neck,
+                  stop_ill_posed=stop_ill_posed)
     out = _result(dyn, saved, R, stats, params)
     out.stopped = stopped
     return out
@@ -595,10 +602,37 @@ def _crossing(solver, t_old: float, stop) -> tuple[float, ArrayF]:
     return float(ts), np.asarray(dense(ts))
 
 
-def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stop=None):
+_MARGIN_GRID = (np.arange(512) + 0.5) * (np.pi / 512)
+
+
+def _bending_margin(ph, sp: Spectral, y: ArrayF) -> float:
+    """The smallest along the meridian (the spectral interpolant on 512 points, equator included
+    with symmetry) of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C`` (i = 1, 2): > 0 while the
+    bending-viscosity normal force damps short waves (derivation, Sec. 12)."""
+    n, y = sp.n, np.asarray(y).real
+    r = y[:n] if sp.FR is None else sp.FR @ y[:n]
+    sig = np.concatenate([_MARGIN_GRID, [np.pi / 2]])
+    ru, zu = sp.evaluate("R", r, sig, 1), sp.evaluate("Z", y[n:2 * n], sig, 1)
+    ruu, zuu = sp.evaluate("R", r, sig, 2), sp.evaluate("Z", y[n:2 * n], sig, 2)
+    h = np.hypot(ru, zu)
+    k1 = (zu * ruu - ru * zuu) / h**3
+    k2 = -zu / h / sp.evaluate("R", r, sig)
+    d, C = ph.eta_bar_b - ph.eta_bar, k1 + k2
+    return float(min(np.min(2 * ph.eta_bar * k1 + d * C), np.min(2 * ph.eta_bar * k2 + d * C)))
+
+
+_STOP_MESSAGES = {
+    "neck": "neck {neck:.4g} R0 at t={t:.6g}",
+    "bending": "ill-posed at t={t:.6g}: the bending-viscosity normal force lost its sign on the meridian "
+               "(2 eta_bar k_i + (eta_bar_b - eta_bar) C = 0; neck {neck:.4g} R0)",
+}
+
+
+def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stops=None):
     """Step from 0 to the save times (or, with ``interpolate``, to ``t_end`` reading the dense
-    output at the save times), or until ``stop(y)`` falls to 0. Returns ``(saved [(t, y)], steps,
-    LU factorisations, why it stopped)``."""
+    output at the save times), or until one of ``stops`` (name -> f(y)) falls to 0. Returns
+    ``(saved [(t, y)], steps, LU factorisations, why it stopped)``."""
+    stops = stops or {}
     saved: list[tuple[float, ArrayF]] = []
     nsteps = nlu = k = 0
     while k < st.size and st[k] <= 0.0:
@@ -621,12 +655,14 @@ def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, s
         while solver.status == "running":
             t_old = solver.t
             nsteps = _step(solver, nsteps, max_steps)
-            if stop is not None and stop(solver.y) <= 0.0:
-                tc, yc = _crossing(solver, t_old, stop)
+            hit = [(*_crossing(solver, t_old, f), name) for name, f in stops.items() if f(solver.y) <= 0.0]
+            if hit:
+                tc, yc, name = min(hit, key=lambda h: h[0])
                 if interpolate:
                     k = _save_dense(solver, st[st < tc], k, saved)
                 saved.append((tc, yc))
-                return saved, nsteps, nlu + solver.nlu, f"neck {_neck(dyn, yc):.4g} R0 at t={tc:.6g}"
+                why = _STOP_MESSAGES[name].format(neck=_neck(dyn, yc), t=tc)
+                return saved, nsteps, nlu + solver.nlu, why
             if interpolate:
                 k = _save_dense(solver, st, k, saved)
         nlu += solver.nlu

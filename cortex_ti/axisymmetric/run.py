@@ -130,8 +130,7 @@ class AxisymmetricRun:
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         if res.stopped != "t_end":
-            log.warning("%s (axisymmetric): stopped, axisymmetric.stop_neck = %g reached (%s); the frames so far are "
-                        "kept", s.name, s.axisymmetric.stop_neck, res.stopped)
+            log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
         return res
 
     # ------------------------------------------------------------------------------- writing
@@ -165,7 +164,7 @@ class AxisymmetricRun:
             out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
         else:
             out.update(steps=int(r.n_steps), rejected=0, solves=int(r.n_rhs), t_reached=float(r.t[-1]),
-                       stopped="t_end" if r.stopped == "t_end" else "neck")
+                       stopped=r.stopped.split(" ")[0] if r.stopped != "t_end" else "t_end")
         out["ms_solve_per_solve"] = 1e3 * self.seconds / max(out["solves"], 1)
         return out
 
