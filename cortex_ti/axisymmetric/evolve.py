@@ -117,10 +117,15 @@ class _Dynamics:
         return gw @ sp.IE.T
 
     def density(self, g: dict) -> ArrayF:
-        """Node density of the neck-resolving parametrisation: ``rho = sqrt(1 + (m k)^2)`` with
-        ``k^2 = k1^2 + k2^2`` and ``m = monitor`` (R0): points gather where the meridian bends or
-        comes close to the axis (``k2 = sin(psi)/r``), so a closing neck keeps its share."""
-        return np.sqrt(1.0 + self.monitor**2 * (g["k1"] ** 2 + g["k2"] ** 2))
+        """Node density of the neck-resolving parametrisation: ``rho = sqrt(1 + m^2 (k^2 + u_s^2))``
+        with ``k^2 = k1^2 + k2^2``, ``u_s`` the rate of the tension's label along the arc and
+        ``m = monitor`` (R0): points gather where the meridian bends or comes close to the axis
+        (``k2 = sin(psi)/r``), so a closing neck keeps its share, and where the tension varies fast."""
+        rho2 = 1.0 + self.monitor**2 * (g["k1"] ** 2 + g["k2"] ** 2)
+        if "u" in g:  # and where the tension's label runs fast along the arc (|du/ds|, 1/R0 on the sphere)
+            us = 1.0 + (g["u"] - self.sp.u) @ self.sp.D["O"].T
+            rho2 = rho2 + self.monitor**2 * (us / g["h"]) ** 2
+        return np.sqrt(rho2)
 
     def velocity(self, g: dict, x: ArrayF) -> ArrayF:
         sp, n = self.sp, self.n
