@@ -195,6 +195,7 @@ def test_neck_resolving_points_give_the_same_shapes(tension):
     for n in (24, 32):
         m = simulate(ring, **BEND, t_end=0.5, n=n, rtol=1e-11, tension=tension, parametrization="arclength",
                      monitor=0.3)
-        diffs.append(max(abs(m.furrow_radius[-1] - ref.furrow_radius[-1]), abs(m.pole_radius[-1] - ref.pole_radius[-1])))
+        diffs.append(max(abs(m.furrow_radius[-1] - ref.furrow_radius[-1]),
+                         abs(m.pole_radius[-1] - ref.pole_radius[-1])))
         assert np.max(np.abs(m.u[-1] - m.u[0])) > 1e-3     # the points did slide along the meridian
     assert diffs[1] < diffs[0] / 10 and diffs[1] <= 1e-8
