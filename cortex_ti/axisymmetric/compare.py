@@ -2,8 +2,8 @@
 
 For a 3D trajectory of an axisymmetric scene, :func:`compare` solves the scene again with the
 axisymmetric model at the file's frame times (~1 s) and measures the radii and the velocity
-profiles at the same material points (the label theta0 = a node's polar angle on the initial
-sphere: both codes move their points with the normal velocity).
+profiles at the same points (the label theta0 = a node's polar angle on the initial sphere: both
+codes move their points with the normal velocity, whatever carries the tension).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 from ..io.trajectory import Trajectory
 from ..scene import scene_from_dict
 from .evolve import simulate
-from .run import AxisymmetricRun, viscosities
+from .run import AxisymmetricRun, evolution_options, viscosities
 
 __all__ = ["PROFILE_TIMES", "twin_of", "compare"]
 
@@ -25,7 +25,8 @@ def twin_of(tr: Trajectory):
     run = AxisymmetricRun(scene_from_dict(dict(tr.scene.data, model="axisymmetric")))
     s = run.settings
     return simulate(run.zeta, **viscosities(s), radius=s.mesh.radius, t_end=float(tr.times[-1]),
-                    save_times=tr.times, n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True)
+                    save_times=tr.times, n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
+                    **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False))
 
 
 def compare(path: str, times=PROFILE_TIMES) -> dict:
@@ -48,7 +49,7 @@ def compare(path: str, times=PROFILE_TIMES) -> dict:
         v, n = ds["velocity"].isel(time=k).values, tr.normals(k)
         vn = np.einsum("nc,nc->n", v, n)
         vt = np.linalg.norm(v - vn[:, None] * n, axis=1)
-        e = res.evaluate(k, labels)
+        e = res.evaluate(k, labels, coordinate="sigma" if res.params["parametrization"] == "lagrangian" else "label")
         dvn, dvt = vn - e["v_n"], vt - np.abs(e["v_s"])
         out[f"profile_{t:g}"] = (float(np.abs(dvn).max()), float(np.sqrt(np.mean(dvn ** 2))),
                                  float(np.abs(dvt).max()), float(np.sqrt(np.mean(dvt ** 2))),

@@ -63,13 +63,18 @@ class _Dynamics:
     the material label is carried along, ``du/dt = (w / h) du/dsigma`` (``h = |dX/dsigma|``).
     """
 
-    def __init__(self, sp: Spectral, system: ForceBalance, zeta: ZetaFn, mode: str, relax: float = 1.0):
+    def __init__(self, sp: Spectral, system: ForceBalance, zeta: ZetaFn, mode: str, relax: float = 1.0,
+                 carried: bool = False, monitor: float = 0.0):
         self.sp, self.system, self.zeta_fn, self.mode = sp, system, zeta, mode
         self.n = sp.n
         self.relax = relax
+        self.carried = bool(carried)
+        self.monitor = float(monitor)
+        # the state carries the material label u(sigma) unless the nodes are the tension's points
+        self.labelled = mode != "lagrangian" or self.carried
         self.nrhs = 0
         self.njac = 0
-        if mode == "lagrangian":
+        if not self.labelled:
             self.zeta_nodes = _eval_zeta(zeta, sp.u)
         else:
             self.series = _ZetaSeries(zeta)
@@ -77,7 +82,7 @@ class _Dynamics:
     def geometry(self, y: ArrayF) -> dict:
         n = self.n
         g = geometry(self.sp, y[..., :n], y[..., n : 2 * n])
-        if self.mode == "lagrangian":
+        if not self.labelled:
             g["zeta"] = self.zeta_nodes
         else:
             u = y[..., 2 * n :]
@@ -103,23 +108,45 @@ class _Dynamics:
         a = g["k1"] * vn * g["h"]  # d h / dt at fixed material label, per unit du
         a0 = a @ sp.Binv["E"][0]  # mean over [0, pi]
         h0 = g["h"] @ sp.Binv["E"][0]  # L / pi
-        gw = a0[..., None] - a + self.relax * (h0[..., None] - g["h"])
+        if self.monitor > 0.0:  # equidistribute h * rho: target spacing L rho / <rho> (Sec. 11)
+            rho = self.density(g)
+            target = h0[..., None] * rho / (rho @ sp.Binv["E"][0])[..., None]
+        else:
+            target = h0[..., None]
+        gw = a0[..., None] - a + self.relax * (target - g["h"])
         return gw @ sp.IE.T
+
+    def density(self, g: dict) -> ArrayF:
+        """Node density of the neck-resolving parametrisation: ``rho = sqrt(1 + m^2 (k^2 + u_s^2))``
+        with ``k^2 = k1^2 + k2^2``, ``u_s`` the rate of the tension's label along the arc and
+        ``m = monitor`` (R0): points gather where the meridian bends or comes close to the axis
+        (``k2 = sin(psi)/r``), so a closing neck keeps its share, and where the tension varies fast."""
+        rho2 = 1.0 + self.monitor**2 * (g["k1"] ** 2 + g["k2"] ** 2)
+        if "u" in g:  # and where the tension's label runs fast along the arc (|du/ds|, 1/R0 on the sphere)
+            us = 1.0 + (g["u"] - self.sp.u) @ self.sp.D["O"].T
+            rho2 = rho2 + self.monitor**2 * (us / g["h"]) ** 2
+        return np.sqrt(rho2)
 
     def velocity(self, g: dict, x: ArrayF) -> ArrayF:
         sp, n = self.sp, self.n
         vn = x[..., n : 2 * n]
         dr = -vn * g["zs"]  # v_n sin(psi)
         dz = vn * g["rs"]  # v_n cos(psi)
-        if self.mode == "lagrangian":
-            out = [dr, dz]
-        else:
+        out = [dr, dz]
+        if self.mode != "lagrangian":
             w = self.mesh_velocity(g, x)
             dr = dr + w * g["rs"]
             dz = dz + w * g["zs"]
+            out = [dr, dz]
+        else:
+            w = 0.0
+        if self.labelled:
+            # the material label at a node changes as the material passes it: the node moves
+            # tangentially with w, the material (carried tension) with v_s, normal-only points with 0
+            slip = w - x[..., :n] if self.carried else w
             us = 1.0 + (g["u"] - sp.u) @ sp.D["O"].T
-            du = (w / g["h"] * us) @ sp.FO.T
-            out = [dr, dz, du]
+            du = (slip / g["h"] * us) @ sp.FO.T
+            out.append(du)
         if sp.FR is not None:
             out[0] = out[0] @ sp.FR.T
         return np.concatenate(out, axis=-1)
@@ -168,7 +195,12 @@ class SimulationResult:
     axis; z_centroid = area centroid, 0 with symmetry), ``volume``, ``area``, ``z_centroid``,
     ``stretch`` (max/min over the meridian of the material stretch |dX/du| / R0: the clustering of
     the normally moving points; inf if the label map has folded, i.e. the material is no longer
-    resolved), ``grid_stretch`` (max/min of the node spacing in arc length).
+    resolved), ``grid_stretch`` (max/min of the node spacing in arc length), ``neck_radius`` (the
+    smallest interior local minimum of r; inf without one), ``bending_margin`` (the smallest over
+    the nodes of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C``, i = 1, 2: the bending-viscosity
+    normal force damps short waves only while it is > 0, derivation Sec. 12; nan without bending
+    viscosity). ``stopped``: ``'t_end'``, or what ended the run early and when (``stop_neck``
+    reached, or the model ill-posed: ``stop_ill_posed``).
     Run statistics: ``wall_time`` (s, integration only), ``n_rhs`` (force-balance solves),
     ``n_steps`` (accepted steps), ``n_jac``, ``n_lu``.
     """
@@ -191,12 +223,15 @@ class SimulationResult:
     z_centroid: ArrayF
     stretch: ArrayF
     grid_stretch: ArrayF
+    neck_radius: ArrayF
+    bending_margin: ArrayF
     wall_time: float
     n_rhs: int
     n_steps: int
     n_jac: int
     n_lu: int
     params: dict
+    stopped: str = "t_end"
     _states: list = field(repr=False, default_factory=list)
     _spectral: Spectral | None = field(repr=False, default=None)
     _zeta_fn: ZetaFn | None = field(repr=False, default=None)
@@ -324,19 +359,20 @@ def _diagnostics(dyn: _Dynamics, y: ArrayF, g: dict, x: ArrayF, radius: float) -
         pole = 0.5 * float(zn - zs_)
         furrow = _furrow(sp, g["r"], z, zc)
     vs, vn = f["v_s"], f["v_n"]
-    if dyn.mode == "lagrangian":
+    if not dyn.labelled:
         u = sp.u.copy()
         us = np.ones(n)
     else:
         u = y[2 * n :].copy()
         us = 1.0 + (u - sp.u) @ sp.D["O"].T
     mat = g["h"] / us / radius  # material line element |dX/du| / R0
+    margin = _bending_margin(system.ph, sp, y) if system.ph.bending else float("nan")
     stretch = float(mat.max() / mat.min()) if np.all(us > 0) else float("inf")  # inf: label map folded
     return dict(
         u=u, r=g["r"], z=z, v_s=vs, v_n=vn, v_r=vs * g["rs"] - vn * g["zs"], v_z=vs * g["zs"] + vn * g["rs"],
         zeta=np.asarray(g["zeta"]), P=float(f["P"]), lam=float(f["lam"]), area=float(area), volume=volume, z_centroid=zc,
         pole_radius=pole, furrow_radius=furrow, stretch=stretch,
-        grid_stretch=float(g["h"].max() / g["h"].min()),
+        grid_stretch=float(g["h"].max() / g["h"].min()), neck_radius=_neck(dyn, y), bending_margin=margin,
     )
 
 
@@ -383,6 +419,10 @@ def simulate(
     method: str = "Radau",
     interpolate: bool = False,
     max_steps: int = 100000,
+    tension: str = "nodes",
+    monitor: float = 0.0,
+    stop_neck: float | None = None,
+    stop_ill_posed: bool = True,
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -423,6 +463,22 @@ def simulate(
         (cheaper with many save times; its interpolation error is measured in REPORT.md).
     max_steps : int
         Abort with ValueError after this many steps.
+    tension : {'nodes', 'material'}
+        ``nodes``: the tension stays on the normally moving points (the paper's). ``material``: it
+        is carried by the cortex's full velocity, ``dzeta/dt = 0`` following material points
+        (the state then carries the material label of every node, Sec. 9 of the derivation).
+    monitor : float
+        Arc-length mode only: > 0 places the nodes by equidistributing
+        ``h sqrt(1 + monitor^2 (k1^2 + k2^2))`` instead of the arc length, so a closing neck
+        keeps its share of them (Sec. 11).
+    stop_neck : float or None
+        Stop cleanly (keeping the frames so far, plus one at the time of the crossing) when the
+        neck radius falls to this value (R0); ``SimulationResult.stopped`` says so.
+    stop_ill_posed : bool
+        With bending viscosity, stop cleanly the same way when ``2 eta_bar k_i + (eta_bar_b -
+        eta_bar) C`` (i = 1, 2) falls to 0 at a node: past it the bending-viscosity normal force
+        amplifies short waves instead of damping them and the model has no converged solution
+        (derivation, Sec. 12). Off, the run goes on until the integrator fails.
 
     Returns
     -------
@@ -441,34 +497,57 @@ def simulate(
         raise ValueError(f"method must be 'Radau' or 'BDF', got {method!r}")
     if parametrization not in ("auto", "lagrangian", "arclength"):
         raise ValueError(f"parametrization must be 'auto', 'lagrangian' or 'arclength', got {parametrization!r}")
+    if tension not in ("nodes", "material"):
+        raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
+    if not (isinstance(monitor, (int, float)) and math.isfinite(monitor) and monitor >= 0):
+        raise ValueError(f"monitor must be a finite number >= 0, got {monitor!r}")
+    if stop_neck is not None and not (isinstance(stop_neck, (int, float)) and 0 < stop_neck < radius):
+        raise ValueError(f"stop_neck must lie in (0, radius), got {stop_neck!r}")
     _eval_zeta(zeta, np.linspace(0.0, np.pi, 7))
     if symmetric is None:
         symmetric = _is_symmetric(zeta)
     if parametrization == "auto":
         parametrization = "lagrangian" if symmetric else "arclength"
+    if monitor and parametrization != "arclength":
+        raise ValueError("monitor needs parametrization = 'arclength' (the nodes must be free to move tangentially)")
     sp = Spectral(n, symmetric)
-    dyn = _Dynamics(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, parametrization)
-    y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if parametrization == "arclength" else [])
+    dyn = _Dynamics(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, parametrization,
+                    carried=tension == "material", monitor=monitor)
+    y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if dyn.labelled else [])
+    y0 = np.concatenate(y0)  # on the sphere the monitor is uniform: the nodes start equidistributed
+    stops = {}
+    if stop_neck is not None:
+        stops["neck"] = lambda y: _neck(dyn, y) - stop_neck
+    if stop_ill_posed and phys.bending:
+        stops["bending"] = lambda y: _bending_margin(phys, sp, y)
     t0 = time.perf_counter()
-    saved, nsteps, nlu = _integrate(dyn, np.concatenate(y0), st, float(t_end), Radau if method == "Radau" else BDF,
-                                    rtol, atol, interpolate, max_steps)
+    saved, nsteps, nlu, stopped = _integrate(dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF,
+                                             rtol, atol, interpolate, max_steps, stops)
     stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
     params = dict(eta_s=phys.eta_s, eta_b=phys.eta_b, eta_bar=phys.eta_bar, eta_bar_b=phys.eta_bar_b, radius=R, n=n,
                   rtol=rtol, atol=atol, symmetric=symmetric, method=method, parametrization=parametrization,
-                  gauge=gauge, interpolate=interpolate)
-    return _result(dyn, saved, R, stats, params)
+                  gauge=gauge, interpolate=interpolate, tension=tension, monitor=monitor, stop_neck=stop_neck,
+                  stop_ill_posed=stop_ill_posed)
+    out = _result(dyn, saved, R, stats, params)
+    out.stopped = stopped
+    return out
 
 
 def full_meridian_dynamics(zeta: ZetaFn, n: int, *, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float,
-                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None) -> "_Dynamics":
+                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None,
+                           tension: str = "nodes") -> "_Dynamics":
     """The shape dynamics of ``simulate(..., symmetric=False, parametrization='lagrangian')``:
-    material points at ``n`` labels on the whole meridian moving with ``v_n n``, state
-    ``y = (r, z)``; its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the dynamics about
-    any state (e.g. a saved frame), without the up-down reduction, so modes odd under z -> -z
-    are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
+    points at ``n`` labels on the whole meridian moving with ``v_n n``, state ``y = (r, z)``
+    (``tension='material'``: ``y = (r, z, u)``, ``u`` the material label at each point, initially
+    the point's polar angle); its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the
+    dynamics about any state (e.g. a saved frame), without the up-down reduction, so modes odd
+    under z -> -z are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
     phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
     sp = Spectral(_check_n(n), False)
-    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian")
+    if tension not in ("nodes", "material"):
+        raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
+    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian",
+                              carried=tension == "material")
 
 
 def normal_embedding(dyn: "_Dynamics", y: ArrayF) -> ArrayF:
@@ -501,9 +580,64 @@ def _check_times(t_end, save_times, rtol, atol, R) -> tuple[ArrayF, float]:
     return st, atol
 
 
-def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps):
+def _neck(dyn: _Dynamics, y: ArrayF) -> float:
+    """The neck radius: the smallest interior local minimum of ``r`` along the meridian (inf if
+    there is none, e.g. a convex shape), from the spectral interpolant on 1025 points."""
+    sig = np.linspace(0.0, np.pi, 1025)
+    r = dyn.sp.evaluate("R", np.asarray(y[: dyn.n]).real, sig)
+    i = np.nonzero((r[1:-1] < r[:-2]) & (r[1:-1] <= r[2:]))[0] + 1
+    return float(r[i].min()) if i.size else float("inf")
+
+
+def _crossing(solver, t_old: float, stop) -> tuple[float, ArrayF]:
+    """Time and state at which ``stop`` (> 0 before, <= 0 after the last step) crosses zero, on
+    the step's dense output."""
+    from scipy.optimize import brentq
+
+    dense = solver.dense_output()
+    if not math.isfinite(stop(dense(t_old))):  # no neck yet at the step's start: find where one forms
+        a, b = t_old, solver.t
+        for _ in range(60):
+            mid = 0.5 * (a + b)
+            a, b = (mid, b) if not math.isfinite(stop(dense(mid))) else (a, mid)
+        t_old = b
+    if stop(dense(t_old)) <= 0.0:
+        return t_old, np.asarray(dense(t_old))
+    ts = brentq(lambda t: stop(dense(t)), t_old, solver.t, xtol=1e-12, rtol=1e-12)
+    return float(ts), np.asarray(dense(ts))
+
+
+_MARGIN_GRID = (np.arange(512) + 0.5) * (np.pi / 512)
+
+
+def _bending_margin(ph, sp: Spectral, y: ArrayF) -> float:
+    """The smallest along the meridian (the spectral interpolant on 512 points, equator included
+    with symmetry) of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C`` (i = 1, 2): > 0 while the
+    bending-viscosity normal force damps short waves (derivation, Sec. 12)."""
+    n, y = sp.n, np.asarray(y).real
+    r = y[:n] if sp.FR is None else sp.FR @ y[:n]
+    sig = np.concatenate([_MARGIN_GRID, [np.pi / 2]])
+    ru, zu = sp.evaluate("R", r, sig, 1), sp.evaluate("Z", y[n:2 * n], sig, 1)
+    ruu, zuu = sp.evaluate("R", r, sig, 2), sp.evaluate("Z", y[n:2 * n], sig, 2)
+    h = np.hypot(ru, zu)
+    k1 = (zu * ruu - ru * zuu) / h**3
+    k2 = -zu / h / sp.evaluate("R", r, sig)
+    d, C = ph.eta_bar_b - ph.eta_bar, k1 + k2
+    return float(min(np.min(2 * ph.eta_bar * k1 + d * C), np.min(2 * ph.eta_bar * k2 + d * C)))
+
+
+_STOP_MESSAGES = {
+    "neck": "neck {neck:.4g} R0 at t={t:.6g}",
+    "bending": "ill-posed at t={t:.6g}: the bending-viscosity normal force lost its sign on the meridian "
+               "(2 eta_bar k_i + (eta_bar_b - eta_bar) C = 0; neck {neck:.4g} R0)",
+}
+
+
+def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stops=None):
     """Step from 0 to the save times (or, with ``interpolate``, to ``t_end`` reading the dense
-    output at the save times). Returns ``(saved [(t, y)], steps, LU factorisations)``."""
+    output at the save times), or until one of ``stops`` (name -> f(y)) falls to 0. Returns
+    ``(saved [(t, y)], steps, LU factorisations, why it stopped)``."""
+    stops = stops or {}
     saved: list[tuple[float, ArrayF]] = []
     nsteps = nlu = k = 0
     while k < st.size and st[k] <= 0.0:
@@ -524,7 +658,16 @@ def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps):
         except (ValueError, np.linalg.LinAlgError) as err:
             raise ValueError(f"integrator start failed at t={t:.6g}: {err}") from None
         while solver.status == "running":
+            t_old = solver.t
             nsteps = _step(solver, nsteps, max_steps)
+            hit = [(*_crossing(solver, t_old, f), name) for name, f in stops.items() if f(solver.y) <= 0.0]
+            if hit:
+                tc, yc, name = min(hit, key=lambda h: h[0])
+                if interpolate:
+                    k = _save_dense(solver, st[st < tc], k, saved)
+                saved.append((tc, yc))
+                why = _STOP_MESSAGES[name].format(neck=_neck(dyn, yc), t=tc)
+                return saved, nsteps, nlu + solver.nlu, why
             if interpolate:
                 k = _save_dense(solver, st, k, saved)
         nlu += solver.nlu
@@ -534,7 +677,7 @@ def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps):
         # continue with the step size the controller proposed (not the one truncated at the bound)
         first = float(getattr(solver, "h_abs", 0.0) or 0.0) or None
         t, y = solver.t, solver.y
-    return saved, nsteps, nlu
+    return saved, nsteps, nlu, "t_end"
 
 
 def _step(solver, nsteps: int, max_steps: int) -> int:
@@ -567,7 +710,7 @@ def _save_dense(solver, st, k: int, saved: list) -> int:
 def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult:
     """The saved states on the full meridian, with the diagnostics recomputed at each (one extra
     force-balance solve each, not counted in the statistics)."""
-    sp, lagrangian = dyn.sp, dyn.mode == "lagrangian"
+    sp, lagrangian = dyn.sp, not dyn.labelled
     states, diags = [], []
     for _, ys in saved:
         g, x, _ = dyn.solve(ys)
@@ -587,6 +730,7 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         v_r=stack("v_r", 1), v_z=stack("v_z", -1), zeta=stack("zeta", 1),
         P=series("P"), lam=series("lam"), pole_radius=series("pole_radius"), furrow_radius=series("furrow_radius"),
         volume=series("volume"), area=series("area"), z_centroid=series("z_centroid"), stretch=series("stretch"),
-        grid_stretch=series("grid_stretch"), **stats, params=params,
+        grid_stretch=series("grid_stretch"), neck_radius=series("neck_radius"),
+        bending_margin=series("bending_margin"), **stats, params=params,
         _states=states, _spectral=sp, _zeta_fn=dyn.zeta_fn,
     )

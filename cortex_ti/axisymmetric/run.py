@@ -33,7 +33,7 @@ from .evolve import revolve, simulate
 
 log = logging.getLogger(__name__)
 
-__all__ = ["axisymmetric_tension", "viscosities", "AxisymmetricRun", "MERIDIAN_VARIABLES"]
+__all__ = ["axisymmetric_tension", "viscosities", "evolution_options", "AxisymmetricRun", "MERIDIAN_VARIABLES"]
 
 #: The meridian arrays of an axisymmetric trajectory (dims: time, meridian).
 MERIDIAN_VARIABLES = {
@@ -77,6 +77,15 @@ def axisymmetric_tension(settings: RunSettings):
 GAUGES = {"mean_velocity": "velocity", "centroid": "centroid"}
 
 
+def evolution_options(settings: RunSettings) -> dict:
+    """The shape evolution's keywords from the scene: the tension carried by the material or
+    glued to the normally moving points, the neck-resolving parametrisation and the neck stop."""
+    a = settings.axisymmetric
+    return dict(tension="material" if settings.tension_carried else "nodes",
+                parametrization="arclength" if a.neck_resolution > 0 else "auto", monitor=a.neck_resolution,
+                stop_neck=a.stop_neck if a.stop_neck < settings.mesh.radius else None)
+
+
 def viscosities(settings: RunSettings) -> dict:
     """The viscous coefficients as the solver's keywords (bending ones 0 without the effect)."""
     v = settings.viscosity
@@ -115,11 +124,14 @@ class AxisymmetricRun:
         times = np.concatenate([np.arange(n_frames + 1) * st.save_every, st.save_times, [st.t_end]])
         times = np.unique(np.round(np.minimum(times, st.t_end), 12))
         try:
-            return simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,
-                            n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
-                            gauge=GAUGES[s.translation])
+            res = simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,
+                           n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
+                           gauge=GAUGES[s.translation], **evolution_options(s))
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
+        if res.stopped != "t_end":
+            log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
+        return res
 
     # ------------------------------------------------------------------------------- writing
     def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
@@ -151,7 +163,8 @@ class AxisymmetricRun:
         if r is None or not s.dynamic:
             out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
         else:
-            out.update(steps=int(r.n_steps), rejected=0, solves=int(r.n_rhs), t_reached=float(r.t[-1]), stopped="t_end")
+            out.update(steps=int(r.n_steps), rejected=0, solves=int(r.n_rhs), t_reached=float(r.t[-1]),
+                       stopped=r.stopped.split(" ")[0] if r.stopped != "t_end" else "t_end")
         out["ms_solve_per_solve"] = 1e3 * self.seconds / max(out["solves"], 1)
         return out
 
@@ -188,8 +201,11 @@ class AxisymmetricRun:
         res = self.simulate()
         self.result = res
         labels = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
+        # the written points: the normally moving ones (the 3D code's nodes) when the meridian
+        # points move normally, whatever carries the tension; else the material points
+        coordinate = "sigma" if res.params["parametrization"] == "lagrangian" else "label"
         for i, t in enumerate(res.t):
-            e = res.evaluate(i, labels)
+            e = res.evaluate(i, labels, coordinate=coordinate)
             pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
             exact = {k: float(getattr(res, k)[i]) for k in _EXACT}
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)

@@ -200,6 +200,10 @@ def _check_axisymmetric(data: dict) -> None:
     checked when it is evaluated: :func:`cortex_ti.axisymmetric.run.axisymmetric_tension`.)"""
     why = "model = axisymmetric needs a scene symmetric about the z axis"
     mesh = data["mesh"]
+    stop = data["axisymmetric"]["stop_neck"]
+    if stop >= mesh["radius"]:
+        raise SceneError(f"axisymmetric.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
+                         f"{fmt_value(mesh['radius'])}: the run would stop at its first step")
     if mesh["file"] is not None:
         raise SceneError(f"{why}: mesh.file = '{mesh['file']}' is a user's mesh; the axisymmetric model starts from "
                          "the sphere of radius mesh.radius (set mesh.nodes instead, it is not used)")

@@ -126,6 +126,8 @@ class AxisymmetricSettings:
     rtol: float             # Radau tolerance on the node positions
     surface_points: int     # meridian points of the written surface of revolution
     azimuthal_points: int   # points around the axis
+    neck_resolution: float = 0.0  # > 0: points placed by arc length and curvature (R0), 0: normal motion
+    stop_neck: float = 0.05       # the run stops when the neck radius falls to this (R0)
 
 
 @dataclass(frozen=True)
@@ -180,7 +182,9 @@ class RunSettings:
                               tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
             axisymmetric=AxisymmetricSettings(n=int(ax["n"]), rtol=float(ax["rtol"]),
                                               surface_points=int(ax["surface_points"]),
-                                              azimuthal_points=int(ax["azimuthal_points"])),
+                                              azimuthal_points=int(ax["azimuthal_points"]),
+                                              neck_resolution=float(ax["neck_resolution"]),
+                                              stop_neck=float(ax["stop_neck"])),
         )
 
     def has(self, effect: str) -> bool:
