@@ -116,6 +116,18 @@ def _writable_file(path: Path, what: str) -> None:
     probe.unlink()
 
 
+def _warn_extensile(sim) -> None:
+    """The axisymmetric model's counterpart of the 3D run's warning on an extensile tension."""
+    import numpy as np
+
+    from .dynamics.guard import extensile_tension
+
+    if sim.settings.dynamic:
+        physical = extensile_tension(sim.zeta(np.linspace(0.0, np.pi, 181)))
+        if physical is not None:
+            log.warning("scene '%s': %s", sim.settings.name, physical)
+
+
 def _run(args) -> int:
     from .io.claim import check_output, claim_output
     from .io.trajectory import committed_frames, partial_path
@@ -167,6 +179,7 @@ def _run(args) -> int:
                 from .axisymmetric.run import AxisymmetricRun
 
                 sim = AxisymmetricRun(scene)
+                _warn_extensile(sim)
             else:
                 from . import runtime
                 from .simulation import Simulation
