@@ -136,6 +136,8 @@ def _run(args) -> int:
 
     t0 = time.perf_counter()
     sim = None
+    if args.force and args.resume:
+        raise CortexError("--force starts over and --resume continues: pass one of them")
     scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
     settings = scene.settings
     threads = _threads(args)

@@ -279,6 +279,8 @@ CASES = {
     "run --summary under a file": (lambda d: ["run", "sphere_y20_full", "--set", "mesh.nodes=162", "-o",
                                               str(d / "x.h5"), "--summary", str(d / "file" / "s.json")],
                                    "cannot write --summary"),
+    "run --force --resume": (lambda d: ["run", "sphere_y20_full", "--force", "--resume", "-o", str(d / "x.h5")],
+                             "pass one of them"),
     "run --threads 0": (lambda d: ["run", "sphere_y20_full", "--threads", "0", "-o", str(d / "x.h5")],
                         "--threads must be a whole number >= 1"),
     "run --threads -3": (lambda d: ["run", "sphere_y20_full", "--threads", "-3", "-o", str(d / "x.h5")],
