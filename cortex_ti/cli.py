@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import CortexError
+from .errors import CortexError, check_interrupted, interruptible, interruption
 
 log = logging.getLogger("cortex_ti")
 
@@ -126,10 +126,12 @@ def _run(args) -> int:
     from .io.claim import check_output, claim_output
     from .io.trajectory import committed_frames, partial_path
     from .scene import load_scene
-    from .simulation.run import interruptible, stop_reason
+    from .simulation.run import stop_reason
 
     t0 = time.perf_counter()
     sim = None
+    if args.force and args.resume:
+        raise CortexError("--force starts over and --resume continues: pass one of them")
     scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
     settings = scene.settings
     threads = _threads(args)
@@ -169,21 +171,16 @@ def _run(args) -> int:
     with interruptible(), claim_output(args.output):
         check_output(args.output, args.resume, args.force)    # refused: no summary (it is not a run)
         try:
-            if settings.model == "axisymmetric":
-                from .axisymmetric.run import AxisymmetricRun
+            from .models import make_runner
 
-                sim = AxisymmetricRun(scene)
-            else:
-                from . import runtime
-                from .simulation import Simulation
-
-                runtime.init(args.arch, threads)
-                sim = Simulation(scene)
+            sim = make_runner(scene, args.arch, threads)    # the scene's model (cortex_ti.models.MODELS)
+            check_interrupted()      # a signal whose exception start-up code swallowed
             out = sim.run(args.output, resume=args.resume)
-        except KeyboardInterrupt as exc:
-            from .simulation.run import Interrupted
-
-            exc = exc if isinstance(exc, Interrupted) else Interrupted()
+        except BaseException as caught:
+            exc = interruption(caught)
+            if exc is None:
+                summary("failed", caught)
+                raise
             summary("interrupted", exc)
             n, t = kept()
             where = (f"{n} frame{'s' if n > 1 else ''} to t = {t:.6g} kept in {partial_path(args.output)}; "
@@ -191,12 +188,6 @@ def _run(args) -> int:
                      if n else "no frame was complete, nothing was kept")
             print(f"cortex-ti: interrupted ({exc.name}); {where}", file=sys.stderr)
             return exc.exit_code
-        except CortexError as exc:
-            summary("failed", exc)
-            raise
-        except OSError as exc:
-            summary("failed", exc)
-            raise
         summary("ok")
     log.info("wrote %s (%s, %.1f s)", out, settings.describe_numerics(), time.perf_counter() - t0)
     print(out)
@@ -300,29 +291,37 @@ def _schema(_args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    with interruptible():        # first: a signal from now on ends the command as documented
+        try:
+            return _main(argv)
+        except BaseException as caught:
+            exc = interruption(caught)
+            if exc is None:
+                raise
+            print(f"cortex-ti: interrupted ({exc.name})", file=sys.stderr)
+            return exc.exit_code
+
+
+def _main(argv: list[str] | None) -> int:
     from .io.files import describe_os_error
-    from .simulation.run import Interrupted, interruptible
 
     args = _parser().parse_args(argv)
     # our own messages: INFO by default, DEBUG with -v; other libraries stay at WARNING
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        with interruptible():
-            commands = {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
-                        "schema": _schema}
-            return commands[args.command](args) if args.command in commands else args.handler(args)
+        commands = {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
+                    "schema": _schema}
+        return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
+        check_interrupted()     # a signal some library reported as its own error is the signal
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:
-        exc = exc if isinstance(exc, Interrupted) else Interrupted()
-        print(f"cortex-ti: interrupted ({exc.name})", file=sys.stderr)
-        return exc.exit_code
     except BrokenPipeError:     # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
     except OSError as exc:      # a file or folder the command could not read or write
+        check_interrupted()
         print(f"cortex-ti: error: {describe_os_error(exc)}", file=sys.stderr)
         return 2
 

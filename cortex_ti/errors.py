@@ -2,7 +2,15 @@
 
 Every error raised for bad input derives from :class:`CortexError`; the command
 line prints its message (no traceback) and exits non-zero.
+
+:class:`Interrupted` is how SIGINT and SIGTERM end a command (:func:`interruptible`); it lives
+here, at the bottom of the package, so that the command line installs its handlers before any
+heavy import.
 """
+
+import contextlib
+import signal
+import threading
 
 
 class CortexError(Exception):
@@ -23,3 +31,65 @@ class SolverError(CortexError):
 
 class StabilityError(CortexError):
     """A time step went unstable; the message names the step size to try."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived: the run ends as after Ctrl-C (frames kept, summary written)."""
+
+    def __init__(self, signum: int = signal.SIGINT):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+    @property
+    def name(self) -> str:
+        return signal.Signals(self.signum).name
+
+    @property
+    def exit_code(self) -> int:
+        """128 + the signal's number, as a shell reports it: 130 for SIGINT, 143 for SIGTERM."""
+        return 128 + self.signum
+
+
+_PENDING: list = []     # signals that arrived in an interruptible() block
+
+
+@contextlib.contextmanager
+def interruptible():
+    """While in the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only).
+
+    The signal is also remembered: should a library swallow the exception (a bare ``except:`` in
+    some start-up code), :func:`check_interrupted` raises it again at the run's next step."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, _frame):
+        _PENDING.append(signum)
+        raise Interrupted(signum)
+
+    old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    outer = list(_PENDING)
+    try:
+        yield
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+        _PENDING[:] = outer
+
+
+def check_interrupted() -> None:
+    """Raise :class:`Interrupted` if a signal arrived whose exception did not end the run."""
+    if _PENDING:
+        raise Interrupted(_PENDING[0])
+
+
+def interruption(exc: BaseException) -> "Interrupted | None":
+    """The :class:`Interrupted` behind ``exc``: itself, or the signal that arrived while a library
+    turned its exception into another (Taichi's import reports an ``ImportError``); else None."""
+    if isinstance(exc, Interrupted):
+        return exc
+    if _PENDING:
+        return Interrupted(_PENDING[0])
+    if isinstance(exc, KeyboardInterrupt):
+        return Interrupted(signal.SIGINT)
+    return None

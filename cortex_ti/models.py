@@ -49,9 +49,19 @@ def _three_d(scene, arch=None, threads=None):
 
 @register_model("axisymmetric", "the same model on surfaces of revolution, spectral along the meridian")
 def _axisymmetric(scene, arch=None, threads=None):
-    from .axisymmetric.run import AxisymmetricRun
+    import logging
 
-    return AxisymmetricRun(scene)
+    import numpy as np
+
+    from .axisymmetric.run import AxisymmetricRun
+    from .dynamics.guard import extensile_tension
+
+    run = AxisymmetricRun(scene)
+    if run.settings.dynamic:     # the counterpart of the 3D run's warning on an extensile tension
+        physical = extensile_tension(run.zeta(np.linspace(0.0, np.pi, 181)))
+        if physical is not None:
+            logging.getLogger("cortex_ti").warning("scene '%s': %s", run.settings.name, physical)
+    return run
 
 
 def make_runner(scene, arch: str | None = None, threads: int | None = None):

@@ -279,6 +279,8 @@ CASES = {
     "run --summary under a file": (lambda d: ["run", "sphere_y20_full", "--set", "mesh.nodes=162", "-o",
                                               str(d / "x.h5"), "--summary", str(d / "file" / "s.json")],
                                    "cannot write --summary"),
+    "run --force --resume": (lambda d: ["run", "sphere_y20_full", "--force", "--resume", "-o", str(d / "x.h5")],
+                             "pass one of them"),
     "run --threads 0": (lambda d: ["run", "sphere_y20_full", "--threads", "0", "-o", str(d / "x.h5")],
                         "--threads must be a whole number >= 1"),
     "run --threads -3": (lambda d: ["run", "sphere_y20_full", "--threads", "-3", "-o", str(d / "x.h5")],
@@ -450,10 +452,12 @@ def test_a_trajectory_keeps_its_field_values_after_the_file_moved(tmp_path, caps
     np.testing.assert_array_equal(tr.ds["field_values_0"].values, 2.0 * values)
 
 
-def test_an_extensile_tension_runs_with_a_warning(tmp_path, capsys, caplog):
+@pytest.mark.parametrize("model", ["3d", "axisymmetric"])
+def test_an_extensile_tension_runs_with_a_warning(tmp_path, capsys, caplog, model):
     out = tmp_path / "e.h5"
     with caplog.at_level("WARNING", logger="cortex_ti"):
-        rc = main(["run", "furrow_p4_a1", "--set", "mesh.nodes=162", "--set", "time.t_end=0.01", "--set",
+        rc = main(["run", "furrow_p4_a1", "--set", f"model={model}", "--set", "mesh.nodes=162", "--set",
+                   "time.t_end=0.01", "--set",
                    "active_stress=[{type: harmonics, terms: [{l: 0, m: 0, coeff: -1.0}]}]", "-o", str(out)])
     assert rc == 0, capsys.readouterr().err
     warned = [r.getMessage() for r in caplog.records if r.levelname == "WARNING"]

@@ -365,6 +365,9 @@ class TrajectoryWriter:
         attrs must give ``units`` and ``long_name``.
     extra_dims : dict, optional
         Further fixed dimensions ``name -> size`` (e.g. the axisymmetric model's ``meridian``).
+    node_vars : dict, optional
+        Per-node constants written once: ``name -> (values (n_nodes,), attrs)`` (a run stores
+        its ``field`` patterns' values as ``field_values_<i>``).
     resume : bool, optional
         If ``<path>.partial`` exists, reopen it and continue after its last
         frame instead of starting over.  Its triangles, node count, variables
@@ -374,10 +377,15 @@ class TrajectoryWriter:
 
     Notes
     -----
-    * Each :meth:`append` writes one frame and flushes it to disk, so a killed
-      process leaves a readable partial file of the frames written so far.
-      (A kill *during* the flush itself can still corrupt it: HDF5 is not
-      journaled.)
+    * The path is claimed first (:class:`~cortex_ti.io.claim.OutputClaim`): a
+      writer of the same path in another process is refused before anything is
+      truncated.
+    * Each :meth:`append` reserves the frame's space, writes the frame, flushes it
+      and then commits it (``committed_frames``, flushed again), so a killed
+      process leaves a readable partial file of its complete frames, and a full
+      disk raises :class:`~cortex_ti.io.files.OutputError` with the file as it was.
+      (An I/O error *inside* HDF5's flush can still damage the file: HDF5 is not
+      journaled; the reservation keeps a full disk from getting there.)
     * The final path never exists half-written: :meth:`finish` closes the file,
       fsyncs it and renames it with :func:`os.replace`.
     * As a context manager, leaving the block normally calls :meth:`finish`

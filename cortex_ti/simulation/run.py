@@ -9,16 +9,15 @@ its frames are copied to the partial file and the run continues from the last on
 
 How a run ended is one of :data:`STOP_REASONS` (the summary's ``stopped``); a run that fails or is
 interrupted still leaves its :class:`RunReport` (real step and solve counts) on the simulation.
-:func:`interruptible` makes SIGTERM end a run the way Ctrl-C does (:class:`Interrupted`).
+:func:`~cortex_ti.errors.interruptible` makes SIGTERM end a run the way Ctrl-C does
+(:class:`~cortex_ti.errors.Interrupted`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
 import shutil
-import signal
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,7 +31,7 @@ from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
 from ..dynamics.schemes import make_scheme
 from ..dynamics.state import State
-from ..errors import CortexError, SolverError, StabilityError
+from ..errors import CortexError, Interrupted, SolverError, StabilityError, check_interrupted, interruptible
 from ..io.claim import OutputClaim
 from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
@@ -45,7 +44,7 @@ if TYPE_CHECKING:  # pragma: no cover
 log = logging.getLogger(__name__)
 
 __all__ = ["SOLVE_DIAGNOSTICS", "FRAME_EXTRAS", "STOP_REASONS", "EXIT_CODES", "Interrupted", "RunReport",
-           "interruptible", "run_scene", "run_summary", "stop_reason"]
+           "check_interrupted", "interruptible", "run_scene", "run_summary", "stop_reason"]
 
 #: Why a run ended (the summary's ``stopped``): the value, and what it means.
 STOP_REASONS = {
@@ -67,42 +66,6 @@ EXIT_CODES = {
     "SIGINT": 130,        # 128 + 2, as a shell reports Ctrl-C
     "SIGTERM": 143,       # 128 + 15
 }
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM arrived: the run ends as after Ctrl-C (frames kept, summary written)."""
-
-    def __init__(self, signum: int = signal.SIGINT):
-        super().__init__(signal.Signals(signum).name)
-        self.signum = int(signum)
-
-    @property
-    def name(self) -> str:
-        return signal.Signals(self.signum).name
-
-    @property
-    def exit_code(self) -> int:
-        return 128 + self.signum
-
-
-@contextlib.contextmanager
-def interruptible():
-    """While in the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only)."""
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum, _frame):
-        raise Interrupted(signum)
-
-    old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        yield
-    finally:
-        for sig, h in old.items():
-            signal.signal(sig, h)
 
 
 def stop_reason(exc: BaseException | None) -> str:
@@ -215,6 +178,7 @@ def _run_static(sim: "Simulation", output: Path) -> RunReport:
 def _write_static(sim: "Simulation", output: Path) -> RunReport:
     with TrajectoryWriter(output, sim.mesh.faces, sim.mesh.n_nodes, output_attrs(sim),
                           extra_vars=FRAME_EXTRAS, node_vars=field_values(sim)) as writer:
+        check_interrupted()
         ev = sim.evaluate(sim.mesh.points)
         sol = ev.solution
         log.info("solved %d nodes: residual %.2e, constraints %.1e, %s",
@@ -299,6 +263,7 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
     bar = _ProgressBar(t0, st.t_end) if progress else None
 
     def watch(t, ev, dt, stats):
+        check_interrupted()
         seen["stats"] = stats     # the counts so far, for the summary of a run that does not finish
         if bar is not None:
             bar(t, ev, dt, stats)
