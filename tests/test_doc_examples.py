@@ -40,6 +40,7 @@ SKIP = {
 FIXTURES = {
     "y20.h5": ("sphere_y20_full", []),
     "p8.h5": ("furrow_p8_a1", []),
+    "RUN.h5": ("furrow_p4_a1", []),
     "fold.h5": ("fold_broad", []),
     "ax.h5": ("furrow_p4_a3", ["model=axisymmetric"]),
     "run.h5.partial": ("furrow_p4_a1", []),
@@ -143,7 +144,7 @@ def make_fixture(name: str, folder: Path) -> None:
 
 def inputs(argv: list[str]) -> list[str]:
     """Files a command reads: the trajectory of plot/export, the scene file of run/check."""
-    if argv[:1] in (["plot"], ["export"]) and len(argv) > 1:
+    if argv[:1] in (["plot"], ["export"], ["movie"], ["view"]) and len(argv) > 1:
         return [argv[1]]
     if argv[:1] in (["run"], ["check"]) and len(argv) > 1 and argv[1].endswith((".yaml", ".yml")):
         return [argv[1]]
