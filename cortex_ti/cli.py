@@ -239,6 +239,7 @@ def _export(args) -> int:
 
 def _plot(args) -> int:
     from .io import load_trajectory
+    from .io.files import refuse_file_parent
     from .plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
     from .viz.commands import announce, parse_view
     from .viz.figure import frame_figure
@@ -246,6 +247,7 @@ def _plot(args) -> int:
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
+    refuse_file_parent(Path(args.output), "the figure")     # before anything is said or drawn
     if args.color not in COLORS:
         raise CortexError(f"unknown --color '{args.color}'; choose one of: {', '.join(COLORS)}")
     view = parse_view(args.view)

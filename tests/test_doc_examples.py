@@ -7,7 +7,7 @@ Every fenced block marked ```bash or ```python in ``README.md`` and ``docs/**/*.
   to their own tests. A ``cortex-ti run`` gets ``mesh.nodes=162`` (replacing any node count the
   example gives) and, for a dynamic scene, its end time (the scene's, or the one the example
   sets) times :data:`TIME_SCALE`, so a run takes seconds;
-* a ``python`` block is executed in a fresh folder.
+* a ``python`` block is run by a fresh interpreter in a fresh folder.
 
 Files an example reads but no earlier line of its block wrote (``p8.h5`` in a block that plots
 it, ``my_scene.yaml``) are made first: :data:`FIXTURES` says from which scene.
@@ -157,13 +157,12 @@ def test_example_runs_as_written(path, lang, text, tmp_path):
     if lang == "python":
         for name in sorted(set(re.findall(r"[\"']([\w.-]+\.h5(?:\.partial)?)[\"']", text))):
             make_fixture(name, tmp_path)
-        code = compile(text, f"{path.name} example", "exec")
-        cwd = os.getcwd()
-        os.chdir(tmp_path)
-        try:
-            exec(code, {"__name__": "__example__"})
-        finally:
-            os.chdir(cwd)
+        compile(text, f"{path.name} example", "exec")      # a syntax error names the page
+        # in a fresh interpreter: an example that registers a term or a pattern must not change the
+        # registries the other tests of this session see
+        res = subprocess.run([sys.executable, "-c", text], cwd=tmp_path, env=env(), capture_output=True, text=True,
+                             timeout=600)
+        assert res.returncode == 0, f"{path.name}: a python example failed:\n{res.stderr[-2000:]}"
         return
     ran = 0
     for line in text.splitlines():

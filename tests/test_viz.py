@@ -339,9 +339,9 @@ def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour
             browser = pw.chromium.launch_persistent_context(profile, executable_path=CHROMIUM, headless=True,
                                                             args=CHROMIUM_FLAGS, viewport={"width": 1280, "height": 900})
             page = browser.new_page()
-            page.goto(f"http://127.0.0.1:{port}/", timeout=60_000)
-            page.get_by_text("t = 0.05 t_a").wait_for(timeout=60_000)     # the last frame first
-            page.locator("img").first.wait_for(timeout=60_000)
+            page.goto(f"http://127.0.0.1:{port}/", timeout=120_000)
+            page.get_by_text("t = 0.05 t_a").wait_for(timeout=120_000)     # the last frame first
+            page.locator("img").first.wait_for(timeout=120_000)
             page.wait_for_timeout(1500)
             page.screenshot(path=str(tmp_path / "viewer.png"))
             last = view_image(page)
@@ -353,7 +353,7 @@ def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour
             # the slider: Home goes to frame 0
             page.locator("input[type=range], .v-slider-thumb").first.focus()
             page.keyboard.press("Home")
-            page.get_by_text("t = 0 t_a").wait_for(timeout=30_000)
+            page.get_by_text("t = 0 t_a").wait_for(timeout=120_000)
             page.wait_for_timeout(1500)
             first = view_image(page)
             assert np.abs(first - last).max() > 0.2 and (np.abs(first - last) > 0.1).mean() > 0.005
@@ -366,7 +366,7 @@ def test_viewer_in_headless_chromium_shows_the_run_and_follows_slider_and_colour
             # reload: the file now has 3 frames; the viewer goes to the last of them
             write_dataset(load_trajectory(run).isel(time=slice(0, 3)), live)
             page.get_by_text("reload").click()
-            page.get_by_text("t = 0.02 t_a  (frame 2; frames 0..2)").wait_for(timeout=30_000)
+            page.get_by_text("t = 0.02 t_a  (frame 2; frames 0..2)").wait_for(timeout=120_000)
             browser.close()
     finally:
         proc.terminate()

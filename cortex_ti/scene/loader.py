@@ -47,15 +47,10 @@ class Scene:
     Build one with :func:`load_scene` or :func:`scene_from_dict`; the
     constructor itself does not validate.
 
+    Its validated content is :attr:`data` (a copy: a scene is immutable once validated).
+
     Attributes
     ----------
-    data : dict
-        The validated scene with every default filled in, keys in schema order,
-        numbers canonical (floats for ``number`` keys) and every file path
-        (``mesh.file``, a field pattern's ``file``) resolved to an absolute path
-        (``mesh.file`` may be None).  A copy: a scene is immutable once
-        validated (edit the copy and build a new scene from it with
-        :func:`scene_from_dict`, which validates it again).
     source : str or None
         Absolute path of the YAML file the scene was read from, if any.  Not
         part of equality: two scenes with the same data are equal.
@@ -72,7 +67,10 @@ class Scene:
 
     @property
     def data(self) -> dict:
-        """A copy of the validated scene (see the class docstring)."""
+        """A copy of the validated scene: every default filled in, keys in schema order, numbers
+        canonical (floats for ``number`` keys) and every file path (``mesh.file``, a field pattern's
+        ``file``) resolved to an absolute path (``mesh.file`` may be None). Edit the copy and build
+        a new scene from it with :func:`scene_from_dict`, which validates it again."""
         return copy.deepcopy(self._data)
 
     @property
