@@ -45,26 +45,13 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from ..solve.system import EnergySystem
 from ..surface.geometry import Geometry
+from ..surface.transport import triangle_gradients  # the flat triangles' P1 gradients (one definition)
 from .model import Physics
 from .terms import P1Context, terms_for
 from .terms.base import check_inputs, constraint_names, velocity_basis
 from .terms.constraints import PRESSURE_WEIGHTS
 
 __all__ = ["PRESSURE_WEIGHTS", "assemble_p1", "normal_blocks", "triangle_gradients", "viscous_blocks"]
-
-
-def triangle_gradients(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Areas ``(T,)``, unit normals ``(T, 3)`` and the in-plane gradients of the three
-    barycentric functions ``(T, 3, 3)`` (corner, xyz) of the flat triangles."""
-    x = points[faces]
-    cr = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    twice = np.linalg.norm(cr, axis=1)
-    n = cr / twice[:, None]
-    grads = np.empty((faces.shape[0], 3, 3))
-    for k in range(3):
-        a, b = x[:, (k + 1) % 3], x[:, (k + 2) % 3]
-        grads[:, k] = np.cross(n, b - a) / twice[:, None]
-    return 0.5 * twice, n, grads
 
 
 class _Pattern:
