@@ -9,9 +9,8 @@ by: the velocity relative to the mesh, ``v - w`` (:mod:`cortex_ti.surface.transp
                 the surface; tangential flow moves material across them.
 ``lagrangian``  ``w = v``: the nodes are material points; nothing moves across them.
 ``ale``         ``w = v_n n + w_t`` with ``w_t`` the tangential mesh velocity that relaxes the
-                triangles toward their shapes on the undeformed mesh (a gradient flow of their
-                conformal distortion, :func:`ale_velocity`; the reference is the mesh before
-                ``mesh.transform`` / ``mesh.shear``, so a sheared start relaxes too).
+                triangles toward the shapes they had at t = 0 (a gradient flow of their
+                conformal distortion, :func:`ale_velocity`).
 """
 
 from __future__ import annotations
@@ -36,11 +35,11 @@ class MeshMotion:
 
 @dataclass
 class MotionContext:
-    """What a mesh motion may need beyond the velocity: the connectivity, the triangles' reference
-    shapes (``reference``: the undeformed mesh) and the ALE relaxation time."""
+    """What a mesh motion may need beyond the velocity: the connectivity, the triangles' shapes at
+    t = 0 (``reference``), the local mesh size and the ALE relaxation time."""
 
     faces: np.ndarray
-    reference: np.ndarray             # (N, 3) the undeformed mesh's nodes
+    reference: np.ndarray             # (N, 3) the nodes at t = 0
     ale_time: float = 0.05
     _dm_inv: np.ndarray | None = field(default=None, repr=False)
 
@@ -118,11 +117,11 @@ def ale_velocity(velocity, normal, points, context: MotionContext):
     flow of the triangles' conformal distortion (:func:`conformal_distortion`) with mobility
     ``h_i^2 / n_i`` (``h_i`` the mean edge length at node i, ``n_i`` its number of triangles), so
     that a distortion relaxes in about ``tau = mesh.ale_time`` whatever the mesh size. The
-    distortion is measured against the undeformed mesh's triangles: an undistorted mesh does not move
+    distortion is measured against the triangles at t = 0: an undistorted mesh does not move
     tangentially, and a shape change that keeps the triangles similar (a uniform dilation) needs no
     mesh motion."""
     faces = context.faces
-    _, g = conformal_distortion(points, context, gradient=True)   # distortion against the reference
+    _, g = conformal_distortion(points, context, gradient=True)
     x = points[faces]
     edges = np.linalg.norm(x - x[:, [1, 2, 0]], axis=2)                     # (T, 3)
     count = np.bincount(faces.ravel(), minlength=points.shape[0]).astype(float)

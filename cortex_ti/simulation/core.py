@@ -79,9 +79,7 @@ class Simulation:
         self.transport = {spec.name: FieldTransport(spec.kind, spec.diffusion(self.settings), *spec.turnover(self.settings))
                           for spec in self.fields if self._moves(spec)}
         self.motion = MESH_MOTIONS[self.settings.mesh.motion]
-        # ALE relaxes the triangles toward their shapes on the undeformed mesh (before mesh.transform /
-        # mesh.shear: a sheared start is a distorted mesh, not a reference to keep)
-        self.motion_context = MotionContext(self.mesh.faces, undeformed.points, self.settings.mesh.ale_time)
+        self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, self.settings.mesh.ale_time)
         s = self.settings.solver
         self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
