@@ -478,13 +478,15 @@ class TrajectoryWriter:
             self._nc = h5netcdf.File(self._h5, "a")
         except (OSError, ValueError, KeyError) as exc:
             self._close()
-            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); delete it to start over") from None
+            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); pass --force (or delete it) to "
+                              "start over") from None
         nc = self._nc
         try:
             problems = _resume_problems(nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars},
                                         self._attrs["scene"])
             if problems:
-                raise CortexError(f"{where}: {'; '.join(problems)}; delete it or run without resume")
+                raise CortexError(f"{where}: {'; '.join(problems)}; pass --force (or delete it) to start over, or "
+                                 "choose another output")
             self._n = _committed(self._h5)
             if int(nc.dimensions["time"].size) != self._n:   # drop a frame written but not committed
                 nc.resize_dimension("time", self._n)
