@@ -157,9 +157,12 @@ def kill_run(args, i: int, ref: Path, ref_wall: float, n_frames: int, work: Path
     if not finished_first:
         proc.send_signal(sig)
     _, err = proc.communicate(timeout=3600)
-    row = {"kind": signal.Signals(sig).name, "delay": delay, "rc": proc.returncode, "finished": finished_first}
-    if finished_first:
-        row["ended_ok"] = proc.returncode == 0
+    # finished: before the signal, or the signal came during the interpreter's shutdown, after the
+    # command was done (the program then ignores it, SIGKILL excepted)
+    finished = finished_first or out.exists()
+    row = {"kind": signal.Signals(sig).name, "delay": delay, "rc": proc.returncode, "finished": finished}
+    if finished:
+        row["ended_ok"] = proc.returncode == 0 or (sig == signal.SIGKILL and proc.returncode == -signal.SIGKILL)
     elif sig == signal.SIGKILL:
         row["ended_ok"] = proc.returncode == -signal.SIGKILL
     else:
