@@ -177,7 +177,7 @@ def committed_frames(path: str | os.PathLike) -> tuple[int, float | None]:
                 raise CortexError(f"'{file}' is not a trajectory (no time and points)")
             n = _committed(h5)
             return n, (float(h5["time"][n - 1]) if n else None)
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
@@ -476,7 +476,7 @@ class TrajectoryWriter:
         try:
             self._h5 = h5py.File(self.partial, "r+")
             self._nc = h5netcdf.File(self._h5, "a")
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, RuntimeError) as exc:
             self._close()
             raise CortexError(f"{where}: it is not a readable trajectory ({exc}); pass --force (or delete it) to "
                               "start over") from None
@@ -762,7 +762,7 @@ def load_trajectory(path: str | os.PathLike):
             if n is not None and ds.sizes.get("time", n) != n:
                 ds = ds.isel(time=slice(0, n))
             ds = ds.load()
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
     return ds
 
@@ -781,7 +781,7 @@ def _open_lazily(file: Path):
         if n is not None and ds.sizes.get("time", n) != n:
             ds = ds.isel(time=slice(0, n))
         return ds, (nc, h5)
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         for f in (nc, h5):
             if f is not None:
                 f.close()
@@ -825,7 +825,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
                 if name not in _RESERVED and var.dimensions[:1] == ("time",)
             }
             return out
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
