@@ -25,6 +25,9 @@ Usage::
 
     python benchmarks/fault_injection.py                  # 50 kills + 20 full disks (about 20 min on 2 cores)
     python benchmarks/fault_injection.py --smoke          # 3 kills + 2 full disks on 162 nodes (under a minute)
+
+Run from a copy of the code (``git archive``) so that editing the checkout does not change the runs
+under way; the table then names the commit given as ``CORTEX_TI_COMMIT``.
 """
 
 from __future__ import annotations
@@ -154,9 +157,12 @@ def kill_run(args, i: int, ref: Path, ref_wall: float, n_frames: int, work: Path
     if not finished_first:
         proc.send_signal(sig)
     _, err = proc.communicate(timeout=3600)
-    row = {"kind": signal.Signals(sig).name, "delay": delay, "rc": proc.returncode, "finished": finished_first}
-    if finished_first:
-        row["ended_ok"] = proc.returncode == 0
+    # finished: before the signal, or the signal came during the interpreter's shutdown, after the
+    # command was done (the program then ignores it, SIGKILL excepted)
+    finished = finished_first or out.exists()
+    row = {"kind": signal.Signals(sig).name, "delay": delay, "rc": proc.returncode, "finished": finished}
+    if finished:
+        row["ended_ok"] = proc.returncode == 0 or (sig == signal.SIGKILL and proc.returncode == -signal.SIGKILL)
     elif sig == signal.SIGKILL:
         row["ended_ok"] = proc.returncode == -signal.SIGKILL
     else:
@@ -278,7 +284,7 @@ def main(argv=None) -> int:
     finally:
         shutil.rmtree(work, ignore_errors=True)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip() or "unknown"
+                            cwd=Path(__file__).parent).stdout.strip() or os.environ.get("CORTEX_TI_COMMIT", "unknown")
     header = (f"{args.scene}, {args.nodes} nodes, t_end = {args.t_end}, `--threads 1`; reference run "
               f"{ref_wall:.1f} s, {size} bytes; full disk by {'tmpfs' if mount else 'RLIMIT_FSIZE'}; "
               f"{_dt.date.today().isoformat()}, commit {commit}, {platform.node()} ({platform.processor() or platform.machine()}, "

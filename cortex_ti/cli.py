@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import logging
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -293,15 +294,22 @@ def _schema(_args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    with interruptible():        # first: a signal from now on ends the command as documented
+    """The command line (``argv`` None: the program's own arguments, and then a signal that arrives
+    after the command is done, while the interpreter shuts down, is ignored: what it did stands)."""
+    program = argv is None
+    with interruptible(restore=not program):   # first: a signal from now on ends the command as documented
         try:
-            return _main(argv)
+            status = _main(argv)
         except BaseException as caught:
             exc = interruption(caught)
             if exc is None:
                 raise
             print(f"cortex-ti: interrupted ({exc.name})", file=sys.stderr)
-            return exc.exit_code
+            status = exc.exit_code
+        if program:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, signal.SIG_IGN)
+        return status
 
 
 def _main(argv: list[str] | None) -> int:

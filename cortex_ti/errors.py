@@ -54,17 +54,21 @@ _PENDING: list = []     # signals that arrived in an interruptible() block
 
 
 @contextlib.contextmanager
-def interruptible():
+def interruptible(restore: bool = True):
     """While in the block, SIGINT and SIGTERM raise :class:`Interrupted` (main thread only).
 
     The signal is also remembered: should a library swallow the exception (a bare ``except:`` in
-    some start-up code), :func:`check_interrupted` raises it again at the run's next step."""
+    some start-up code), :func:`check_interrupted` raises it again at the run's next step.
+    ``restore=False`` leaves the handlers the block ends with (the command line's program ignores
+    a signal during its own shutdown, after its work is done)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
-    def handler(signum, _frame):
+    def handler(signum, frame):
         _PENDING.append(signum)
+        if frame is not None and (frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith("weakref.py")):
+            return      # Python would print the exception and drop it: check_interrupted raises it instead
         raise Interrupted(signum)
 
     old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -72,8 +76,9 @@ def interruptible():
     try:
         yield
     finally:
-        for sig, h in old.items():
-            signal.signal(sig, h)
+        if restore:
+            for sig, h in old.items():
+                signal.signal(sig, h)
         _PENDING[:] = outer
 
 

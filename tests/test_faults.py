@@ -484,3 +484,21 @@ def test_a_read_only_folder_is_one_line(tmp_path, capsys):
         assert list(folder.iterdir()) == [] and not (tmp_path / "x.h5").exists()
     finally:
         subprocess.run(["umount", str(folder)], check=False)
+
+
+def test_a_guard_stop_is_summarised_with_its_real_counts(tmp_path, capsys):
+    """The explicit Euler step 0.05 on 162 nodes blows up (the guard stops it near t = 0.6): the
+    summary says ``guard`` with the steps and solves it took, not ``static`` and 0."""
+    out, summary = tmp_path / "g.h5", tmp_path / "g.json"
+    rc = main(["run", "furrow_p4_a1", "--set", "mesh.nodes=162", "--set", "time.scheme=euler", "--set",
+               "time.implicit_tension=false", "--set", "time.dt=0.05", "--set", "time.save_every=0.05", "--set",
+               "time.t_end=2", "-o", str(out), "--summary", str(summary)])
+    lines = error_lines(capsys.readouterr().err)
+    assert rc == 2 and len(lines) == 1 and "unstable" in lines[0]
+    info = json.loads(summary.read_text())
+    n, t = committed_frames(partial_path(out))
+    assert info["status"] == "failed" and info["stopped"] == "guard"
+    # one frame per step (save_every = dt), the first at t = 0 before any step; one solve per step
+    # plus the first
+    assert info["frames_kept"] == n and info["steps"] == n - 1 and info["solves"] == n
+    assert info["t_reached"] == pytest.approx(t, abs=1e-12) and 0 < t < 2

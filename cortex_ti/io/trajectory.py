@@ -179,7 +179,7 @@ def committed_frames(path: str | os.PathLike) -> tuple[int, float | None]:
                 raise CortexError(f"'{file}' is not a trajectory (no time and points)")
             n = _committed(h5)
             return n, (float(h5["time"][n - 1]) if n else None)
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
@@ -478,15 +478,17 @@ class TrajectoryWriter:
         try:
             self._h5 = h5py.File(self.partial, "r+")
             self._nc = h5netcdf.File(self._h5, "a")
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, RuntimeError) as exc:
             self._close()
-            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); delete it to start over") from None
+            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); pass --force (or delete it) to "
+                              "start over") from None
         nc = self._nc
         try:
             problems = _resume_problems(nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars},
                                         self._attrs["scene"])
             if problems:
-                raise CortexError(f"{where}: {'; '.join(problems)}; delete it or run without resume")
+                raise CortexError(f"{where}: {'; '.join(problems)}; pass --force (or delete it) to start over, or "
+                                 "choose another output")
             self._n = _committed(self._h5)
             if int(nc.dimensions["time"].size) != self._n:   # drop a frame written but not committed
                 nc.resize_dimension("time", self._n)
@@ -768,7 +770,7 @@ def load_trajectory(path: str | os.PathLike):
             if n is not None and ds.sizes.get("time", n) != n:
                 ds = ds.isel(time=slice(0, n))
             ds = ds.load()
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
     return _current_names(ds)
 
@@ -787,7 +789,7 @@ def _open_lazily(file: Path):
         if n is not None and ds.sizes.get("time", n) != n:
             ds = ds.isel(time=slice(0, n))
         return ds, (nc, h5)
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         for f in (nc, h5):
             if f is not None:
                 f.close()
@@ -831,7 +833,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
                 if name not in _RESERVED and var.dimensions[:1] == ("time",)
             }
             return out
-    except (OSError, KeyError, ValueError) as exc:
+    except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
 
