@@ -289,3 +289,21 @@ def test_missing_trajectory(tmp_path):
         open_trajectory(tmp_path / "none.h5")
     with pytest.raises(CortexError, match="not found"):
         last_frame(tmp_path / "none.h5")
+
+
+def test_a_trajectory_rewritten_by_xarray_reads_back(tmp_path):
+    """xarray writes the global attributes, committed_frames among them, as one-element arrays; a
+    trajectory cut and written again by xarray (as users and the viewer's test do) still reads, with
+    its own number of frames (the stale count is clamped to the frames present)."""
+    from cortex_ti.io import load_trajectory
+    from cortex_ti.io.files import write_dataset
+
+    tri = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
+    pts = np.array([[0.0, 0, 1], [1, 0, 0], [0, 1, 0], [-1, -1, -1]])
+    with TrajectoryWriter(tmp_path / "a.h5", tri, 4, {"scene": "name: x\n", "effects": "a"}) as w:
+        for k in range(5):
+            w.append(0.1 * k, pts, np.zeros((4, 3)), np.ones(4), 0.0)
+    ds = load_trajectory(tmp_path / "a.h5")
+    write_dataset(ds.isel(time=slice(0, 3)), tmp_path / "b.h5")
+    again = load_trajectory(tmp_path / "b.h5")
+    assert again.sizes["time"] == 3 and list(again.time.values) == [0.0, 0.1, 0.2]

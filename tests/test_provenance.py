@@ -8,6 +8,7 @@ commit, and setuptools-scm's documented fallback for a source tree without git.
 from __future__ import annotations
 
 import shutil
+import os
 import subprocess
 import sys
 import zipfile
@@ -57,7 +58,8 @@ def test_every_trajectory_carries_the_provenance(tmp_path, model):
     out = tmp_path / f"{model}.h5"
     res = subprocess.run([sys.executable, "-m", "cortex_ti", "run", "sphere_y20_full", "-o", str(out),
                           "--set", "mesh.nodes=162", "--set", f"model={model}"],
-                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
+                         capture_output=True, text=True, cwd=tmp_path, timeout=300,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])})
     assert res.returncode == 0, res.stderr[-2000:]
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert {k: ds.attrs[k] for k in PROVENANCE_KEYS} == provenance()

@@ -151,7 +151,8 @@ def _committed(h5) -> int:
     written before it existed the leading frames with finite, increasing times."""
     n_time = int(h5["time"].shape[0]) if "time" in h5 else 0
     if COMMIT_ATTR in h5.attrs:
-        return min(int(h5.attrs[COMMIT_ATTR]), n_time)
+        # a scalar as this package writes it; a one-element array where xarray wrote the attributes
+        return min(int(np.asarray(h5.attrs[COMMIT_ATTR]).reshape(-1)[0]), n_time)
     t = np.asarray(h5["time"][...], dtype=float) if n_time else np.zeros(0)
     ok = np.isfinite(t)
     ok[1:] &= np.diff(t) > 0.0
