@@ -172,8 +172,8 @@ def nonlinear(v: dict, y1: np.ndarray, vec: np.ndarray, eps: float, n: int = 96)
     print("    gauge     t    asym=zN+zS-2zc  rate    ring offset   rate    [odd eig of J(t), this gauge]")
     for gauge in ("velocity", "centroid"):
         dyn = dynamics(n, v, gauge)
-        saved, _, _ = _integrate(dyn, y1 + eps * vec, times - 1.0, 2.0, Radau, 1e-12, 1e-13, True, 100000)
-        base, _, _ = _integrate(dyn, y1.copy(), times - 1.0, 2.0, Radau, 1e-12, 1e-13, True, 100000)
+        saved, _, _, _ = _integrate(dyn, y1 + eps * vec, times - 1.0, 2.0, Radau, 1e-12, 1e-13, True, 100000)
+        base, _, _, _ = _integrate(dyn, y1.copy(), times - 1.0, 2.0, Radau, 1e-12, 1e-13, True, 100000)
         prev = None
         for i, t in enumerate(times):
             a, o = measures(dyn.sp, saved[i][1])
