@@ -100,13 +100,15 @@ def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: b
     energy = i1 / (2.0 * j) - 1.0
     if not gradient:
         return energy
-    cinv = np.linalg.inv(c)
+    # C^{-1} of the 2x2 C in closed form
+    cinv = np.stack([np.stack([c[:, 1, 1], -c[:, 0, 1]], 1), np.stack([-c[:, 1, 0], c[:, 0, 0]], 1)], 1)
+    cinv /= det[:, None, None]
     de_df = (f - 0.5 * i1[:, None, None] * (f @ cinv)) / j[:, None, None]
     de_ds = de_df @ np.transpose(context.dm_inv, (0, 2, 1))                 # (T, 3, 2)
-    g = np.zeros_like(points)
-    np.add.at(g, faces[:, 1], de_ds[:, :, 0])
-    np.add.at(g, faces[:, 2], de_ds[:, :, 1])
-    np.add.at(g, faces[:, 0], -(de_ds[:, :, 0] + de_ds[:, :, 1]))
+    n = points.shape[0]
+    idx = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
+    w = np.concatenate([de_ds[:, :, 0], de_ds[:, :, 1], -(de_ds[:, :, 0] + de_ds[:, :, 1])])
+    g = np.stack([np.bincount(idx, weights=w[:, k], minlength=n) for k in range(3)], axis=1)
     return energy, g
 
 
@@ -143,9 +145,7 @@ def ale_velocity(velocity, normal, points, context: MotionContext):
 def volume_gradient(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """``dV/dx_k`` (N, 3) of the triangulated volume ``V = sum_T x_a . (x_b x x_c) / 6``."""
     x = points[faces]
-    g = np.zeros_like(points)
-    for k in range(3):
-        part = np.cross(x[:, (k + 1) % 3], x[:, (k + 2) % 3]) / 6.0
-        for c in range(3):
-            g[:, c] += np.bincount(faces[:, k], weights=part[:, c], minlength=points.shape[0])
-    return g
+    n = points.shape[0]
+    part = np.concatenate([np.cross(x[:, (k + 1) % 3], x[:, (k + 2) % 3]) for k in range(3)]) / 6.0
+    idx = np.concatenate([faces[:, k] for k in range(3)])
+    return np.stack([np.bincount(idx, weights=part[:, c], minlength=n) for c in range(3)], axis=1)

@@ -42,6 +42,13 @@ DENSITY, PROPERTY = "density", "property"
 _W_ADJ, _W_OPP = 5.0 / 12.0, 1.0 / 6.0
 
 
+def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``p x q`` over the last axis (broadcasting), without numpy.cross's overhead on small axes."""
+    return np.stack([p[..., 1] * q[..., 2] - p[..., 2] * q[..., 1],
+                     p[..., 2] * q[..., 0] - p[..., 0] * q[..., 2],
+                     p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]], axis=-1)
+
+
 def dual_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Barycentric dual-cell areas ``(N,)``: a third of the area of every triangle at the node."""
     x = points[faces]
@@ -81,31 +88,26 @@ def dual_fluxes(points: np.ndarray, faces: np.ndarray, u: np.ndarray, tri=None) 
     ``(T, 3, 3)``."""
     x = points[faces]
     _, n, _ = tri if tri is not None else triangle_gradients(points, faces)
-    g = x.mean(axis=1)
-    flux = np.empty((faces.shape[0], 3))
-    mids = np.empty((faces.shape[0], 3, 3))
+    a, b, c = [0, 1, 2], [1, 2, 0], [2, 0, 1]                   # edge k joins corners k and k+1
+    xa, xb = x[:, a], x[:, b]
+    seg = x.mean(axis=1)[:, None, :] - 0.5 * (xa + xb)          # (T, 3, 3) midpoint -> centroid
+    nu = _cross(seg, n[:, None, :])                              # |seg| times a unit normal in the plane
+    sign = np.sign((nu * (xb - xa)).sum(axis=2))
     uf = u[faces]
-    for k in range(3):
-        a, b, c = k, (k + 1) % 3, (k + 2) % 3
-        seg = g - 0.5 * (x[:, a] + x[:, b])
-        nu = np.cross(seg, n)                                     # |seg| times a unit normal in the plane
-        sign = np.sign(np.einsum("tc,tc->t", nu, x[:, b] - x[:, a]))
-        umid = _W_ADJ * (uf[:, a] + uf[:, b]) + _W_OPP * uf[:, c]
-        flux[:, k] = sign * np.einsum("tc,tc->t", nu, umid)
-        mids[:, k] = _W_ADJ * (x[:, a] + x[:, b]) + _W_OPP * x[:, c]
+    umid = _W_ADJ * (uf[:, a] + uf[:, b]) + _W_OPP * uf[:, c]
+    flux = sign * (nu * umid).sum(axis=2)
+    mids = _W_ADJ * (xa + xb) + _W_OPP * x[:, c]
     return flux, mids
 
 
 def _face_values(values: np.ndarray, grad: np.ndarray, points: np.ndarray, faces: np.ndarray,
                  flux: np.ndarray, mids: np.ndarray) -> np.ndarray:
     """Upwind values at the dual edges, reconstructed linearly and limited between the two nodes."""
-    out = np.empty_like(flux)
-    for k in range(3):
-        a, b = faces[:, k], faces[:, (k + 1) % 3]
-        up = np.where(flux[:, k] >= 0.0, a, b)
-        rec = values[up] + np.einsum("tc,tc->t", grad[up], mids[:, k] - points[up])
-        lo, hi = np.minimum(values[a], values[b]), np.maximum(values[a], values[b])
-        out[:, k] = np.clip(rec, lo, hi)
+    a, b = faces, faces[:, [1, 2, 0]]
+    up = np.where(flux >= 0.0, a, b)
+    rec = values[up] + np.einsum("tkc,tkc->tk", grad[up], mids - points[up])
+    va, vb = values[a], values[b]
+    out = np.clip(rec, np.minimum(va, vb), np.maximum(va, vb))
     return out
 
 
