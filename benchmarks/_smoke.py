@@ -2,7 +2,7 @@
 trajectory for the scripts that measure a stored run.
 
 A smoke mode runs a benchmark's own code path on a tiny case (162 nodes, a few steps) in seconds,
-writing only into a temporary folder, so ``tests/test_benchmarks.py`` can run every benchmark and a
+writing only into a temporary folder, so ``tests/repository/test_benchmarks.py`` can run every benchmark and a
 broken one fails a test. Its numbers mean nothing.
 """
 
@@ -11,8 +11,10 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-HELP = ("smoke test: a tiny case (162 nodes, a few steps, files in a temporary folder) that checks the "
-        "script runs, in seconds; its numbers mean nothing")
+HELP = (
+    "smoke test: a tiny case (162 nodes, a few steps, files in a temporary folder) that checks the "
+    "script runs, in seconds; its numbers mean nothing"
+)
 
 
 def folder() -> Path:
@@ -20,8 +22,14 @@ def folder() -> Path:
     return Path(tempfile.mkdtemp(prefix="cortex-ti-smoke-"))
 
 
-def tiny_run(scene: str = "furrow_p4_a1", t_end: float = 0.05, nodes: int = 162, where: Path | None = None,
-             overrides=(), name: str | None = None) -> Path:
+def tiny_run(
+    scene: str = "furrow_p4_a1",
+    t_end: float = 0.05,
+    nodes: int = 162,
+    where: Path | None = None,
+    overrides=(),
+    name: str | None = None,
+) -> Path:
     """Run ``scene`` on a tiny mesh to ``t_end`` and return its trajectory file (in a temporary folder)."""
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation.core import Simulation

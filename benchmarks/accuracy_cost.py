@@ -24,8 +24,6 @@ Expected cost: about 3 minutes for the default node counts on a 2-core machine.
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import csv
 import json
 import os
@@ -35,6 +33,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 
 SCENES = ("sphere_y20_full", "sphere_y20_tangential", "sphere_y21_full", "sphere_y21_tangential")
 
@@ -52,21 +52,37 @@ def one(nodes: int, method: str, backend: str) -> list[dict]:
     out = []
     for name in SCENES:
         formulation, scheme = method.split(":")
-        scene = load_scene(name, [f"mesh.nodes={nodes}", f"numerics.formulation={formulation}",
-                                  f"numerics.fit={scheme}", f"solver.backend={backend}", "solver.reuse=false"])
+        scene = load_scene(
+            name,
+            [
+                f"mesh.nodes={nodes}",
+                f"numerics.formulation={formulation}",
+                f"numerics.fit={scheme}",
+                f"solver.backend={backend}",
+                "solver.reuse=false",
+            ],
+        )
         sim = Simulation(scene)
         cold = sim.solve()
         jitter = 1e-4 * np.random.default_rng(0).standard_normal(sim.mesh.points.shape)
         warm = sim.solve(sim.mesh.points + jitter)
         sol = sim.solve()  # the accuracy is measured on the exact sphere
         eps, eps_rel = analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))
-        out.append(dict(
-            scene=name, nodes=nodes, method=method, backend=sim.solver.backend, eps=eps, eps_rel=eps_rel,
-            **{f"cold_{k}": v for k, v in cold.seconds.items()},
-            **{f"warm_{k}": v for k, v in warm.seconds.items()},
-            residual=sol.info.relative_residual, constraint=sol.info.constraint_violation,
-            peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-        ))
+        out.append(
+            dict(
+                scene=name,
+                nodes=nodes,
+                method=method,
+                backend=sim.solver.backend,
+                eps=eps,
+                eps_rel=eps_rel,
+                **{f"cold_{k}": v for k, v in cold.seconds.items()},
+                **{f"warm_{k}": v for k, v in warm.seconds.items()},
+                residual=sol.info.relative_residual,
+                constraint=sol.info.constraint_violation,
+                peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            )
+        )
     return out
 
 
@@ -84,22 +100,32 @@ def machine() -> str:
     import scipy
     import taichi
 
-    return (f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, NumPy {numpy.__version__}, "
-            f"SciPy {scipy.__version__}, Taichi {taichi.__version__}")
+    return (
+        f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, NumPy {numpy.__version__}, "
+        f"SciPy {scipy.__version__}, Taichi {taichi.__version__}"
+    )
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562, 10242])
-    p.add_argument("--methods", nargs="+", default=["paper:quadratic", "paper:quartic", "rayleigh_p1:quadratic"],
-                   help="formulation:fit pairs")
+    p.add_argument(
+        "--methods",
+        nargs="+",
+        default=["paper:quadratic", "paper:quartic", "rayleigh_p1:quadratic"],
+        help="formulation:fit pairs",
+    )
     p.add_argument("--backend", default="auto")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/static.csv"))
     p.add_argument("--one", nargs=2, metavar=("NODES", "METHOD"), help=argparse.SUPPRESS)
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
     if args.smoke:
-        args.nodes, args.methods, args.out = [162], ["paper:quartic", "rayleigh_p1:quadratic"], _smoke.folder() / "static.csv"
+        args.nodes, args.methods, args.out = (
+            [162],
+            ["paper:quartic", "rayleigh_p1:quadratic"],
+            _smoke.folder() / "static.csv",
+        )
     if args.one:
         print(json.dumps(one(int(args.one[0]), args.one[1], args.backend)))
         return 0
@@ -107,8 +133,11 @@ def main(argv=None) -> int:
     for method in args.methods:
         for n in args.nodes:
             t0 = time.perf_counter()
-            res = subprocess.run([sys.executable, __file__, "--one", str(n), method, "--backend", args.backend],
-                                 capture_output=True, text=True)
+            res = subprocess.run(
+                [sys.executable, __file__, "--one", str(n), method, "--backend", args.backend],
+                capture_output=True,
+                text=True,
+            )
             if res.returncode != 0:
                 print(f"# {method} N={n} failed: {res.stderr.strip().splitlines()[-1:]}", file=sys.stderr)
                 if args.smoke:
@@ -125,9 +154,12 @@ def main(argv=None) -> int:
     print("| formulation:fit | N | scene | eps | eps_rel | geometry s | assembly s | solve s (cold / warm) | peak MB |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['method']} | {r['nodes']} | {r['scene'].replace('sphere_', '')} | {r['eps']:.2e} | {r['eps_rel']:.2e} | "
-              f"{r['warm_geometry']:.3f} | {r['warm_assembly']:.3f} | {r['cold_solve']:.2f} / {r['warm_solve']:.2f} | "
-              f"{r['peak_mb']:.0f} |")
+        print(
+            f"| {r['method']} | {r['nodes']} | {r['scene'].replace('sphere_', '')} | {r['eps']:.2e} | "
+            f"{r['eps_rel']:.2e} | "
+            f"{r['warm_geometry']:.3f} | {r['warm_assembly']:.3f} | {r['cold_solve']:.2f} / {r['warm_solve']:.2f} | "
+            f"{r['peak_mb']:.0f} |"
+        )
     print(f"\n(csv: {args.out})")
     return 0
 

@@ -42,25 +42,38 @@ def ring(amplitude: float, p: int = 4, sigma: float = 10.0):
 def evolve(amplitude, tension, n, *, visc=BEND, rtol=1e-10, t_end=5.0, times=None, stop_neck=0.1, **kw):
     times = np.linspace(0.0, t_end, max(2, int(round(t_end * 4)) + 1)) if times is None else times
     try:
-        return simulate(ring(amplitude), **visc, t_end=t_end, save_times=times, n=n, rtol=rtol, interpolate=True,
-                        tension=tension, stop_neck=stop_neck, **kw)
+        return simulate(
+            ring(amplitude),
+            **visc,
+            t_end=t_end,
+            save_times=times,
+            n=n,
+            rtol=rtol,
+            interpolate=True,
+            tension=tension,
+            stop_neck=stop_neck,
+            **kw,
+        )
     except ValueError as exc:
         return str(exc)
 
 
 def failure():
     print("## The amplitude-6 ring (nodes): the integrator's failure time against the model's limit\n")
-    print("Unguarded (`stop_ill_posed=False`): the time the integrator fails; guarded: the time the bending "
-          "margin `min(2 eta_bar k_i + (eta_bar_b - eta_bar) C)` reaches 0, and the neck there.\n")
+    print(
+        "Unguarded (`stop_ill_posed=False`): the time the integrator fails; guarded: the time the bending "
+        "margin `min(2 eta_bar k_i + (eta_bar_b - eta_bar) C)` reaches 0, and the neck there.\n"
+    )
     print("| n | unguarded: integrator | guarded: stop time | neck at stop (R0) | wall (s) |")
     print("|---:|---|---:|---:|---:|")
-    for n in ((12,) if SMOKE else (16, 24, 32, 48, 64)):
+    for n in (12,) if SMOKE else (16, 24, 32, 48, 64):
         t0 = time.perf_counter()
         free = evolve(6.0, "nodes", n, t_end=0.2 if SMOKE else 2.0, stop_ill_posed=False, rtol=1e-8)
         guarded = evolve(6.0, "nodes", n, t_end=0.2 if SMOKE else 2.0, rtol=1e-10)
         fail = free if isinstance(free, str) else f"reached t = {free.t[-1]:g}"
-        stop = (f"{guarded.t[-1]:.6f} | {guarded.neck_radius[-1]:.6f}" if guarded.stopped != "t_end"
-                else "not reached | -")
+        stop = (
+            f"{guarded.t[-1]:.6f} | {guarded.neck_radius[-1]:.6f}" if guarded.stopped != "t_end" else "not reached | -"
+        )
         print(f"| {n} | {fail.split(':')[0]} | {stop} | {time.perf_counter() - t0:.1f} |")
     print()
 
@@ -69,17 +82,21 @@ def limit():
     print("## Where each ring stops (bending viscosity on, t_end 5, stop_neck 0.1)\n")
     print("| amplitude | tension | stopped (finer n) | t | neck (R0) | neck coarse - fine | t coarse - fine |")
     print("|---:|---|---|---:|---:|---:|---:|")
-    for amp in ((6.0,) if SMOKE else (3.0, 6.0, 12.0, 20.0)):
+    for amp in (6.0,) if SMOKE else (3.0, 6.0, 12.0, 20.0):
         for tension in ("nodes", "material"):
             t_end = 0.2 if SMOKE else 5.0
-            a, b = (evolve(amp, tension, n, t_end=t_end, rtol=1e-6 if SMOKE else 1e-10)
-                    for n in ((8, 12) if SMOKE else (32, 48)))
+            a, b = (
+                evolve(amp, tension, n, t_end=t_end, rtol=1e-6 if SMOKE else 1e-10)
+                for n in ((8, 12) if SMOKE else (32, 48))
+            )
             if isinstance(b, str) or isinstance(a, str):
                 print(f"| {amp:g} | {tension} | failed: {b if isinstance(b, str) else a} | | | | |")
                 continue
             why = b.stopped.split(" ")[0] if b.stopped != "t_end" else "t_end"
-            print(f"| {amp:g} | {tension} | {why} | {b.t[-1]:.6f} | {b.neck_radius[-1]:.6f} | "
-                  f"{a.neck_radius[-1] - b.neck_radius[-1]:.1e} | {a.t[-1] - b.t[-1]:.1e} |")
+            print(
+                f"| {amp:g} | {tension} | {why} | {b.t[-1]:.6f} | {b.neck_radius[-1]:.6f} | "
+                f"{a.neck_radius[-1] - b.neck_radius[-1]:.1e} | {a.t[-1] - b.t[-1]:.1e} |"
+            )
     print()
 
 
@@ -91,15 +108,20 @@ def necks():
     head = " | ".join(f"t={t:g}" for t in times)
     print(f"| amplitude | tension | viscosity | {head} | stop | max n=32 vs 48 |")
     print("|---:|---|---|" + "---:|" * len(times) + "---|---:|")
-    for amp in ((6.0,) if SMOKE else (6.0, 12.0, 20.0)):
+    for amp in (6.0,) if SMOKE else (6.0, 12.0, 20.0):
         for visc_name, visc in (("bending", BEND), ("none", NOBEND)):
             for tension in ("nodes", "material"):
-                runs = [evolve(amp, tension, n, visc=visc, t_end=times[-1], times=times, rtol=1e-6 if SMOKE else 1e-10)
-                        for n in ((8, 12) if SMOKE else (32, 48))]
+                runs = [
+                    evolve(amp, tension, n, visc=visc, t_end=times[-1], times=times, rtol=1e-6 if SMOKE else 1e-10)
+                    for n in ((8, 12) if SMOKE else (32, 48))
+                ]
                 if any(isinstance(r, str) for r in runs):
                     msg = next(r for r in runs if isinstance(r, str))
-                    print(f"| {amp:g} | {tension} | {visc_name} | " + " | ".join("" for _ in times)
-                          + f" | failed: {msg} | |")
+                    print(
+                        f"| {amp:g} | {tension} | {visc_name} | "
+                        + " | ".join("" for _ in times)
+                        + f" | failed: {msg} | |"
+                    )
                     continue
                 a, b = runs
                 cells = []
@@ -125,8 +147,10 @@ def selfconv():
         t_c = round(0.9 * float(probe.t[-1]), 2)
         times = np.array([0.0, t_c])
         ref = evolve(amp, tension, ref_n, rtol=1e-8 if SMOKE else 1e-12, t_end=t_c, times=times)
-        print(f"## Self-convergence: amplitude {amp:g}, tension on the {tension}, radii at t = {t_c:g} "
-              f"(0.9 x the model's limit) against n = {ref_n}, rtol 1e-12\n")
+        print(
+            f"## Self-convergence: amplitude {amp:g}, tension on the {tension}, radii at t = {t_c:g} "
+            f"(0.9 x the model's limit) against n = {ref_n}, rtol 1e-12\n"
+        )
         print(f"reference: furrow {ref.furrow_radius[-1]:.12f} R0, pole {ref.pole_radius[-1]:.12f} R0\n")
         print("| n | rtol | max abs difference of (furrow, pole) radii (R0) | wall (s) |")
         print("|---:|---:|---:|---:|")
@@ -148,17 +172,29 @@ def furrows():
     fine = np.linspace(0.0, t_end, int(t_end * 40) + 1)
     print("| scene | tension | " + " | ".join(f"t={t:g}" for t in times) + " | min (t) | ended | max v_s at end |")
     print("|---|---|" + "---:|" * len(times) + "---:|---|---:|")
-    for name in (("furrow_p4_a3",) if SMOKE else ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")):
+    for name in ("furrow_p4_a3",) if SMOKE else ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3"):
         s = load_scene(name, ["model=axisymmetric"]).settings
         for tension in ("nodes", "material"):
-            r = simulate(axisymmetric_tension(s), **viscosities(s), t_end=t_end, save_times=fine, n=12 if SMOKE else 48,
-                         rtol=1e-6 if SMOKE else 1e-10, interpolate=True, tension=tension)
-            cells = [f"{r.furrow_radius[np.argmin(np.abs(r.t - t))]:.5f}" if t <= r.t[-1] + 1e-9 else "-"
-                     for t in times]
+            r = simulate(
+                axisymmetric_tension(s),
+                **viscosities(s),
+                t_end=t_end,
+                save_times=fine,
+                n=12 if SMOKE else 48,
+                rtol=1e-6 if SMOKE else 1e-10,
+                interpolate=True,
+                tension=tension,
+            )
+            cells = [
+                f"{r.furrow_radius[np.argmin(np.abs(r.t - t))]:.5f}" if t <= r.t[-1] + 1e-9 else "-" for t in times
+            ]
             j = int(np.argmin(r.furrow_radius))
             ended = "t_end" if r.stopped == "t_end" else r.stopped.split(":")[0]
-            print(f"| {name} | {tension} | " + " | ".join(cells)
-                  + f" | {r.furrow_radius[j]:.5f} ({r.t[j]:.3g}) | {ended} | {np.abs(r.v_s[-1]).max():.3f} |")
+            print(
+                f"| {name} | {tension} | "
+                + " | ".join(cells)
+                + f" | {r.furrow_radius[j]:.5f} ({r.t[j]:.3g}) | {ended} | {np.abs(r.v_s[-1]).max():.3f} |"
+            )
     print()
 
 
@@ -173,12 +209,18 @@ def main():
     args = ap.parse_args()
     SMOKE = args.smoke
     try:
-        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                                cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip()
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            cwd=os.path.dirname(os.path.abspath(__file__)),
+        ).stdout.strip()
     except OSError:
         commit = "?"
-    print(f"<!-- axisym_deep_furrow.py{' --smoke' if SMOKE else ''} on {time.strftime('%Y-%m-%d %H:%M %Z')}, "
-          f"{platform.node()} ({platform.machine()}, {os.cpu_count()} cores), commit {commit} -->\n")
+    print(
+        f"<!-- axisym_deep_furrow.py{' --smoke' if SMOKE else ''} on {time.strftime('%Y-%m-%d %H:%M %Z')}, "
+        f"{platform.node()} ({platform.machine()}, {os.cpu_count()} cores), commit {commit} -->\n"
+    )
     for name in args.sections or SECTIONS:
         t0 = time.perf_counter()
         SECTIONS[name]()

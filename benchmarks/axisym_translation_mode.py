@@ -70,8 +70,17 @@ def dynamics(n: int, v: dict, gauge: str = "velocity", cls=_Dynamics) -> _Dynami
 
 
 def states(n: int, v: dict, times):
-    res = simulate(ZETA, **v, t_end=max(times), save_times=[0.0, *times], n=n, rtol=RTOL, symmetric=False,
-                   parametrization="lagrangian", gauge="velocity")
+    res = simulate(
+        ZETA,
+        **v,
+        t_end=max(times),
+        save_times=[0.0, *times],
+        n=n,
+        rtol=RTOL,
+        symmetric=False,
+        parametrization="lagrangian",
+        gauge="velocity",
+    )
     assert res.params["symmetric"] is False and res.params["parametrization"] == "lagrangian"
     return {t: np.concatenate([res.r[res.index(t)], res.z[res.index(t)]]) for t in times}, res
 
@@ -121,8 +130,10 @@ def describe(dyn, y, w, V, k) -> str:
     nz = g["rs"]
     c = (wA * s * nz).sum() / (wA * nz * nz).sum()
     rest = np.sqrt((wA * (s - c * nz) ** 2).sum() / (wA * s * s).sum())
-    return (f"{w[k].real:+8.4f}{w[k].imag:+.0e}i  normal frac {fn:5.3f}  |s_even|/|s_odd| {par:7.1e}  "
-            f"s - (translation part c n_z): {rest:5.3f} of |s|")
+    return (
+        f"{w[k].real:+8.4f}{w[k].imag:+.0e}i  normal frac {fn:5.3f}  |s_even|/|s_odd| {par:7.1e}  "
+        f"s - (translation part c n_z): {rest:5.3f} of |s|"
+    )
 
 
 def analyse(dyn: _Dynamics, y: np.ndarray, t: float, verbose: bool = True) -> dict:
@@ -135,8 +146,10 @@ def analyse(dyn: _Dynamics, y: np.ndarray, t: float, verbose: bool = True) -> di
     N, _, _ = frames(dyn, y)
     wn, Vn = np.linalg.eig(N.T @ J @ N)
     if verbose:
-        print(f"  t = {t:g}: |My - y|/|y| = {np.linalg.norm(M @ y - y) / np.linalg.norm(y):.0e}, "
-              f"|MJ - JM|/|J| = {np.linalg.norm(M @ J - J @ M) / np.linalg.norm(J):.0e}")
+        print(
+            f"  t = {t:g}: |My - y|/|y| = {np.linalg.norm(M @ y - y) / np.linalg.norm(y):.0e}, "
+            f"|MJ - JM|/|J| = {np.linalg.norm(M @ J - J @ M) / np.linalg.norm(J):.0e}"
+        )
         print("    full J rightmost Re:", " ".join(f"{x:+.4f}" for x in np.sort(w.real)[::-1][:5]))
         for name, (ww, VV) in (("odd ", (wo, Vo)), ("even", (we, Ve))):
             for j, k in enumerate(np.argsort(-ww.real)[:2]):
@@ -145,12 +158,22 @@ def analyse(dyn: _Dynamics, y: np.ndarray, t: float, verbose: bool = True) -> di
         pars = []
         for k in ks:
             s = np.real(Vn[:, k] * np.exp(-1j * np.angle(Vn[np.argmax(np.abs(Vn[:, k])), k])))
-            pars.append("odd" if np.linalg.norm(s + s[::-1]) < 1e-6 * np.linalg.norm(s) else
-                        "even" if np.linalg.norm(s - s[::-1]) < 1e-6 * np.linalg.norm(s) else "mixed")
-        print("    J_nn = N^T J N (3D code's operator):", "  ".join(f"{wn[k].real:+.4f} ({p})" for k, p in zip(ks, pars)))
+            pars.append(
+                "odd"
+                if np.linalg.norm(s + s[::-1]) < 1e-6 * np.linalg.norm(s)
+                else "even"
+                if np.linalg.norm(s - s[::-1]) < 1e-6 * np.linalg.norm(s)
+                else "mixed"
+            )
+        print(
+            "    J_nn = N^T J N (3D code's operator):",
+            "  ".join(f"{wn[k].real:+.4f} ({p})" for k, p in zip(ks, pars, strict=False)),
+        )
     k = int(np.argmax(wo.real))
     vec = np.real(Vo[:, k] * np.exp(-1j * np.angle(Vo[np.argmax(np.abs(Vo[:, k])), k])))
-    return dict(odd=float(wo.real.max()), even=float(we.real.max()), nn=float(wn.real.max()), vec=vec / np.abs(vec).max())
+    return dict(
+        odd=float(wo.real.max()), even=float(we.real.max()), nn=float(wn.real.max()), vec=vec / np.abs(vec).max()
+    )
 
 
 def measures(sp: Spectral, y: np.ndarray, m: int = 4001):
@@ -160,7 +183,10 @@ def measures(sp: Spectral, y: np.ndarray, m: int = 4001):
     r = sp.evaluate("R", y[:n] @ sp.FR.T, uu)
     z = sp.evaluate("Z", y[n:], uu)
     zu = sp.evaluate("Z", y[n:], uu, 1)
-    trap = lambda f: float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(uu)))
+
+    def trap(f):
+        return float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(uu)))
+
     vol = trap(np.pi * r**2 * (-zu))
     zc = trap(np.pi * r**2 * z * (-zu)) / vol
     return z[0] + z[-1] - 2 * zc, z[m // 2] - zc
@@ -200,15 +226,20 @@ def main():
         for n in ns:
             ys, res = states(n, v, (1.0, 3.0))
             dyn = dynamics(n, v)
-            print(f"\n##### {tag}, n = {n} full-meridian nodes, gauge 'velocity' (oint v_z dA = 0); "
-                  f"pole radius {res.pole_radius[1]:.5f}, {res.pole_radius[2]:.5f}; furrow radius "
-                  f"{res.furrow_radius[1]:.5f}, {res.furrow_radius[2]:.5f}; min k1 {dyn.geometry(ys[3.0])['k1'].min():+.3f}")
+            print(
+                f"\n##### {tag}, n = {n} full-meridian nodes, gauge 'velocity' (oint v_z dA = 0); "
+                f"pole radius {res.pole_radius[1]:.5f}, {res.pole_radius[2]:.5f}; furrow radius "
+                f"{res.furrow_radius[1]:.5f}, {res.furrow_radius[2]:.5f}; min k1 "
+                f"{dyn.geometry(ys[3.0])['k1'].min():+.3f}"
+            )
             info = {t: analyse(dyn, ys[t], t) for t in (1.0, 3.0)}
             if n != analysed:
                 continue
-            for gauge, cls, name in (("centroid", _Dynamics, "gauge 'centroid' (oint z v_n dA = 0)"),
-                                     ("velocity", FullAdvection, "full advection v_n n + v_s t, gauge 'velocity'"),
-                                     ("centroid", FullAdvection, "full advection v_n n + v_s t, gauge 'centroid'")):
+            for gauge, cls, name in (
+                ("centroid", _Dynamics, "gauge 'centroid' (oint z v_n dA = 0)"),
+                ("velocity", FullAdvection, "full advection v_n n + v_s t, gauge 'velocity'"),
+                ("centroid", FullAdvection, "full advection v_n n + v_s t, gauge 'centroid'"),
+            ):
                 d2 = dynamics(n, v, gauge, cls)
                 print(f"  same states, {name}:")
                 for t in (1.0, 3.0):

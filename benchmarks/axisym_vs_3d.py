@@ -21,9 +21,9 @@ Expected cost: a few seconds per file (the 3D runs are the expensive part).
 """
 
 import argparse
+import sys
 
 import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
-import sys
 
 from cortex_ti.axisymmetric.compare import PROFILE_TIMES, compare
 
@@ -39,20 +39,28 @@ def main(argv=None) -> int:
     if not args.trajectories:
         p.error("give at least one trajectory")
     rows = [compare(path) for path in args.trajectories]
-    print("| scene | N | t_end | max dev. pole (t) | max dev. furrow (t) | dev. at t_end: pole, furrow | "
-          "3D at t_end: pole, furrow | axisymmetric: pole, furrow |")
+    print(
+        "| scene | N | t_end | max dev. pole (t) | max dev. furrow (t) | dev. at t_end: pole, furrow | "
+        "3D at t_end: pole, furrow | axisymmetric: pole, furrow |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for r in rows:
         (pm, pt, pe), (fm, ft, fe) = r["pole_radius"], r["furrow_radius"]
-        print(f"| {r['scene']} | {r['nodes']} | {r['t_end']:g} | {pm:.2e} ({pt:.2f}) | {fm:.2e} ({ft:.2f}) | "
-              f"{pe:.2e}, {fe:.2e} | {r['final'][0]:.6f}, {r['final'][1]:.6f} | {r['final'][2]:.6f}, {r['final'][3]:.6f} |")
+        print(
+            f"| {r['scene']} | {r['nodes']} | {r['t_end']:g} | {pm:.2e} ({pt:.2f}) | {fm:.2e} ({ft:.2f}) | "
+            f"{pe:.2e}, {fe:.2e} | {r['final'][0]:.6f}, {r['final'][1]:.6f} | {r['final'][2]:.6f}, "
+            f"{r['final'][3]:.6f} |"
+        )
     print("\n| scene | N | t | max / rms dev. v_n | max / rms dev. abs v_t | scale v_n, abs v_t |")
     print("|---|---|---|---|---|---|")
     for r in rows:
         for t in PROFILE_TIMES:
             if f"profile_{t:g}" in r:
                 a, b, c, d, sn, st = r[f"profile_{t:g}"]
-                print(f"| {r['scene']} | {r['nodes']} | {t:g} | {a:.1e} / {b:.1e} | {c:.1e} / {d:.1e} | {sn:.3f}, {st:.3f} |")
+                print(
+                    f"| {r['scene']} | {r['nodes']} | {t:g} | {a:.1e} / {b:.1e} | {c:.1e} / {d:.1e} | "
+                    f"{sn:.3f}, {st:.3f} |"
+                )
     if args.convergence and len(rows) > 1:
         rows.sort(key=lambda r: r["nodes"])
         print("\n| N | max radius error | ratio to the next coarser | error at t_end | ratio |")

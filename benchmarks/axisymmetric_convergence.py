@@ -70,24 +70,30 @@ def convergence():
         t0 = time.perf_counter()
         r = run(name, n=128, rtol=1e-12)
         truth[name] = (r.pole_radius[-1], r.furrow_radius[-1])
-        print(f"truth {name}: n=128 rtol=1e-12: pole {truth[name][0]:.12f} furrow {truth[name][1]:.12f} "
-              f"({time.perf_counter() - t0:.1f} s)")
+        print(
+            f"truth {name}: n=128 rtol=1e-12: pole {truth[name][0]:.12f} furrow {truth[name][1]:.12f} "
+            f"({time.perf_counter() - t0:.1f} s)"
+        )
     print("\n### vs n (rtol = 1e-10); deviation from the n=128, rtol=1e-12 run\n")
     print("| scene | n | pole(3) | furrow(3) | dev pole | dev furrow |")
     print("|---|---|---|---|---|---|")
     for name in SCENES:
         for n in (16, 24, 32, 48, 64, 96):
             r = run(name, n=n, rtol=1e-10)
-            print(f"| {name} | {n} | {r.pole_radius[-1]:.10f} | {r.furrow_radius[-1]:.10f} | "
-                  f"{r.pole_radius[-1] - truth[name][0]:+.1e} | {r.furrow_radius[-1] - truth[name][1]:+.1e} |")
+            print(
+                f"| {name} | {n} | {r.pole_radius[-1]:.10f} | {r.furrow_radius[-1]:.10f} | "
+                f"{r.pole_radius[-1] - truth[name][0]:+.1e} | {r.furrow_radius[-1] - truth[name][1]:+.1e} |"
+            )
     print("\n### vs rtol (n = 48, atol = rtol); deviation from the n=128, rtol=1e-12 run\n")
     print("| scene | rtol | steps | dev pole | dev furrow | wall s |")
     print("|---|---|---|---|---|---|")
     for name in SCENES:
         for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12):
             r = run(name, n=48, rtol=rtol)
-            print(f"| {name} | {rtol:.0e} | {r.n_steps} | {r.pole_radius[-1] - truth[name][0]:+.1e} | "
-                  f"{r.furrow_radius[-1] - truth[name][1]:+.1e} | {r.wall_time:.2f} |")
+            print(
+                f"| {name} | {rtol:.0e} | {r.n_steps} | {r.pole_radius[-1] - truth[name][0]:+.1e} | "
+                f"{r.furrow_radius[-1] - truth[name][1]:+.1e} | {r.wall_time:.2f} |"
+            )
     print("\n### default (n=48, rtol=1e-10) vs doubled n and halved tolerance (n=96, rtol=5e-11), all saved times\n")
     print("| scene | max over t in [0,3] of abs change pole | furrow | volume drift (default) | max stretch |")
     print("|---|---|---|---|---|")
@@ -95,18 +101,24 @@ def convergence():
     for name in SCENES:
         a = run(name, save_times=ts)
         b = run(name, n=96, rtol=5e-11, save_times=ts)
-        print(f"| {name} | {np.abs(a.pole_radius - b.pole_radius).max():.1e} | "
-              f"{np.abs(a.furrow_radius - b.furrow_radius).max():.1e} | {np.abs(a.volume - a.volume[0]).max():.1e} | "
-              f"{a.stretch.max():.3f} |")
+        print(
+            f"| {name} | {np.abs(a.pole_radius - b.pole_radius).max():.1e} | "
+            f"{np.abs(a.furrow_radius - b.furrow_radius).max():.1e} | {np.abs(a.volume - a.volume[0]).max():.1e} | "
+            f"{a.stretch.max():.3f} |"
+        )
     print("\n### values at t = 3 (default settings)\n")
     print("| scene | bending | pole radius | furrow radius | area | P |")
     print("|---|---|---|---|---|---|")
     for name in SCENES:
         r = run(name)
-        print(f"| {name} | on | {r.pole_radius[-1]:.7f} | {r.furrow_radius[-1]:.7f} | {r.area[-1]:.7f} | {r.P[-1]:.7f} |")
+        print(
+            f"| {name} | on | {r.pole_radius[-1]:.7f} | {r.furrow_radius[-1]:.7f} | {r.area[-1]:.7f} | {r.P[-1]:.7f} |"
+        )
     for name in SCENES:
         r = run(name, bend=False)
-        print(f"| {name} | off | {r.pole_radius[-1]:.7f} | {r.furrow_radius[-1]:.7f} | {r.area[-1]:.7f} | {r.P[-1]:.7f} |")
+        print(
+            f"| {name} | off | {r.pole_radius[-1]:.7f} | {r.furrow_radius[-1]:.7f} | {r.area[-1]:.7f} | {r.P[-1]:.7f} |"
+        )
     print()
 
 
@@ -142,23 +154,36 @@ def reference():
         idx = np.searchsorted(res.t, d3[:, 0])
         dp, df = res.pole_radius[idx] - d3[:, 1], res.furrow_radius[idx] - d3[:, 2]
         print(f"**{label}** (n=48, rtol=1e-10, dense output at the reference's times; wall {res.wall_time:.2f} s)\n")
-        print(f"- max |pole - ref| for t <= 3: {np.abs(dp).max():.2e} (at t = {d3[np.argmax(np.abs(dp)), 0]:.3f}); "
-              f"max |furrow - ref|: {np.abs(df).max():.2e} (at t = {d3[np.argmax(np.abs(df)), 0]:.3f})")
+        print(
+            f"- max |pole - ref| for t <= 3: {np.abs(dp).max():.2e} (at t = {d3[np.argmax(np.abs(dp)), 0]:.3f}); "
+            f"max |furrow - ref|: {np.abs(df).max():.2e} (at t = {d3[np.argmax(np.abs(df)), 0]:.3f})"
+        )
         j3 = res.index(3.0)
         j5 = res.index(5.0)
-        print(f"- t = 3: pole {res.pole_radius[j3]:.7f} (ref 1.134339), furrow {res.furrow_radius[j3]:.7f} (ref 0.927040); "
-              f"t = 5: pole {res.pole_radius[j5]:.7f} (ref 1.134599), furrow {res.furrow_radius[j5]:.7f} (ref 0.926899)\n")
+        print(
+            f"- t = 3: pole {res.pole_radius[j3]:.7f} (ref 1.134339), furrow {res.furrow_radius[j3]:.7f} "
+            f"(ref 0.927040); "
+            f"t = 5: pole {res.pole_radius[j5]:.7f} (ref 1.134599), furrow {res.furrow_radius[j5]:.7f} (ref 0.926899)\n"
+        )
         print("| t | pole | ref | diff | furrow | ref | diff |")
         print("|---|---|---|---|---|---|---|")
         for tt in (0.01, 0.05, 0.1, 0.27, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
             j = np.argmin(np.abs(d3[:, 0] - tt))
-            print(f"| {d3[j, 0]:.3f} | {res.pole_radius[idx[j]]:.7f} | {d3[j, 1]:.7f} | {dp[j]:+.1e} | "
-                  f"{res.furrow_radius[idx[j]]:.7f} | {d3[j, 2]:.7f} | {df[j]:+.1e} |")
+            print(
+                f"| {d3[j, 0]:.3f} | {res.pole_radius[idx[j]]:.7f} | {d3[j, 1]:.7f} | {dp[j]:+.1e} | "
+                f"{res.furrow_radius[idx[j]]:.7f} | {d3[j, 2]:.7f} | {df[j]:+.1e} |"
+            )
         print()
         if kw.get("bend", True):  # profiles only for the no-bending run (as the reference)
             continue
-        print("Velocity profiles (max abs deviation; v_n outward, |v_t|, and the signed v_t (reference: south -> north)):\n")
-        print("| t | v_n by z | abs v_t by z | signed v_t by z | v_n by z, caps excl. | abs v_t by z, caps excl. | v_n by arc length | abs v_t by arc length | max abs v_t |")
+        print(
+            "Velocity profiles (max abs deviation; v_n outward, |v_t|, and the signed v_t (reference: "
+            "south -> north)):\n"
+        )
+        print(
+            "| t | v_n by z | abs v_t by z | signed v_t by z | v_n by z, caps excl. | abs v_t by z, caps "
+            "excl. | v_n by arc length | abs v_t by arc length | max abs v_t |"
+        )
         print("|---|---|---|---|---|---|---|---|---|")
         for tt in (0.0, 0.1, 1.5, 3.0):
             ref = np.loadtxt(REF + f"caseA_p8_zh1_velocity_t{tt}.csv", delimiter=",", skiprows=1)
@@ -168,15 +193,21 @@ def reference():
             dvn, dvt, dvs = f["v_n"] - ref[:, 5], np.abs(f["v_s"]) - ref[:, 3], -f["v_s"] - ref[:, 4]
             u_s, _ = _ref_interp_s(res, i, ref[:, 2], ref[-1, 2])
             g = res.evaluate(i, u_s)
-            print(f"| {tt} | {np.abs(dvn).max():.1e} | {np.abs(dvt).max():.1e} | {np.abs(dvs).max():.1e} | "
-                  f"{np.abs(dvn[m]).max():.1e} | {np.abs(dvt[m]).max():.1e} | {np.abs(g['v_n'] - ref[:, 5]).max():.1e} | "
-                  f"{np.abs(np.abs(g['v_s']) - ref[:, 3]).max():.1e} | {ref[:, 3].max():.3f} |")
-        print("\n(caps excl.: |z| < 0.98 z_pole; at t = 0 the reference itself deviates from the exact sphere "
-              "solution by 2e-3, README.)\n")
+            print(
+                f"| {tt} | {np.abs(dvn).max():.1e} | {np.abs(dvt).max():.1e} | {np.abs(dvs).max():.1e} | "
+                f"{np.abs(dvn[m]).max():.1e} | {np.abs(dvt[m]).max():.1e} | {np.abs(g['v_n'] - ref[:, 5]).max():.1e} | "
+                f"{np.abs(np.abs(g['v_s']) - ref[:, 3]).max():.1e} | {ref[:, 3].max():.3f} |"
+            )
+        print(
+            "\n(caps excl.: |z| < 0.98 z_pole; at t = 0 the reference itself deviates from the exact sphere "
+            "solution by 2e-3, README.)\n"
+        )
         # exact sphere solution at t = 0 for our run
         zbar = 1.6454788578586
-        print(f"- our t = 0 flow vs the exact sphere solution: max |v_n + (zeta - zeta_bar)/2| = "
-              f"{np.abs(res.v_n[0] + 0.5 * (res.zeta[0] - zbar)).max():.1e}, max |v_s| = {np.abs(res.v_s[0]).max():.1e}\n")
+        print(
+            f"- our t = 0 flow vs the exact sphere solution: max |v_n + (zeta - zeta_bar)/2| = "
+            f"{np.abs(res.v_n[0] + 0.5 * (res.zeta[0] - zbar)).max():.1e}, max |v_s| = {np.abs(res.v_s[0]).max():.1e}\n"
+        )
 
 
 def speed():
@@ -189,13 +220,20 @@ def speed():
             for _ in range(3):
                 r = run(name, bend=bend)
                 walls.append(r.wall_time)
-            print(f"| {name} | {'on' if bend else 'off'} | {min(walls):.2f} | {', '.join(f'{w:.2f}' for w in walls)} | "
-                  f"{r.n_steps} | {r.n_rhs} | {r.n_jac} | {r.n_lu} |")
+            print(
+                f"| {name} | {'on' if bend else 'off'} | {min(walls):.2f} | {', '.join(f'{w:.2f}' for w in walls)} | "
+                f"{r.n_steps} | {r.n_rhs} | {r.n_jac} | {r.n_lu} |"
+            )
     print("\nOther settings (furrow_p4_a3, bending on):\n")
     print("| n | rtol | symmetric | parametrization | wall s | steps |")
     print("|---|---|---|---|---|---|")
-    for n, rtol, sym, par in ((32, 1e-9, True, "lagrangian"), (48, 1e-10, True, "arclength"), (96, 1e-10, False, "lagrangian"),
-                              (96, 1e-10, False, "arclength"), (96, 5e-11, True, "lagrangian")):
+    for n, rtol, sym, par in (
+        (32, 1e-9, True, "lagrangian"),
+        (48, 1e-10, True, "arclength"),
+        (96, 1e-10, False, "lagrangian"),
+        (96, 1e-10, False, "arclength"),
+        (96, 5e-11, True, "lagrangian"),
+    ):
         r = run("furrow_p4_a3", n=n, rtol=rtol, symmetric=sym, parametrization=par)
         print(f"| {n} | {rtol:.0e} | {sym} | {par} | {r.wall_time:.2f} | {r.n_steps} |")
     print()
@@ -213,7 +251,9 @@ def stiffness():
             for n in (24, 48, 96):
                 r = ax.simulate(z, **v, t_end=3.0, n=n, rtol=1e-9, save_times=[0.0, 3.0])
                 sp = r._spectral
-                dyn = ax._Dynamics(sp, ax._System(sp, ax._Physics(1.0, 1.0, v["eta_bar"], v["eta_bar_b"])), z, "lagrangian")
+                dyn = ax._Dynamics(
+                    sp, ax._System(sp, ax._Physics(1.0, 1.0, v["eta_bar"], v["eta_bar_b"])), z, "lagrangian"
+                )
                 row = []
                 for i in (0, 1):
                     y = np.concatenate([r._states[i]["r"], r._states[i]["z"]])
@@ -229,24 +269,45 @@ def nobend():
     print("|---|---|---|---|---|---|---|---|")
     for n, rtol in ((24, 1e-10), (32, 1e-10), (48, 1e-10), (64, 1e-10), (96, 1e-10), (48, 1e-12)):
         r = run("furrow_p4_a3", n=n, rtol=rtol, bend=False)
-        print(f"| {n} | {rtol:.0e} | {r.pole_radius[-1]:.10f} | {r.furrow_radius[-1]:.10f} | {r.n_steps} | {r.n_rhs} | "
-              f"{r.wall_time:.2f} | {r.stretch.max():.3f} |")
+        print(
+            f"| {n} | {rtol:.0e} | {r.pole_radius[-1]:.10f} | {r.furrow_radius[-1]:.10f} | {r.n_steps} | {r.n_rhs} | "
+            f"{r.wall_time:.2f} | {r.stretch.max():.3f} |"
+        )
     print()
 
 
 def asym():
-    print("## A non-symmetric pattern (full meridian): zeta = 1 + 2 exp(-10 |theta - 1.2|^4), "
-          "eta_bar = 1e-4, eta_bar_b = 3.5e-3\n")
+    print(
+        "## A non-symmetric pattern (full meridian): zeta = 1 + 2 exp(-10 |theta - 1.2|^4), "
+        "eta_bar = 1e-4, eta_bar_b = 3.5e-3\n"
+    )
     zf = lambda t: 1.0 + 2.0 * np.exp(-10 * np.abs(t - 1.2) ** 4)  # noqa: E731
-    print("| gauge | parametrization | n | pole(1) | furrow(1) | pole(3) | furrow(3) | z_centroid(3) | max stretch | wall s |")
+    print(
+        "| gauge | parametrization | n | pole(1) | furrow(1) | pole(3) | furrow(3) | z_centroid(3) | max "
+        "stretch | wall s |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for gauge in ("velocity", "centroid"):
         for par, n in (("arclength", 48), ("arclength", 96), ("lagrangian", 96)):
             try:
-                r = ax.simulate(zf, eta_s=1.0, eta_b=1.0, eta_bar=1e-4, eta_bar_b=3.5e-3, t_end=3.0, n=n, rtol=1e-10, gauge=gauge, parametrization=par,
-                                save_times=[0, 1, 3])
-                print(f"| {gauge} | {par} | {n} | {r.pole_radius[1]:.9f} | {r.furrow_radius[1]:.9f} | {r.pole_radius[2]:.9f} | "
-                      f"{r.furrow_radius[2]:.9f} | {r.z_centroid[2]:+.4f} | {r.stretch.max():.2f} | {r.wall_time:.1f} |")
+                r = ax.simulate(
+                    zf,
+                    eta_s=1.0,
+                    eta_b=1.0,
+                    eta_bar=1e-4,
+                    eta_bar_b=3.5e-3,
+                    t_end=3.0,
+                    n=n,
+                    rtol=1e-10,
+                    gauge=gauge,
+                    parametrization=par,
+                    save_times=[0, 1, 3],
+                )
+                print(
+                    f"| {gauge} | {par} | {n} | {r.pole_radius[1]:.9f} | {r.furrow_radius[1]:.9f} | "
+                    f"{r.pole_radius[2]:.9f} | "
+                    f"{r.furrow_radius[2]:.9f} | {r.z_centroid[2]:+.4f} | {r.stretch.max():.2f} | {r.wall_time:.1f} |"
+                )
             except ValueError as err:
                 print(f"| {gauge} | {par} | {n} | failed: {err} | | | | | | |")
     print()
@@ -258,22 +319,39 @@ def integrators():
     a = run("furrow_p4_a3", save_times=ts, interpolate=True)
     b = run("furrow_p4_a3", save_times=ts, interpolate=False)
     c = run("furrow_p4_a3", save_times=ts[::30], method="BDF")
-    print(f"- 301 save times, dense output vs exact stops: max |d pole| {np.abs(a.pole_radius - b.pole_radius).max():.1e}, "
-          f"max |d furrow| {np.abs(a.furrow_radius - b.furrow_radius).max():.1e} "
-          f"(steps {a.n_steps} vs {b.n_steps}, wall {a.wall_time:.2f} vs {b.wall_time:.2f} s)")
-    print(f"- BDF (rtol 1e-10) vs Radau at t = 0, 0.3, ..., 3: max |d pole| {np.abs(c.pole_radius - b.pole_radius[::30]).max():.1e}, "
-          f"max |d furrow| {np.abs(c.furrow_radius - b.furrow_radius[::30]).max():.1e} (BDF steps {c.n_steps}, wall {c.wall_time:.2f} s)\n")
+    print(
+        f"- 301 save times, dense output vs exact stops: max |d pole| "
+        f"{np.abs(a.pole_radius - b.pole_radius).max():.1e}, "
+        f"max |d furrow| {np.abs(a.furrow_radius - b.furrow_radius).max():.1e} "
+        f"(steps {a.n_steps} vs {b.n_steps}, wall {a.wall_time:.2f} vs {b.wall_time:.2f} s)"
+    )
+    print(
+        f"- BDF (rtol 1e-10) vs Radau at t = 0, 0.3, ..., 3: max |d pole| "
+        f"{np.abs(c.pole_radius - b.pole_radius[::30]).max():.1e}, "
+        f"max |d furrow| {np.abs(c.furrow_radius - b.furrow_radius[::30]).max():.1e} (BDF steps "
+        f"{c.n_steps}, wall {c.wall_time:.2f} s)\n"
+    )
 
 
-SECTIONS = dict(convergence=convergence, reference=reference, speed=speed, stiffness=stiffness, nobend=nobend, asym=asym,
-                integrators=integrators)
+SECTIONS = dict(
+    convergence=convergence,
+    reference=reference,
+    speed=speed,
+    stiffness=stiffness,
+    nobend=nobend,
+    asym=asym,
+    integrators=integrators,
+)
 
 if __name__ == "__main__":
     names = [a for a in sys.argv[1:] if a != "--smoke"] or (["speed"] if SMOKE else list(SECTIONS))
     import platform
 
-    print(f"<!-- generated by measure.py on {time.strftime('%Y-%m-%d %H:%M')} ({platform.processor() or platform.machine()}, "
-          f"numpy {np.__version__}) -->\n")
+    print(
+        f"<!-- generated by measure.py on {time.strftime('%Y-%m-%d %H:%M')} "
+        f"({platform.processor() or platform.machine()}, "
+        f"numpy {np.__version__}) -->\n"
+    )
     for nm in names:
         SECTIONS[nm]()
         sys.stdout.flush()

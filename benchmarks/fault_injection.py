@@ -53,8 +53,21 @@ EXPECTED_RC = {signal.SIGKILL: -signal.SIGKILL, signal.SIGTERM: 143, signal.SIGI
 
 
 def command(args, out: Path, *extra: str) -> list[str]:
-    cmd = [sys.executable, "-m", "cortex_ti", "run", args.scene, "-o", str(out), "--threads", "1",
-           "--set", f"mesh.nodes={args.nodes}", "--set", f"time.t_end={args.t_end}"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "cortex_ti",
+        "run",
+        args.scene,
+        "-o",
+        str(out),
+        "--threads",
+        "1",
+        "--set",
+        f"mesh.nodes={args.nodes}",
+        "--set",
+        f"time.t_end={args.t_end}",
+    ]
     for o in args.set:
         cmd += ["--set", o]
     return cmd + list(extra)
@@ -133,7 +146,7 @@ def wait_for(proc, out: Path, k: int) -> None:
             try:
                 if committed_frames(part)[0] >= k:
                     return
-            except Exception:      # being created
+            except Exception:  # being created
                 pass
         time.sleep(0.01)
 
@@ -180,8 +193,12 @@ def _can_mount() -> bool:
         return False
     probe = Path(tempfile.mkdtemp(prefix="mount-probe-"))
     try:
-        ok = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(probe)],
-                            capture_output=True).returncode == 0
+        ok = (
+            subprocess.run(
+                ["mount", "-t", "tmpfs", "-o", "size=1m", "tmpfs", str(probe)], capture_output=True
+            ).returncode
+            == 0
+        )
         if ok:
             subprocess.run(["umount", str(probe)], check=True)
         return ok
@@ -198,16 +215,22 @@ def disk_run(args, i: int, ref: Path, size: int, work: Path, rng: random.Random,
         subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={limit}", "tmpfs", str(folder)], check=True)
         preexec = None
     else:
+
         def preexec():
             resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
     try:
         res = subprocess.run(command(args, out), capture_output=True, text=True, preexec_fn=preexec, timeout=3600)
-        row = {"kind": "tmpfs" if mount else "RLIMIT_FSIZE", "limit": limit, "rc": res.returncode,
-               "finished": res.returncode == 0}
+        row = {
+            "kind": "tmpfs" if mount else "RLIMIT_FSIZE",
+            "limit": limit,
+            "rc": res.returncode,
+            "finished": res.returncode == 0,
+        }
         row["ended_ok"] = res.returncode == 0 or (res.returncode == 2 and one_line(res.stderr, "cortex-ti: error:"))
         row["message"] = res.stderr.strip().splitlines()[-1] if res.stderr.strip() else ""
         row["partial"], row["frames_kept"] = partial_state(out)
-        if mount:   # free space: grow the disk under the files
+        if mount:  # free space: grow the disk under the files
             subprocess.run(["mount", "-o", f"remount,size={4 * size}", str(folder)], check=True)
         if not out.exists():
             resume(args, out, log)
@@ -220,9 +243,13 @@ def disk_run(args, i: int, ref: Path, size: int, work: Path, rng: random.Random,
 
 
 def table(rows: list[dict], kinds, header: str) -> list[str]:
-    lines = [header, "", "| fault | runs | ended as documented | before the first frame | frames kept (min-max) "
-             "| resumed equal to the reference | largest difference | lost or corrupted | stray files |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        header,
+        "",
+        "| fault | runs | ended as documented | before the first frame | frames kept (min-max) "
+        "| resumed equal to the reference | largest difference | lost or corrupted | stray files |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for kind in kinds:
         rs = [r for r in rows if r["kind"] == kind]
         if not rs:
@@ -234,7 +261,8 @@ def table(rows: list[dict], kinds, header: str) -> list[str]:
             f"{sum(1 for r in rs if not r['finished'] and r['frames_kept'] == 0)} | "
             f"{min(kept) if kept else '-'}-{max(kept) if kept else '-'} | {sum(r['equal'] for r in rs)} | "
             f"{max(diffs):.2g} | {sum(not r['equal'] or r['partial'] == 'unreadable' for r in rs)} | "
-            f"{sum(bool(r['strays']) for r in rs)} |")
+            f"{sum(bool(r['strays']) for r in rs)} |"
+        )
     return lines
 
 
@@ -243,9 +271,14 @@ def main(argv=None) -> int:
     p.add_argument("--scene", default="furrow_p4_a1")
     p.add_argument("--nodes", type=int, default=642)
     p.add_argument("--t-end", type=float, default=0.5)
-    p.add_argument("--set", action="append", default=["solver.reuse=false"], metavar="KEY=VALUE",
-                   help="scene overrides (default solver.reuse=false: a reused factorisation makes a solve depend "
-                        "on the earlier ones, so a resumed run agrees only to solver.rtol)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=["solver.reuse=false"],
+        metavar="KEY=VALUE",
+        help="scene overrides (default solver.reuse=false: a reused factorisation makes a solve depend "
+        "on the earlier ones, so a resumed run agrees only to solver.rtol)",
+    )
     p.add_argument("--kills", type=int, default=50)
     p.add_argument("--disk", type=int, default=20)
     p.add_argument("--atol", type=float, default=1e-12)
@@ -274,21 +307,29 @@ def main(argv=None) -> int:
         for i in range(args.kills):
             rows.append(kill_run(args, i, ref, ref_wall, n_frames, work, rng, log))
             r = rows[-1]
-            log(f"kill {i:3d} {r['kind']:7s} after {r['delay']:5.2f} s: rc {r['rc']}, kept {r['frames_kept']}, "
-                f"equal {r['equal']} ({r['diff']:.2g}) {r['why']} {r['strays'] or ''}")
+            log(
+                f"kill {i:3d} {r['kind']:7s} after {r['delay']:5.2f} s: rc {r['rc']}, kept {r['frames_kept']}, "
+                f"equal {r['equal']} ({r['diff']:.2g}) {r['why']} {r['strays'] or ''}"
+            )
         for i in range(args.disk):
             rows.append(disk_run(args, i, ref, size, work, rng, mount, log))
             r = rows[-1]
-            log(f"disk {i:3d} {r['limit']:8d} B: rc {r['rc']}, kept {r['frames_kept']}, equal {r['equal']} "
-                f"({r['diff']:.2g}) {r['why']} {r['strays'] or ''}; {r['message'][:150]}")
+            log(
+                f"disk {i:3d} {r['limit']:8d} B: rc {r['rc']}, kept {r['frames_kept']}, equal {r['equal']} "
+                f"({r['diff']:.2g}) {r['why']} {r['strays'] or ''}; {r['message'][:150]}"
+            )
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                            cwd=Path(__file__).parent).stdout.strip() or os.environ.get("CORTEX_TI_COMMIT", "unknown")
-    header = (f"{args.scene}, {args.nodes} nodes, t_end = {args.t_end}, `--threads 1`; reference run "
-              f"{ref_wall:.1f} s, {size} bytes; full disk by {'tmpfs' if mount else 'RLIMIT_FSIZE'}; "
-              f"{_dt.date.today().isoformat()}, commit {commit}, {platform.node()} ({platform.processor() or platform.machine()}, "
-              f"{os.cpu_count()} cores), seed {args.seed}, atol {args.atol:g}")
+    commit = subprocess.run(
+        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=Path(__file__).parent
+    ).stdout.strip() or os.environ.get("CORTEX_TI_COMMIT", "unknown")
+    header = (
+        f"{args.scene}, {args.nodes} nodes, t_end = {args.t_end}, `--threads 1`; reference run "
+        f"{ref_wall:.1f} s, {size} bytes; full disk by {'tmpfs' if mount else 'RLIMIT_FSIZE'}; "
+        f"{_dt.date.today().isoformat()}, commit {commit}, {platform.node()} "
+        f"({platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores), seed {args.seed}, atol {args.atol:g}"
+    )
     lines = table(rows, ["SIGKILL", "SIGTERM", "SIGINT", "tmpfs", "RLIMIT_FSIZE"], header)
     text = "\n".join(lines) + "\n"
     print(text)

@@ -11,11 +11,10 @@ Usage::
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 import time
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 
@@ -39,14 +38,19 @@ def main(argv=None) -> int:
     runtime.init(threads=args.threads)
     import platform
 
-    print(f"{platform.node()}, {platform.processor() or platform.machine()}, {args.threads} thread(s); "
-          f"median of {args.repeat} warm solves for a step dt = {args.dt:g}\n")
+    print(
+        f"{platform.node()}, {platform.processor() or platform.machine()}, {args.threads} thread(s); "
+        f"median of {args.repeat} warm solves for a step dt = {args.dt:g}\n"
+    )
     print("| N | fit | formulation | geometry ms | assembly ms | solve ms | total ms | CPU ms | ratio |")
     print("|---|---|---|---|---|---|---|---|---|")
     for n in args.nodes:
-        sims = {f: Simulation(load_scene(args.scene, [f"mesh.nodes={n}", f"numerics.fit={args.fit}",
-                                                      f"numerics.formulation={f}"]))
-                for f in args.formulations}
+        sims = {
+            f: Simulation(
+                load_scene(args.scene, [f"mesh.nodes={n}", f"numerics.fit={args.fit}", f"numerics.formulation={f}"])
+            )
+            for f in args.formulations
+        }
         x0 = next(iter(sims.values())).mesh.points
         rng = np.random.default_rng(0)
         rec = {f: [] for f in sims}
@@ -63,8 +67,11 @@ def main(argv=None) -> int:
             med = {key: 1e3 * float(np.median([r[key] for r in rows])) for key in rows[0]}
             total = med["geometry"] + med["assembly"] + med["solve"]
             base = base or total
-            print(f"| {n} | {args.fit} | {f} | {med['geometry']:.1f} | {med['assembly']:.1f} | {med['solve']:.1f} | "
-                  f"{total:.1f} | {med['cpu']:.1f} | {total / base:.2f} |", flush=True)
+            print(
+                f"| {n} | {args.fit} | {f} | {med['geometry']:.1f} | {med['assembly']:.1f} | {med['solve']:.1f} | "
+                f"{total:.1f} | {med['cpu']:.1f} | {total / base:.2f} |",
+                flush=True,
+            )
     return 0
 
 

@@ -69,8 +69,19 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     """One ``cortex-ti run`` in a child process, its summary, CPU time and radius error."""
     out = workdir / f"{scene}_{nodes}.h5"
     summary = workdir / f"{scene}_{nodes}.json"
-    cmd = ["cortex-ti", "run", scene, "-o", str(out), "--threads", "1", "--summary", str(summary),
-           "--set", f"mesh.nodes={nodes}"]
+    cmd = [
+        "cortex-ti",
+        "run",
+        scene,
+        "-o",
+        str(out),
+        "--threads",
+        "1",
+        "--summary",
+        str(summary),
+        "--set",
+        f"mesh.nodes={nodes}",
+    ]
     if t_end is not None:
         cmd += ["--set", f"time.t_end={t_end}"]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
@@ -85,21 +96,30 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     from cortex_ti.axisymmetric.compare import compare
 
     c = compare(str(out), times=())
-    return dict(scene=scene, nodes=nodes, wall_s=wall,
-                cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
-                steps=s["steps"], solves=s["solves"], factorizations=s.get("factorizations"),
-                iterations=s.get("krylov_iterations"), t_reached=s["t_reached"],
-                ms=[s.get(f"ms_{k}_per_solve", float("nan")) for k in ("geometry", "assembly", "solve")],
-                err=max(c["pole_radius"][0], c["furrow_radius"][0]), err_pole=c["pole_radius"][0],
-                err_furrow=c["furrow_radius"][0])
+    return dict(
+        scene=scene,
+        nodes=nodes,
+        wall_s=wall,
+        cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        steps=s["steps"],
+        solves=s["solves"],
+        factorizations=s.get("factorizations"),
+        iterations=s.get("krylov_iterations"),
+        t_reached=s["t_reached"],
+        ms=[s.get(f"ms_{k}_per_solve", float("nan")) for k in ("geometry", "assembly", "solve")],
+        err=max(c["pole_radius"][0], c["furrow_radius"][0]),
+        err_pole=c["pole_radius"][0],
+        err_furrow=c["furrow_radius"][0],
+    )
 
 
 def commit() -> str:
     try:
         here = Path(__file__).resolve().parent
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True, text=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True).stdout.strip()
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=here, capture_output=True, text=True
+        ).stdout.strip()
         return rev.stdout.strip() + ("+changes" if dirty else "")
     except OSError:
         return "unknown"
@@ -107,20 +127,26 @@ def commit() -> str:
 
 def table(rows: list[dict], ref: float, t_end: float | None) -> str:
     load = os.getloadavg()
-    head = (f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
-            f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
-            f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
-            f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
-            f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n")
-    lines = ["| scene | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
-             "ms geometry / assembly / solve per solve | max radius error (pole, furrow) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    head = (
+        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
+        f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
+        f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
+        f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
+        f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n"
+    )
+    lines = [
+        "| scene | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
+        "ms geometry / assembly / solve per solve | max radius error (pole, furrow) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         g, a, s = r["ms"]
-        lines.append(f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
-                     f"{r['wall_s'] / ref:.0f} | "
-                     f"{r['steps']} | {r['solves']} | {r['factorizations']} | {r['iterations']} | "
-                     f"{g:.1f} / {a:.1f} / {s:.1f} | {r['err']:.2e} ({r['err_pole']:.1e}, {r['err_furrow']:.1e}) |")
+        lines.append(
+            f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+            f"{r['wall_s'] / ref:.0f} | "
+            f"{r['steps']} | {r['solves']} | {r['factorizations']} | {r['iterations']} | "
+            f"{g:.1f} / {a:.1f} / {s:.1f} | {r['err']:.2e} ({r['err_pole']:.1e}, {r['err_furrow']:.1e}) |"
+        )
     return head + "\n".join(lines) + "\n"
 
 

@@ -22,8 +22,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import itertools
 import json
 import subprocess
@@ -31,10 +29,19 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
-SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3", "fold_narrow", "fold_broad", "shear_035",
-          "shear_035_tilted", "shear_075")
+SCENES = (
+    "furrow_p8_a1",
+    "furrow_p4_a1",
+    "furrow_p4_a3",
+    "fold_narrow",
+    "fold_broad",
+    "shear_035",
+    "shear_035_tilted",
+    "shear_075",
+)
 NO_BENDING = ["viscosity.bending=0", "viscosity.bending_bulk=0"]
 
 
@@ -50,8 +57,17 @@ def command(scene, nodes, bending, dt, out: Path, overrides) -> list[str]:
         effects = sorted(e for e in load_scene(scene).effects if e != "bending_viscosity")
         ov += NO_BENDING + ["effects=[" + ",".join(effects) + "]"]
     name = label(scene, nodes, bending, dt)
-    cmd = [sys.executable, "-m", "cortex_ti", "run", scene, "-o", str(out / f"{name}.h5"),
-           "--summary", str(out / f"{name}.json")]
+    cmd = [
+        sys.executable,
+        "-m",
+        "cortex_ti",
+        "run",
+        scene,
+        "-o",
+        str(out / f"{name}.h5"),
+        "--summary",
+        str(out / f"{name}.json"),
+    ]
     for o in ov:
         cmd += ["--set", o]
     return cmd
@@ -80,9 +96,11 @@ def table(out: Path, scenes, nodes_list, dts) -> None:
     from cortex_ti.io import Trajectory
     from cortex_ti.studies.stores import fold_series
 
-    print("| scene | N | bending | dt | status | t reached | steps | wall s | at the end (ring: pole, furrow radius; "
-          "fold: pole radius, depth; shear: angle deg, pole radius) | largest difference from the smallest dt | "
-          "error against the axisymmetric solution |")
+    print(
+        "| scene | N | bending | dt | status | t reached | steps | wall s | at the end (ring: pole, furrow radius; "
+        "fold: pole radius, depth; shear: angle deg, pole radius) | largest difference from the smallest dt | "
+        "error against the axisymmetric solution |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for scene, nodes, bending in itertools.product(scenes, nodes_list, (False, True)):
         finest = None
@@ -93,8 +111,16 @@ def table(out: Path, scenes, nodes_list, dts) -> None:
                 continue
             s = json.loads(summary.read_text())
             path = out / f"{name}.h5"
-            row = [scene, str(nodes), "on" if bending else "off", f"{dt:g}", s.get("status", "?"),
-                   f"{s.get('t_reached', float('nan')):.3g}", str(s.get("steps", "")), f"{s.get('wall_s', 0):.0f}"]
+            row = [
+                scene,
+                str(nodes),
+                "on" if bending else "off",
+                f"{dt:g}",
+                s.get("status", "?"),
+                f"{s.get('t_reached', float('nan')):.3g}",
+                str(s.get("steps", "")),
+                f"{s.get('wall_s', 0):.0f}",
+            ]
             if s.get("status") != "ok" or not path.exists():
                 print("| " + " | ".join(row + [s.get("error", "")[:80], "", ""]) + " |")
                 continue
@@ -108,8 +134,10 @@ def table(out: Path, scenes, nodes_list, dts) -> None:
                 diff = "(reference)"
             else:
                 common = np.intersect1d(np.round(t, 9), np.round(finest[0], 9))
-                d = max(float(np.max(np.abs(np.interp(common, t, values[v]) - np.interp(common, finest[0], finest[1][v]))))
-                        for v in values)
+                d = max(
+                    float(np.max(np.abs(np.interp(common, t, values[v]) - np.interp(common, finest[0], finest[1][v]))))
+                    for v in values
+                )
                 diff = f"{d:.2e}"
             twin = ""
             if scene.startswith("furrow"):
@@ -133,7 +161,13 @@ def main(argv=None) -> int:
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # one scene, the coarse mesh, one step, a few steps of it
-        args.out, args.scenes, args.nodes, args.dts, args.bending = _smoke.folder(), ["furrow_p4_a1"], [162], [5e-3], "on"
+        args.out, args.scenes, args.nodes, args.dts, args.bending = (
+            _smoke.folder(),
+            ["furrow_p4_a1"],
+            [162],
+            [5e-3],
+            "on",
+        )
         args.overrides = [*args.overrides, "time.t_end=0.05"]
     if args.out is None:
         p.error("--out is required")
@@ -142,8 +176,9 @@ def main(argv=None) -> int:
     if not args.table_only:
         work = []
         # cheapest first: coarse meshes and large steps
-        for nodes, dt, scene, bending in itertools.product(sorted(args.nodes), sorted(args.dts, reverse=True),
-                                                           args.scenes, bendings):
+        for nodes, dt, scene, bending in itertools.product(
+            sorted(args.nodes), sorted(args.dts, reverse=True), args.scenes, bendings
+        ):
             name = label(scene, nodes, bending, dt)
             work.append((command(scene, nodes, bending, dt, args.out, args.overrides), args.out, name))
         with ThreadPoolExecutor(max_workers=args.jobs) as pool:

@@ -6,7 +6,8 @@ Usage (each trajectory from ``cortex-ti run <scene> -o <scene>.h5``, 2562 nodes,
     python benchmarks/readme_figures.py --runs RUNS_DIR --out docs/figures
 
 expects ``fold_narrow.h5, fold_broad.h5, shear_035.h5, shear_035_tilted.h5, shear_075.h5`` in
-RUNS_DIR (missing ones are skipped; ``<name>.h5.partial`` of a stopped run is used if that is all there is) and writes ``fold.png``, ``shear.png`` (snapshots at the
+RUNS_DIR (missing ones are skipped; ``<name>.h5.partial`` of a stopped run is used if that is all there is) and
+writes ``fold.png``, ``shear.png`` (snapshots at the
 paper's times) and ``orientation.png`` (orientation angle and fold depth over time), using the
 workflow's own figure functions. Prints the numbers quoted on that page.
 """
@@ -14,11 +15,10 @@ workflow's own figure functions. Prints the numbers quoted on that page.
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 from pathlib import Path
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 from cortex_ti.plotting import save_figure
@@ -28,7 +28,7 @@ from cortex_ti.studies.sweeps import expand_runs
 
 FOLD = ("fold_narrow", "fold_broad")
 SHEAR = ("shear_035", "shear_035_tilted", "shear_075")
-TIMES = (0.0035, 0.035, 0.087, 3.5)   # paper Figs. 10-12 B-E
+TIMES = (0.0035, 0.035, 0.087, 3.5)  # paper Figs. 10-12 B-E
 
 
 def main(argv=None) -> int:
@@ -46,14 +46,16 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     for study, names, fig_name in (("fold", FOLD, "fold"), ("reorientation", SHEAR, "shear")):
         # a finished run, else the frames of an interrupted one (<name>.h5.partial)
-        paths = {n: next((f for f in (args.runs / f"{n}.h5", args.runs / f"{n}.h5.partial") if f.exists()), None)
-                 for n in names}
+        paths = {
+            n: next((f for f in (args.runs / f"{n}.h5", args.runs / f"{n}.h5.partial") if f.exists()), None)
+            for n in names
+        }
         found = [n for n in names if paths[n] is not None]
         if not found:
             continue
         paths = [paths[n] for n in found]
         times = (0.1, 0.5, 3.5) if study == "fold" else TIMES
-        save_figure(snapshots_figure(list(zip(found, paths)), times), args.out / f"{fig_name}.png")
+        save_figure(snapshots_figure(list(zip(found, paths, strict=False)), times), args.out / f"{fig_name}.png")
         rows = expand_runs(study, [{"scene": n} for n in found])
         ds = study_dataset(study, rows, paths)
         draw = fold_figure if study == "fold" else orientation_figure
@@ -63,18 +65,24 @@ def main(argv=None) -> int:
             if study == "fold":
                 d = ds["fold_depth"].values[i]
                 ok = np.isfinite(d)
-                print(f"{name}: fold depth " + ", ".join(f"{d[np.argmin(abs(t - s))]:.3f} (t = {s})"
-                                                          for s in (0.1, 0.5, 1.0, t[ok][-1])),
-                      f"| across {ds['radius_stripe'].values[i][ok][-1]:.3f}, beside {ds['radius_off_stripe'].values[i][ok][-1]:.3f}"
-                      f", pole {ds['pole_radius'].values[i][ok][-1]:.3f}, volume change {ds['volume_change'].values[i][ok][-1]:.1e}")
+                print(
+                    f"{name}: fold depth "
+                    + ", ".join(f"{d[np.argmin(abs(t - s))]:.3f} (t = {s})" for s in (0.1, 0.5, 1.0, t[ok][-1])),
+                    f"| across {ds['radius_stripe'].values[i][ok][-1]:.3f}, beside "
+                    f"{ds['radius_off_stripe'].values[i][ok][-1]:.3f}"
+                    f", pole {ds['pole_radius'].values[i][ok][-1]:.3f}, volume change "
+                    f"{ds['volume_change'].values[i][ok][-1]:.1e}",
+                )
             else:
                 a = ds["orientation_angle"].values[i]
                 ok = np.isfinite(a)
-                print(f"{name}: orientation " + ", ".join(f"{a[np.argmin(abs(t - s))]:.1f} (t = {s})"
-                                                           for s in (0.0, 0.09, 0.5, 1.0, t[ok][-1])),
-                      f"| pole/furrow along long axis {ds['pole_radius_long_axis'].values[i][ok][-1]:.3f}/"
-                      f"{ds['furrow_radius_long_axis'].values[i][ok][-1]:.3f}, volume change "
-                      f"{ds['volume_change'].values[i][ok][-1]:.1e}")
+                print(
+                    f"{name}: orientation "
+                    + ", ".join(f"{a[np.argmin(abs(t - s))]:.1f} (t = {s})" for s in (0.0, 0.09, 0.5, 1.0, t[ok][-1])),
+                    f"| pole/furrow along long axis {ds['pole_radius_long_axis'].values[i][ok][-1]:.3f}/"
+                    f"{ds['furrow_radius_long_axis'].values[i][ok][-1]:.3f}, volume change "
+                    f"{ds['volume_change'].values[i][ok][-1]:.1e}",
+                )
     return 0
 
 

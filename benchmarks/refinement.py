@@ -12,14 +12,14 @@ Usage::
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import json
 import os
 import resource
 import subprocess
 import sys
 import time
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 
 
 def one(scene_name, nodes, fit, formulation, refine):
@@ -29,16 +29,34 @@ def one(scene_name, nodes, fit, formulation, refine):
     from cortex_ti.simulation import Simulation
 
     runtime.init(threads=int(os.environ.get("CORTEX_TI_THREADS", "1")))
-    sc = load_scene(scene_name, [f"mesh.nodes={nodes}", f"numerics.fit={fit}", f"numerics.formulation={formulation}",
-                                 "solver.reuse=false", f"solver.refine={'true' if refine else 'false'}"])
+    sc = load_scene(
+        scene_name,
+        [
+            f"mesh.nodes={nodes}",
+            f"numerics.fit={fit}",
+            f"numerics.formulation={formulation}",
+            "solver.reuse=false",
+            f"solver.refine={'true' if refine else 'false'}",
+        ],
+    )
     sim = Simulation(sc)
     t0 = time.perf_counter()
     sol = sim.solve()
     wall = time.perf_counter() - t0
     eps, eps_rel = analytic.error_measures(sol.velocity, analytic.scene_solution(sc.settings, sim.mesh.points))
-    return dict(scene=scene_name, nodes=nodes, fit=fit, formulation=formulation, refine=refine, eps_rel=eps_rel,
-                relative_residual=sol.info.relative_residual, kkt=sol.info.kkt_residual, seconds=wall,
-                solve_s=sol.seconds["solve"], peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+    return dict(
+        scene=scene_name,
+        nodes=nodes,
+        fit=fit,
+        formulation=formulation,
+        refine=refine,
+        eps_rel=eps_rel,
+        relative_residual=sol.info.relative_residual,
+        kkt=sol.info.kkt_residual,
+        seconds=wall,
+        solve_s=sol.seconds["solve"],
+        peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    )
 
 
 def main(argv=None) -> int:
@@ -61,17 +79,34 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|")
     for n in args.nodes:
         for refine in (0, 1):
-            res = subprocess.run([sys.executable, __file__, "--scene", args.scene, "--fit", args.fit,
-                                  "--formulation", args.formulation, "--one", str(n), str(refine)],
-                                 capture_output=True, text=True)
+            res = subprocess.run(
+                [
+                    sys.executable,
+                    __file__,
+                    "--scene",
+                    args.scene,
+                    "--fit",
+                    args.fit,
+                    "--formulation",
+                    args.formulation,
+                    "--one",
+                    str(n),
+                    str(refine),
+                ],
+                capture_output=True,
+                text=True,
+            )
             if res.returncode:
                 print(f"| {n} | {refine} | failed: {res.stderr.strip().splitlines()[-1:]} |")
                 if args.smoke:
                     return 1
                 continue
             r = json.loads(res.stdout.strip().splitlines()[-1])
-            print(f"| {n} | {'yes' if refine else 'no'} | {r['eps_rel']:.3e} | "
-                  f"{r['relative_residual']:.2e} | {r['solve_s']:.2f} | {r['peak_mb']:.0f} |", flush=True)
+            print(
+                f"| {n} | {'yes' if refine else 'no'} | {r['eps_rel']:.3e} | "
+                f"{r['relative_residual']:.2e} | {r['solve_s']:.2f} | {r['peak_mb']:.0f} |",
+                flush=True,
+            )
             if args.json:
                 with open(args.json, "a") as fh:
                     fh.write(json.dumps(r) + "\n")

@@ -68,20 +68,24 @@ def backends(nodes: int, repeats: int) -> list[str]:
     a0, a1 = b0.ks, b1.ks
     rhs = b0.rhs[: b0.n]
     cols = np.column_stack([rhs, b0.border])
-    lines = [f"Matrix: {a0.shape[0]} unknowns, {a0.nnz} nonzeros, {cols.shape[1]} right-hand sides at once.", "",
-             "| backend | cold factorisation (analysis + numeric) | refactorisation, analysis kept | 1 solve | "
-             f"{cols.shape[1]} solves | relative residual |", "|---|---|---|---|---|---|"]
+    lines = [
+        f"Matrix: {a0.shape[0]} unknowns, {a0.nnz} nonzeros, {cols.shape[1]} right-hand sides at once.",
+        "",
+        "| backend | cold factorisation (analysis + numeric) | refactorisation, analysis kept | 1 solve | "
+        f"{cols.shape[1]} solves | relative residual |",
+        "|---|---|---|---|---|---|",
+    ]
     for name, cls in FACTORIZATIONS.items():
         if not cls.available():
             lines.append(f"| {name} | not installed | | | | |")
             continue
-        cls().factorize(a0)   # the library's own start-up (MKL loads its kernels on first use) is not counted
-        cold = cpu_ms(lambda: cls().factorize(a0), max(1, repeats // 2))
+        cls().factorize(a0)  # the library's own start-up (MKL loads its kernels on first use) is not counted
+        cold = cpu_ms(lambda cls=cls: cls().factorize(a0), max(1, repeats // 2))
         f = cls()
         f.factorize(a0)
-        warm = cpu_ms(lambda: f.factorize(a1), repeats)
-        one = cpu_ms(lambda: f.solve(rhs), repeats)
-        many = cpu_ms(lambda: f.solve(cols), repeats)
+        warm = cpu_ms(lambda f=f: f.factorize(a1), repeats)
+        one = cpu_ms(lambda f=f: f.solve(rhs), repeats)
+        many = cpu_ms(lambda f=f: f.solve(cols), repeats)
         res = np.linalg.norm(a1 @ f.solve(rhs) - rhs) / np.linalg.norm(rhs)
         lines.append(f"| {name} | {cold:.1f} | {warm:.1f} | {one:.2f} | {many:.1f} | {res:.1e} |")
     try:
@@ -92,8 +96,13 @@ def backends(nodes: int, repeats: int) -> list[str]:
         low = a0.tocoo()
 
         def factor(m=low):
-            return cholespy.CholeskySolverD(m.shape[0], m.row.astype(np.int32), m.col.astype(np.int32),
-                                            m.data.astype(np.float64), cholespy.MatrixType.COO)
+            return cholespy.CholeskySolverD(
+                m.shape[0],
+                m.row.astype(np.int32),
+                m.col.astype(np.int32),
+                m.data.astype(np.float64),
+                cholespy.MatrixType.COO,
+            )
 
         cold = cpu_ms(factor, max(1, repeats // 2))
         ch = factor()
@@ -103,8 +112,10 @@ def backends(nodes: int, repeats: int) -> list[str]:
         xc = np.zeros_like(c)
         many = cpu_ms(lambda: ch.solve(c, xc), repeats)
         res = np.linalg.norm(a0 @ x1 - rhs) / np.linalg.norm(rhs)
-        lines.append(f"| cholespy (not registered) | {cold:.1f} | {cold:.1f} (no refactorisation) | {one:.2f} | "
-                     f"{many:.1f} | {res:.1e} |")
+        lines.append(
+            f"| cholespy (not registered) | {cold:.1f} | {cold:.1f} (no refactorisation) | {one:.2f} | "
+            f"{many:.1f} | {res:.1e} |"
+        )
     return lines
 
 
@@ -114,9 +125,11 @@ def policies(nodes: int, steps: int) -> list[str]:
     from cortex_ti.solve.constrained import RefactorRule
 
     runs = {}
-    for label, reuse, cost in (("fresh factorisation every step", False, None),
-                               ("reuse, RefactorRule (default)", True, None),
-                               ("reuse, refactorise only when GMRES fails (30 it.)", True, 1e12)):
+    for label, reuse, cost in (
+        ("fresh factorisation every step", False, None),
+        ("reuse, RefactorRule (default)", True, None),
+        ("reuse, refactorise only when GMRES fails (30 it.)", True, 1e12),
+    ):
         sim = Simulation(load_scene("furrow_p4_a1", [f"mesh.nodes={nodes}", f"solver.reuse={str(reuse).lower()}"]))
         if cost is not None:
             sim.solver.rule = RefactorRule(cost)
@@ -135,9 +148,12 @@ def policies(nodes: int, steps: int) -> list[str]:
             x = x + dt * np.einsum("nc,nc->n", vel, normal)[:, None] * normal
         runs[label] = (sim.solver.n_factorizations, sim.solver.n_iterations, 1e3 * spent / steps, np.array(v))
     ref = runs["fresh factorisation every step"][3]
-    lines = [f"{steps} Euler steps of furrow_p4_a1 at {nodes} nodes (dt = 5e-3):", "",
-             "| policy | factorisations | GMRES iterations | CPU ms per solve | max velocity difference to fresh |",
-             "|---|---|---|---|---|"]
+    lines = [
+        f"{steps} Euler steps of furrow_p4_a1 at {nodes} nodes (dt = 5e-3):",
+        "",
+        "| policy | factorisations | GMRES iterations | CPU ms per solve | max velocity difference to fresh |",
+        "|---|---|---|---|---|",
+    ]
     for label, (nf, it, ms, v) in runs.items():
         d = np.abs(v - ref).max() / np.abs(ref).max()
         lines.append(f"| {label} | {nf} | {it} | {ms:.1f} | {d:.1e} |")
@@ -160,9 +176,11 @@ def main(argv=None) -> int:
     from accuracy_cost import machine
     from furrow_cost import commit
 
-    print(f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}, "
-          f"one thread; load average {os.getloadavg()[0]:.1f} (`python benchmarks/solver_backends.py"
-          f"{' --smoke' if args.smoke else ''}`).\n")
+    print(
+        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}, "
+        f"one thread; load average {os.getloadavg()[0]:.1f} (`python benchmarks/solver_backends.py"
+        f"{' --smoke' if args.smoke else ''}`).\n"
+    )
     print("\n".join(backends(args.nodes, args.repeats)))
     print()
     print("\n".join(policies(args.nodes, args.steps)))

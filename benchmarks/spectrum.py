@@ -24,13 +24,12 @@ Cost (one core): 642 nodes a few seconds, 2562 about a minute (dense), 10242 a f
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import copy
 import json
 import sys
 import time
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 NO_BENDING = ["viscosity.bending=0", "viscosity.bending_bulk=0"]
@@ -69,7 +68,7 @@ def cases(args):
         ov = list(args.overrides) + ([f"mesh.nodes={nodes}"] if nodes else [])
         scene = load_scene(args.scene, ov)
         if args.no_bending:
-            scene = without_bending(scene, lambda extra: load_scene(args.scene, ov + extra))
+            scene = without_bending(scene, lambda extra, ov=ov: load_scene(args.scene, ov + extra))
         sim = Simulation(scene)
         if args.uniform:
             sim.zeta = np.ones(sim.mesh.n_nodes)
@@ -101,8 +100,10 @@ def main(argv=None) -> int:
 
     runtime.init(threads=args.threads)
     last = f"step factor at dt = {args.dt:g}" if args.dt > 0 else "Euler limit"
-    print(f"| case | formulation | bending | largest Re lambda (1/t_a) | # Re > 0.1 | # Re > 1 | stiffest | {last} "
-          "| method | s |")
+    print(
+        f"| case | formulation | bending | largest Re lambda (1/t_a) | # Re > 0.1 | # Re > 1 | stiffest | {last} "
+        "| method | s |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for label, sim, x in cases(args):
         t0 = time.perf_counter()
@@ -112,19 +113,35 @@ def main(argv=None) -> int:
         form = num.formulation + (f" rows {num.fit_residual_weight:g}" if num.fit_residual_weight else "")
         bend = "on" if sim.settings.has("bending_viscosity") else "off"
         stiff = spec.stiffest
-        col = (f"{np.abs(1 + args.dt * spec.eigenvalues).max():.3g}" if args.dt > 0
-               else f"{2.0 / abs(stiff):.2e}")
-        print(f"| {label} | {form}, {num.fit} | {bend} | {spec.largest_real:+.3g} | {spec.count_above(0.1)} | "
-              f"{spec.count_above(1.0)} | {stiff.real:+.3g}{stiff.imag:+.2g}j | {col} | {spec.method} | {wall:.0f} |",
-              flush=True)
+        col = f"{np.abs(1 + args.dt * spec.eigenvalues).max():.3g}" if args.dt > 0 else f"{2.0 / abs(stiff):.2e}"
+        print(
+            f"| {label} | {form}, {num.fit} | {bend} | {spec.largest_real:+.3g} | {spec.count_above(0.1)} | "
+            f"{spec.count_above(1.0)} | {stiff.real:+.3g}{stiff.imag:+.2g}j | {col} | {spec.method} | {wall:.0f} |",
+            flush=True,
+        )
         if args.json:
             with open(args.json, "a") as fh:
-                fh.write(json.dumps(dict(case=label, formulation=num.formulation, fit=num.fit,
-                                         rows=num.fit_residual_weight, bending=bend, dt=args.dt,
-                                         largest_real=spec.largest_real, n_above_0p1=spec.count_above(0.1),
-                                         n_above_1=spec.count_above(1.0), stiffest=[stiff.real, stiff.imag],
-                                         top=[[complex(w).real, complex(w).imag] for w in spec.eigenvalues[:8]],
-                                         leak=spec.leak, method=spec.method, seconds=wall)) + "\n")
+                fh.write(
+                    json.dumps(
+                        dict(
+                            case=label,
+                            formulation=num.formulation,
+                            fit=num.fit,
+                            rows=num.fit_residual_weight,
+                            bending=bend,
+                            dt=args.dt,
+                            largest_real=spec.largest_real,
+                            n_above_0p1=spec.count_above(0.1),
+                            n_above_1=spec.count_above(1.0),
+                            stiffest=[stiff.real, stiff.imag],
+                            top=[[complex(w).real, complex(w).imag] for w in spec.eigenvalues[:8]],
+                            leak=spec.leak,
+                            method=spec.method,
+                            seconds=wall,
+                        )
+                    )
+                    + "\n"
+                )
     return 0
 
 

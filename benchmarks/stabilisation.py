@@ -16,10 +16,9 @@ Prints two Markdown tables. Timings depend on the machine: report them with it.
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 from cortex_ti import runtime
@@ -31,17 +30,32 @@ SPHERES = ("sphere_y20_full", "sphere_y21_full", "sphere_y20_tangential")
 
 
 def stage_times(nodes: int, fit: str, weight: float, repeat: int, dt: float) -> dict[str, float]:
-    sim = Simulation(load_scene("furrow_p8_a1", [f"mesh.nodes={nodes}", f"numerics.fit={fit}",
-                                                 "numerics.formulation=paper",
-                                                 f"numerics.fit_residual_weight={weight}"]))
-    sim.solve(dt=dt)   # warm-up: kernels compiled, symbolic analysis done
+    sim = Simulation(
+        load_scene(
+            "furrow_p8_a1",
+            [
+                f"mesh.nodes={nodes}",
+                f"numerics.fit={fit}",
+                "numerics.formulation=paper",
+                f"numerics.fit_residual_weight={weight}",
+            ],
+        )
+    )
+    sim.solve(dt=dt)  # warm-up: kernels compiled, symbolic analysis done
     runs = [sim.solve(dt=dt).seconds for _ in range(repeat)]
     return {k: 1e3 * float(np.median([r[k] for r in runs])) for k in runs[0]}
 
 
 def sphere_error(scene_name: str, nodes: int, fit: str, weight: float) -> float:
-    scene = load_scene(scene_name, [f"mesh.nodes={nodes}", f"numerics.fit={fit}", "numerics.formulation=paper",
-                                    f"numerics.fit_residual_weight={weight}"])
+    scene = load_scene(
+        scene_name,
+        [
+            f"mesh.nodes={nodes}",
+            f"numerics.fit={fit}",
+            "numerics.formulation=paper",
+            f"numerics.fit_residual_weight={weight}",
+        ],
+    )
     sim = Simulation(scene)
     sol = sim.solve()
     return analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))[1]
@@ -70,8 +84,11 @@ def main(argv=None) -> int:
                 t = stage_times(nodes, fit, w, args.repeat, args.dt)
                 total = sum(t.values())
                 base = total if base is None else base
-                print(f"| {nodes} | {fit} | {w:g} | {t['geometry']:.1f} | {t['assembly']:.1f} | {t['solve']:.1f} "
-                      f"| {total:.0f} | {total / base:.2f}x |", flush=True)
+                print(
+                    f"| {nodes} | {fit} | {w:g} | {t['geometry']:.1f} | {t['assembly']:.1f} | {t['solve']:.1f} "
+                    f"| {total:.0f} | {total / base:.2f}x |",
+                    flush=True,
+                )
     print()
     print("| nodes | fit | rows weight | " + " | ".join(SPHERES) + " |")
     print("|---|---|---|" + "---|" * len(SPHERES))

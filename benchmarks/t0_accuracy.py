@@ -19,12 +19,11 @@ count in brackets).
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import json
 import sys
 import time
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 
@@ -35,8 +34,13 @@ def t0_error(scene_name: str, nodes: int, fit: str, formulation: str, bending: b
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
 
-    ov = [f"mesh.nodes={nodes}", f"numerics.fit={fit}", f"numerics.formulation={formulation}", "solver.reuse=false",
-          *overrides]
+    ov = [
+        f"mesh.nodes={nodes}",
+        f"numerics.fit={fit}",
+        f"numerics.formulation={formulation}",
+        "solver.reuse=false",
+        *overrides,
+    ]
     base = load_scene(scene_name, ov)
     drop = ("shape_evolution",) if bending else ("bending_viscosity", "shape_evolution")
     extra = [] if bending else ["viscosity.bending=0", "viscosity.bending_bulk=0"]
@@ -50,15 +54,32 @@ def t0_error(scene_name: str, nodes: int, fit: str, formulation: str, bending: b
     v = s.viscosity
     pats = list(s.patterns)
     x = sim.mesh.points
-    exact, p_exact, info = sphere_flow(lambda p: evaluate_active_stress(p, pats), x, eta_s=v.shear, eta_b=v.bulk,
-                                       eta_bar=v.bending if bending else 0.0,
-                                       eta_bar_b=v.bending_bulk if bending else 0.0, lmax="auto", tol=1e-6)
+    exact, p_exact, info = sphere_flow(
+        lambda p: evaluate_active_stress(p, pats),
+        x,
+        eta_s=v.shear,
+        eta_b=v.bulk,
+        eta_bar=v.bending if bending else 0.0,
+        eta_bar_b=v.bending_bulk if bending else 0.0,
+        lmax="auto",
+        tol=1e-6,
+    )
     n = x / np.linalg.norm(x, axis=1)[:, None]
     pole = int(np.argmax(x @ np.asarray(s.pattern_axis)))
-    return dict(scene=scene_name, nodes=nodes, fit=fit, formulation=formulation, bending=bending,
-                eps_rel=error_measures(sol.velocity, exact)[1], pole_vn=float(sol.velocity[pole] @ n[pole]),
-                pole_exact=float(exact[pole] @ n[pole]), pressure=sol.pressure, pressure_exact=float(p_exact),
-                truncation=float(info["truncation_error_rel"]), seconds=wall)
+    return dict(
+        scene=scene_name,
+        nodes=nodes,
+        fit=fit,
+        formulation=formulation,
+        bending=bending,
+        eps_rel=error_measures(sol.velocity, exact)[1],
+        pole_vn=float(sol.velocity[pole] @ n[pole]),
+        pole_exact=float(exact[pole] @ n[pole]),
+        pressure=sol.pressure,
+        pressure_exact=float(p_exact),
+        truncation=float(info["truncation_error_rel"]),
+        seconds=wall,
+    )
 
 
 def main(argv=None) -> int:

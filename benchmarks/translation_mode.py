@@ -21,11 +21,10 @@ Cost (one core): about 30 s per frame at 2562 nodes.
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import copy
 import sys
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 from cortex_ti.dynamics.spectrum import normal_spectrum, translation_share
@@ -38,8 +37,14 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("trajectory", nargs="?")
     p.add_argument("times", type=float, nargs="*")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="change the run's scene, e.g. translation=centroid")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change the run's scene, e.g. translation=centroid",
+    )
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
     if args.smoke:
@@ -48,8 +53,10 @@ def main(argv=None) -> int:
         p.error("give a trajectory and the times of its frames")
     with Trajectory(args.trajectory) as tr:
         scene, tt = scene_from_dict(copy.deepcopy(tr.scene.data), args.overrides), tr.ds["time"].values
-        frames = [(float(tt[k]), tr.ds["points"].isel(time=k).values, tr.ds["active_stress"].isel(time=k).values)
-                  for k in (int(np.argmin(np.abs(tt - t))) for t in args.times)]
+        frames = [
+            (float(tt[k]), tr.ds["points"].isel(time=k).values, tr.ds["active_stress"].isel(time=k).values)
+            for k in (int(np.argmin(np.abs(tt - t))) for t in args.times)
+        ]
     sim = Simulation(scene)
     s = scene.settings
     print(f"{s.name}, {len(frames[0][1])} nodes, {s.numerics.formulation}, translation {s.translation}")
@@ -64,8 +71,10 @@ def main(argv=None) -> int:
             print(f"| {t:g} | {', '.join(f'{v:+.4f}' for v in sp.eigenvalues.real[:3])} | none | | |")
         for j in growing:
             share, u = translation_share(np.real(sp.modes[:, j]), geo.normal, np.asarray(geo.area))
-            print(f"| {t:g} | {', '.join(f'{v:+.4f}' for v in sp.eigenvalues.real[:3])} | "
-                  f"{sp.eigenvalues[j].real:+.4f} | {share:.3f} | {np.array2string(u, precision=3)} |")
+            print(
+                f"| {t:g} | {', '.join(f'{v:+.4f}' for v in sp.eigenvalues.real[:3])} | "
+                f"{sp.eigenvalues[j].real:+.4f} | {share:.3f} | {np.array2string(u, precision=3)} |"
+            )
     return 0
 
 

@@ -13,10 +13,9 @@ Expected cost: a few seconds (the run itself is the expensive part).
 """
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import sys
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 from cortex_ti.analysis.reference import (
@@ -43,8 +42,11 @@ def main(argv=None) -> int:
         dev = radii_deviation(t, ds["pole_radius"].values, ds["furrow_radius"].values, args.reference)
         vol = ds["volume"].values
         print(f"{args.trajectory}: {len(t)} frames to t = {t[-1]:.3f}")
-        print(f"radii: largest deviation from the reference over {dev['frames']} frames: "
-              f"pole {dev['pole']:.2e} R0 (t = {dev['t_pole']:.2f}), furrow {dev['furrow']:.2e} R0 (t = {dev['t_furrow']:.2f})")
+        print(
+            f"radii: largest deviation from the reference over {dev['frames']} frames: "
+            f"pole {dev['pole']:.2e} R0 (t = {dev['t_pole']:.2f}), furrow {dev['furrow']:.2e} R0 (t = "
+            f"{dev['t_furrow']:.2f})"
+        )
         print(f"volume drift: {np.abs(vol / vol[0] - 1).max():.2e} (relative, largest over frames)")
         print("| t | max dev v_n | rms dev v_n | max dev abs v_t | rms dev abs v_t | (scale v_n, abs v_t) |")
         print("|---|---|---|---|---|---|")
@@ -54,10 +56,12 @@ def main(argv=None) -> int:
                 continue
             pts = ds["points"].isel(time=k).values
             vel = ds["velocity"].isel(time=k).values
-            normals = tr.normals(k)   # the solver's
+            normals = tr.normals(k)  # the solver's
             d = profile_deviation(pts, vel, normals, tp, args.reference)
-            print(f"| {tp:.1f} | {d['vn_max']:.2e} | {d['vn_rms']:.2e} | {d['vt_max']:.2e} | {d['vt_rms']:.2e} | "
-                  f"{d['vn_scale']:.3f}, {d['vt_scale']:.3f} |")
+            print(
+                f"| {tp:.1f} | {d['vn_max']:.2e} | {d['vn_rms']:.2e} | {d['vt_max']:.2e} | {d['vt_rms']:.2e} | "
+                f"{d['vn_scale']:.3f}, {d['vt_scale']:.3f} |"
+            )
     return 0
 
 

@@ -14,12 +14,11 @@ Usage::
 from __future__ import annotations
 
 import argparse
-
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import os
 import sys
 import tempfile
 
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 
@@ -83,8 +82,12 @@ def main(argv=None) -> int:
     for kind, form in ((k, f) for f in args.formulations for k in kinds):
         prev = None
         for n in args.nodes:
-            ov = [f"mesh.nodes={n}", f"numerics.fit={args.fit}", f"numerics.formulation={form}",
-                  "solver.reuse=false"] + args.overrides
+            ov = [
+                f"mesh.nodes={n}",
+                f"numerics.fit={args.fit}",
+                f"numerics.formulation={form}",
+                "solver.reuse=false",
+            ] + args.overrides
             tmp = None
             if kind.endswith("file"):
                 tmp = tempfile.NamedTemporaryFile(suffix=".ply", delete=False).name
@@ -99,7 +102,9 @@ def main(argv=None) -> int:
                 sim.stencils.widen(np.flatnonzero(sim.topology.valence == 5))
             sol = sim.solve()
             x = sim.mesh.points
-            exact, _ = analytic.sphere_full_solution(x, list(scene.settings.patterns), eta_b=scene.settings.viscosity.bulk)
+            exact, _ = analytic.sphere_full_solution(
+                x, list(scene.settings.patterns), eta_b=scene.settings.viscosity.bulk
+            )
             err = analytic.error_measures(sol.velocity, exact)[1]
             ratio = "" if prev is None else f"{prev / err:.2f}"
             prev = err

@@ -28,8 +28,12 @@ __all__ = ["DEPENDENCIES", "PROVENANCE_KEYS", "git_commit", "package_version", "
 DEPENDENCIES = ("numpy", "scipy", "taichi", "xarray", "h5netcdf")
 
 #: The attribute names :func:`provenance` returns
-PROVENANCE_KEYS = ("cortex_ti_version", "cortex_ti_commit", "python_version",
-                   *(f"{name}_version" for name in DEPENDENCIES))
+PROVENANCE_KEYS = (
+    "cortex_ti_version",
+    "cortex_ti_commit",
+    "python_version",
+    *(f"{name}_version" for name in DEPENDENCIES),
+)
 
 _PACKAGE_DIR = Path(__file__).resolve().parent
 #: Written into a file when the version or the commit cannot be found (an attribute is never missing)
@@ -44,6 +48,7 @@ def package_version() -> str:
     from git at run time."""
     try:
         from ._version import version  # written by setuptools-scm when the package is built or installed
+
         return str(version)
     except ImportError:
         pass
@@ -58,6 +63,7 @@ def git_commit() -> str | None:
     """The commit of the git checkout this package is imported from, with ``-dirty`` when tracked
     files differ from it; None when the package is not in a git checkout (a wheel, an archive) or
     git is not there. Asked once per process."""
+
     def git(*args):
         return subprocess.run(["git", *args], cwd=_PACKAGE_DIR, capture_output=True, text=True, timeout=10)
 
@@ -88,7 +94,10 @@ def provenance() -> dict[str, str]:
     git checkout), ``python_version`` and ``<dependency>_version`` for :data:`DEPENDENCIES`."""
     from . import __version__
 
-    out = {"cortex_ti_version": __version__, "cortex_ti_commit": git_commit() or UNKNOWN,
-           "python_version": platform.python_version()}
+    out = {
+        "cortex_ti_version": __version__,
+        "cortex_ti_commit": git_commit() or UNKNOWN,
+        "python_version": platform.python_version(),
+    }
     out.update({f"{name}_version": _distribution_version(name) for name in DEPENDENCIES})
     return out

@@ -24,8 +24,15 @@ from pathlib import Path
 __all__ = ["run", "load_scene", "open_trajectory", "scenes"]
 
 #: keyword shorthands for the scene keys users set most
-SHORTHANDS = {"nodes": "mesh.nodes", "t_end": "time.t_end", "dt": "time.dt", "model": "model",
-              "motion": "mesh.motion", "scheme": "time.scheme", "formulation": "numerics.formulation"}
+SHORTHANDS = {
+    "nodes": "mesh.nodes",
+    "t_end": "time.t_end",
+    "dt": "time.dt",
+    "model": "model",
+    "motion": "mesh.motion",
+    "scheme": "time.scheme",
+    "formulation": "numerics.formulation",
+}
 
 
 def _assignments(settings: dict) -> list[str]:
@@ -66,8 +73,17 @@ def open_trajectory(path):
     return load_trajectory(path)
 
 
-def run(scene, output=None, *, overrides: Sequence[str] = (), progress: bool = False, arch: str | None = None,
-        threads: int | None = None, resume: bool = False, **settings):
+def run(
+    scene,
+    output=None,
+    *,
+    overrides: Sequence[str] = (),
+    progress: bool = False,
+    arch: str | None = None,
+    threads: int | None = None,
+    resume: bool = False,
+    **settings,
+):
     """Run ``scene`` (see :func:`load_scene` for what it and the keywords may be) with its model and
     return the trajectory as an xarray Dataset in memory. ``output``: where to keep the file (by
     default a temporary one, removed after reading)."""

@@ -26,60 +26,104 @@ log = logging.getLogger("cortex_ti")
 def _parser() -> argparse.ArgumentParser:
     from .viz.commands import add_commands, add_renderer_option
 
-    p = argparse.ArgumentParser(prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021).")
+    p = argparse.ArgumentParser(
+        prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021)."
+    )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
     sub = p.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene and write its trajectory (HDF5, opens with xarray)")
     run.add_argument("scene", help="scene YAML file, or the name of a built-in scene (see 'cortex-ti scenes')")
     run.add_argument("-o", "--output", required=True, type=Path, help="output file (.h5)")
-    run.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                     help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)")
+    run.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scene value, e.g. --set mesh.nodes=642 (repeatable)",
+    )
     run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
-    run.add_argument("--threads", default=None,
-                     help="CPU threads for Taichi (default: $CORTEX_TI_THREADS, else all cores)")
-    run.add_argument("--resume", action="store_true",
-                     help="continue an interrupted run from OUTPUT.partial, or extend a finished OUTPUT to a later "
-                          "time.t_end (only the scene's time section may change)")
-    run.add_argument("--force", action="store_true",
-                     help="replace OUTPUT (and start over instead of resuming OUTPUT.partial) if it exists")
-    run.add_argument("--summary", type=Path, default=None, metavar="FILE.json",
-                     help="also write what the run took (status, wall time, steps, solves, peak memory) as JSON; "
-                          "written for a failed run too, with the error")
+    run.add_argument(
+        "--threads", default=None, help="CPU threads for Taichi (default: $CORTEX_TI_THREADS, else all cores)"
+    )
+    run.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run from OUTPUT.partial, or extend a finished OUTPUT to a later "
+        "time.t_end (only the scene's time section may change)",
+    )
+    run.add_argument(
+        "--force",
+        action="store_true",
+        help="replace OUTPUT (and start over instead of resuming OUTPUT.partial) if it exists",
+    )
+    run.add_argument(
+        "--summary",
+        type=Path,
+        default=None,
+        metavar="FILE.json",
+        help="also write what the run took (status, wall time, steps, solves, peak memory) as JSON; "
+        "written for a failed run too, with the error",
+    )
 
     chk = sub.add_parser("check", help="validate a scene, its mesh and its active-stress patterns without solving")
     chk.add_argument("scene")
     chk.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
 
-    exp = sub.add_parser("export", help="write a trajectory for ParaView: one .vtkhdf file with its time steps "
-                                         "(default), or a .pvd with frames named after the run")
+    exp = sub.add_parser(
+        "export",
+        help="write a trajectory for ParaView: one .vtkhdf file with its time steps "
+        "(default), or a .pvd with frames named after the run",
+    )
     exp.add_argument("trajectory", type=Path)
-    exp.add_argument("-o", "--output", type=Path, default=None,
-                     help="file (.vtkhdf or .pvd) or folder (default: next to the trajectory, named after it)")
+    exp.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=None,
+        help="file (.vtkhdf or .pvd) or folder (default: next to the trajectory, named after it)",
+    )
     exp.add_argument("--format", dest="fmt", default=None, help="vtkhdf (default) or pvd; default from -o's suffix")
     exp.add_argument("--every", type=int, default=1, help="export every k-th frame")
     exp.add_argument("--force", action="store_true", help="replace an existing export of the same run")
 
-    plot = sub.add_parser("plot", help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
-                                       "time series; works on the .partial file of a running simulation")
+    plot = sub.add_parser(
+        "plot",
+        help="draw a frame of a trajectory in 3D (colour, velocity arrows) next to its "
+        "time series; works on the .partial file of a running simulation",
+    )
     plot.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
     plot.add_argument("-o", "--output", required=True, type=Path, help="figure file: .png, .pdf or .svg")
     which = plot.add_mutually_exclusive_group()
-    which.add_argument("--frame", type=int, default=None, help="frame index (negative: from the end; default -1, the last)")
+    which.add_argument(
+        "--frame", type=int, default=None, help="frame index (negative: from the end; default -1, the last)"
+    )
     which.add_argument("--time", type=float, default=None, help="time: the frame nearest to it (the earlier on a tie)")
     plot.add_argument("--color", default="speed", help="speed (default), active_stress or normal_velocity")
     plot.add_argument("--no-arrows", action="store_true", help="no velocity arrows")
-    plot.add_argument("--series", default=None, metavar="NAME,NAME,...",
-                      help="per-frame variables to draw against time (default: pole_radius, furrow_radius, "
-                           "orientation_angle, those the file has); '' for none")
-    plot.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60; write --view=-20,30 for a negative elevation)")
+    plot.add_argument(
+        "--series",
+        default=None,
+        metavar="NAME,NAME,...",
+        help="per-frame variables to draw against time (default: pole_radius, furrow_radius, "
+        "orientation_angle, those the file has); '' for none",
+    )
+    plot.add_argument(
+        "--view",
+        default=None,
+        metavar="ELEV,AZIM",
+        help="camera angles in degrees (default 20,-60; write --view=-20,30 for a negative elevation)",
+    )
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
     add_renderer_option(plot)
-    add_commands(sub)   # movie, view (cortex_ti.viz.commands)
+    add_commands(sub)  # movie, view (cortex_ti.viz.commands)
 
     sub.add_parser("scenes", help="list the built-in scenes")
-    sub.add_parser("schema", help="print the scene schema (JSON schema, with every registered fit, scheme, "
-                                  "solver backend and pattern type)")
+    sub.add_parser(
+        "schema",
+        help="print the scene schema (JSON schema, with every registered fit, scheme, solver backend and pattern type)",
+    )
     return p
 
 
@@ -113,7 +157,7 @@ def _writable_file(path: Path, what: str) -> None:
     probe = path.with_name(path.name + ".partial")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        if probe.exists():       # a leftover of a killed run (write_json replaces it): can we write there?
+        if probe.exists():  # a leftover of a killed run (write_json replaces it): can we write there?
             with open(probe, "a"):
                 return
         with open(probe, "x"):
@@ -133,7 +177,7 @@ def _run(args) -> int:
     sim = None
     if args.force and args.resume:
         raise CortexError("--force starts over and --resume continues: pass one of them")
-    scene = load_scene(args.scene, args.overrides)   # input errors first, before Taichi starts
+    scene = load_scene(args.scene, args.overrides)  # input errors first, before Taichi starts
     settings = scene.settings
     threads = _threads(args)
     if args.summary is not None:
@@ -155,13 +199,18 @@ def _run(args) -> int:
         info = sim.summary() if sim is not None else {}
         if exc is not None:
             info["stopped"] = stop_reason(exc)
-            n, t = kept()       # how far it got: the last complete frame
+            n, t = kept()  # how far it got: the last complete frame
             if n:
                 info["t_reached"] = t
             info["frames_kept"] = n
         error = None if exc is None else f"{type(exc).__name__}: {exc}"
-        info.update(status=status, error=error, wall_s=time.perf_counter() - t0, output=str(args.output),
-                    peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
+        info.update(
+            status=status,
+            error=error,
+            wall_s=time.perf_counter() - t0,
+            output=str(args.output),
+            peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        )
         try:
             write_json(info, args.summary)
         except OSError as err:
@@ -170,12 +219,12 @@ def _run(args) -> int:
             raise CortexError(f"cannot write the summary '{args.summary}': {describe_os_error(err)}") from None
 
     with interruptible(), claim_output(args.output):
-        check_output(args.output, args.resume, args.force)    # refused: no summary (it is not a run)
+        check_output(args.output, args.resume, args.force)  # refused: no summary (it is not a run)
         try:
             from .models import make_runner
 
-            sim = make_runner(scene, args.arch, threads)    # the scene's model (cortex_ti.models.MODELS)
-            check_interrupted()      # a signal whose exception start-up code swallowed
+            sim = make_runner(scene, args.arch, threads)  # the scene's model (cortex_ti.models.MODELS)
+            check_interrupted()  # a signal whose exception start-up code swallowed
             out = sim.run(args.output, resume=args.resume)
         except BaseException as caught:
             exc = interruption(caught)
@@ -184,9 +233,12 @@ def _run(args) -> int:
                 raise
             summary("interrupted", exc)
             n, t = kept()
-            where = (f"{n} frame{'s' if n > 1 else ''} to t = {t:.6g} kept in {partial_path(args.output)}; "
-                     "continue with --resume"
-                     if n else "no frame was complete, nothing was kept")
+            where = (
+                f"{n} frame{'s' if n > 1 else ''} to t = {t:.6g} kept in {partial_path(args.output)}; "
+                "continue with --resume"
+                if n
+                else "no frame was complete, nothing was kept"
+            )
             print(f"cortex-ti: interrupted ({exc.name}); {where}", file=sys.stderr)
             return exc.exit_code
         summary("ok")
@@ -206,7 +258,7 @@ def _check(args) -> int:
     if settings.model == "axisymmetric":
         from .axisymmetric.run import axisymmetric_tension
 
-        axisymmetric_tension(settings)   # runs python patterns, refuses one that varies about z
+        axisymmetric_tension(settings)  # runs python patterns, refuses one that varies about z
         print(f"{scene.name}: valid ({settings.describe_numerics()}, effects: {effects})")
     else:
         mesh = initial_mesh(settings)
@@ -248,7 +300,7 @@ def _plot(args) -> int:
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
-    refuse_file_parent(Path(args.output), "the figure")     # before anything is said or drawn
+    refuse_file_parent(Path(args.output), "the figure")  # before anything is said or drawn
     if args.color not in COLORS:
         raise CortexError(f"unknown --color '{args.color}'; choose one of: {', '.join(COLORS)}")
     view = parse_view(args.view)
@@ -267,7 +319,7 @@ def _plot(args) -> int:
                 f"{', '.join(available) or 'no per-frame variables'}"
             )
     frame = args.frame if args.frame is not None else args.time if args.time is not None else -1
-    frame = frame_index(ds, frame)      # refused before anything is said or drawn
+    frame = frame_index(ds, frame)  # refused before anything is said or drawn
     renderer = choose_renderer(args.renderer)
     announce(renderer)
     fig = frame_figure(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi, renderer=renderer)
@@ -297,7 +349,7 @@ def main(argv: list[str] | None = None) -> int:
     """The command line (``argv`` None: the program's own arguments, and then a signal that arrives
     after the command is done, while the interpreter shuts down, is ignored: what it did stands)."""
     program = argv is None
-    with interruptible(restore=not program):   # first: a signal from now on ends the command as documented
+    with interruptible(restore=not program):  # first: a signal from now on ends the command as documented
         try:
             status = _main(argv)
         except BaseException as caught:
@@ -320,17 +372,23 @@ def _main(argv: list[str] | None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     log.setLevel(logging.DEBUG if args.verbose else logging.INFO)
     try:
-        commands = {"run": _run, "check": _check, "export": _export, "plot": _plot, "scenes": _scenes,
-                    "schema": _schema}
+        commands = {
+            "run": _run,
+            "check": _check,
+            "export": _export,
+            "plot": _plot,
+            "scenes": _scenes,
+            "schema": _schema,
+        }
         return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
-        check_interrupted()     # a signal some library reported as its own error is the signal
+        check_interrupted()  # a signal some library reported as its own error is the signal
         print(f"cortex-ti: error: {exc}", file=sys.stderr)
         return 2
-    except BrokenPipeError:     # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
+    except BrokenPipeError:  # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1
-    except OSError as exc:      # a file or folder the command could not read or write
+    except OSError as exc:  # a file or folder the command could not read or write
         check_interrupted()
         print(f"cortex-ti: error: {describe_os_error(exc)}", file=sys.stderr)
         return 2

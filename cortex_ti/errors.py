@@ -50,7 +50,7 @@ class Interrupted(KeyboardInterrupt):
         return 128 + self.signum
 
 
-_PENDING: list = []     # signals that arrived in an interruptible() block
+_PENDING: list = []  # signals that arrived in an interruptible() block
 
 
 @contextlib.contextmanager
@@ -68,7 +68,7 @@ def interruptible(restore: bool = True):
     def handler(signum, frame):
         _PENDING.append(signum)
         if frame is not None and (frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith("weakref.py")):
-            return      # Python would print the exception and drop it: check_interrupted raises it instead
+            return  # Python would print the exception and drop it: check_interrupted raises it instead
         raise Interrupted(signum)
 
     old = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}

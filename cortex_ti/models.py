@@ -31,6 +31,7 @@ MODELS: dict[str, Model] = {}
 
 def register_model(name: str, description: str):
     """Decorator adding a runner factory ``(scene, arch, threads) -> runner`` to :data:`MODELS`."""
+
     def deco(func):
         MODELS[name] = Model(name, description, func)
         return func
@@ -57,7 +58,7 @@ def _axisymmetric(scene, arch=None, threads=None):
     from .dynamics.guard import extensile_tension
 
     run = AxisymmetricRun(scene)
-    if run.settings.dynamic:     # the counterpart of the 3D run's warning on an extensile tension
+    if run.settings.dynamic:  # the counterpart of the 3D run's warning on an extensile tension
         physical = extensile_tension(run.zeta(np.linspace(0.0, np.pi, 181)))
         if physical is not None:
             logging.getLogger("cortex_ti").warning("scene '%s': %s", run.settings.name, physical)

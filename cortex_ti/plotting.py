@@ -162,7 +162,7 @@ def node_values(ds, k: int, color: str) -> np.ndarray:
     vel = np.asarray(ds["velocity"][k].values, dtype=float)
     if color == "speed":
         return np.linalg.norm(vel, axis=1)
-    if "normal" in ds:     # the solver's normals, stored with each frame
+    if "normal" in ds:  # the solver's normals, stored with each frame
         normals = np.asarray(ds["normal"][k].values, dtype=float)
     else:
         pts = np.asarray(ds["points"][k].values, dtype=float)
@@ -195,8 +195,18 @@ def spread_nodes(points: np.ndarray, candidates: np.ndarray, count: int, start: 
 # ---------------------------------------------------------------------------------------------
 # the two panels
 # ---------------------------------------------------------------------------------------------
-def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None, view=None,
-               cmap=None, clim=None, max_arrows: int = MAX_ARROWS, axes: bool = True):
+def plot_frame(
+    ds,
+    frame=-1,
+    color: str = "speed",
+    arrows: bool = True,
+    ax=None,
+    view=None,
+    cmap=None,
+    clim=None,
+    max_arrows: int = MAX_ARROWS,
+    axes: bool = True,
+):
     """Draw one frame: the surface coloured per face, velocity arrows on the visible side.
 
     Parameters
@@ -250,9 +260,10 @@ def plot_frame(ds, frame=-1, color: str = "speed", arrows: bool = True, ax=None,
     _frame_axes(ax, centre, half * (1.0 + 2.0 * ARROW_FRACTION if arrows else 1.02))
     if not axes:
         ax.set_axis_off()
-        ax.set_box_aspect((1, 1, 1), zoom=1.4)    # the room of the labels goes to the shape
-    ax.set_title(f"t = {float(ds['time'].values[k]):.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})",
-                 fontsize=9)
+        ax.set_box_aspect((1, 1, 1), zoom=1.4)  # the room of the labels goes to the shape
+    ax.set_title(
+        f"t = {float(ds['time'].values[k]):.4g} t_a  (frame {k}; frames 0..{ds.sizes['time'] - 1})", fontsize=9
+    )
     return ax, surface
 
 
@@ -283,10 +294,16 @@ def _surface(ax, pts, tri, face_values, color, cmap, clim):
         vmin, vmax = -m, m
     else:
         vmin, vmax = float(np.nanmin(face_values)), float(np.nanmax(face_values))
-    surface = art3d.Poly3DCollection(pts[tri], cmap=cmap or COLORS[color][1], norm=Normalize(vmin, vmax),
-                                     edgecolors=(0.0, 0.0, 0.0, 0.15), linewidths=0.2, zorder=1)
+    surface = art3d.Poly3DCollection(
+        pts[tri],
+        cmap=cmap or COLORS[color][1],
+        norm=Normalize(vmin, vmax),
+        edgecolors=(0.0, 0.0, 0.0, 0.15),
+        linewidths=0.2,
+        zorder=1,
+    )
     surface.set_array(face_values)
-    ax.computed_zorder = False    # arrows (visible side only) are drawn over the surface
+    ax.computed_zorder = False  # arrows (visible side only) are drawn over the surface
     ax.add_collection3d(surface)
     return surface
 
@@ -301,8 +318,16 @@ def _velocity_arrows(ax, pts, tri, vel, half, max_arrows) -> None:
     start = int(candidates[np.argmax(facing[candidates])])
     chosen = spread_nodes(pts, candidates, int(max_arrows), start)
     length = ARROW_FRACTION * 2.0 * half / float(speed.max())
-    q = ax.quiver(*pts[chosen].T, *vel[chosen].T, length=length, normalize=False,
-                  arrow_length_ratio=0.3, color="k", linewidths=0.6, zorder=2)
+    q = ax.quiver(
+        *pts[chosen].T,
+        *vel[chosen].T,
+        length=length,
+        normalize=False,
+        arrow_length_ratio=0.3,
+        color="k",
+        linewidths=0.6,
+        zorder=2,
+    )
     q.set_gid("velocity")
 
 
@@ -388,7 +413,7 @@ def plot_timeseries(ds, names: Sequence[str] = DEFAULT_SERIES, ax=None, mark_tim
         axes.append(twin)
 
     t = np.asarray(ds["time"].values, dtype=float)
-    cycle = [f"C{i}" for i in range(10)]     # one colour sequence across all y axes
+    cycle = [f"C{i}" for i in range(10)]  # one colour sequence across all y axes
     styles = ["-", "--", "-.", ":"]
     lines = {}
     i = 0
@@ -396,9 +421,15 @@ def plot_timeseries(ds, names: Sequence[str] = DEFAULT_SERIES, ax=None, mark_tim
         a = axes[g]
         for name in members:
             y = np.asarray(ds[name].values, dtype=float)
-            (line,) = a.plot(t, y, styles[g % len(styles)], color=cycle[i % len(cycle)],
-                             marker="o" if len(t) == 1 else None, markersize=3,
-                             label=f"{name} [{units}]" if units else name)
+            (line,) = a.plot(
+                t,
+                y,
+                styles[g % len(styles)],
+                color=cycle[i % len(cycle)],
+                marker="o" if len(t) == 1 else None,
+                markersize=3,
+                label=f"{name} [{units}]" if units else name,
+            )
             lines[name] = line
             i += 1
         if len(members) == 1:
@@ -414,9 +445,19 @@ def plot_timeseries(ds, names: Sequence[str] = DEFAULT_SERIES, ax=None, mark_tim
     return ax, lines
 
 
-def figure_frame_and_series(ds, frame=-1, color: str = "speed", arrows: bool = True,
-                            series: Sequence[str] | None = DEFAULT_SERIES, view=DEFAULT_VIEW,
-                            figsize=None, dpi: float = 150.0, image=None, clim=None, cmap=None) -> Figure:
+def figure_frame_and_series(
+    ds,
+    frame=-1,
+    color: str = "speed",
+    arrows: bool = True,
+    series: Sequence[str] | None = DEFAULT_SERIES,
+    view=DEFAULT_VIEW,
+    figsize=None,
+    dpi: float = 150.0,
+    image=None,
+    clim=None,
+    cmap=None,
+) -> Figure:
     """A figure with the 3D frame (its colour bar below it) on the left and the time series on
     the right, with a vertical line at the frame's time.  ``series=None`` or empty: the 3D panel
     only.  Default size 11 x 4.8 inches (6.5 x 5.5 without series); the PNG is ``figsize * dpi``
@@ -438,9 +479,10 @@ def figure_frame_and_series(ds, frame=-1, color: str = "speed", arrows: bool = T
     fig = Figure(figsize=figsize, dpi=dpi)
     if with_series:
         units = {str(ds[n].attrs.get("units", "")) for n in series if n in ds.data_vars}
-        right = 0.92 - 0.07 * max(len(units) - 1, 0)      # room for the twin y axes
-        grid = fig.add_gridspec(1, 2, width_ratios=(1.0, 1.1), left=0.02, right=right, bottom=0.12, top=0.9,
-                                wspace=0.22)
+        right = 0.92 - 0.07 * max(len(units) - 1, 0)  # room for the twin y axes
+        grid = fig.add_gridspec(
+            1, 2, width_ratios=(1.0, 1.1), left=0.02, right=right, bottom=0.12, top=0.9, wspace=0.22
+        )
         slot = grid[0, 0]
     else:
         slot = fig.add_gridspec(1, 1, left=0.02, right=0.98, bottom=0.09, top=0.92)[0, 0]

@@ -59,7 +59,7 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
         raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(ARCHES)}")
     if threads is None:
         threads = int(os.environ.get("CORTEX_TI_THREADS", "0")) or os.cpu_count() or 1
-    else:   # the sparse factorisations take their thread count from here too (solve.factorizations)
+    else:  # the sparse factorisations take their thread count from here too (solve.factorizations)
         os.environ["CORTEX_TI_THREADS"] = str(int(threads))
     wanted = {"arch": arch, "threads": int(threads)}
     if _state == wanted:

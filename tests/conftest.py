@@ -8,7 +8,7 @@
 Meshes used throughout:
 
 ``lab.icosphere(N, R)``
-    the regular icosphere of :func:`cortex_ti.mesh.icosphere`;
+    the regular icosphere of :func:`cortex_ti.surface.mesh.icosphere`;
 ``lab.perturbed(N, seed, frac, on_sphere)``
     the same connectivity, every node moved by ``frac * e * (u0 n + u1 t1 + u2 t2)``
     with ``u ~ U(-1, 1)`` (fixed seed), ``e`` the mean edge length and ``(t1, t2, n)``
@@ -109,8 +109,7 @@ class Lab:
         topo = topo if topo is not None else self.topology(mesh)
 
         def make():
-            return compute_geometry(mesh.points if points is None else points, topo,
-                                    StencilChooser(topo, scheme))
+            return compute_geometry(mesh.points if points is None else points, topo, StencilChooser(topo, scheme))
 
         if points is None and topo is self.topology(mesh):
             return self.memo(("geom", id(mesh), scheme), make)

@@ -18,6 +18,7 @@ import numpy as np
 
 # ------------------------------------------------------------------ patterns (paper definitions)
 
+
 def _unit(x):
     x = np.atleast_2d(np.asarray(x, dtype=float))
     return x / np.linalg.norm(x, axis=1, keepdims=True)
@@ -45,6 +46,7 @@ def ring(p=8.0, amplitude=1.0, sigma=10.0, zeta0=1.0, axis=(0.0, 0.0, 1.0)):
         u = _unit(x)
         th = np.arctan2(np.hypot(u @ e1, u @ e2), u @ a)
         return zeta0 + amplitude * np.exp(-sigma * np.abs(th - 0.5 * np.pi) ** p)
+
     return f
 
 
@@ -58,14 +60,18 @@ def fold(amplitude=3.5, sigma_phi=200.0, sigma=1.5, p=4.0, zeta0=1.0, axis=(0.0,
         th = np.arctan2(np.hypot(u @ e1, u @ e2), u @ a)
         phi = np.mod(np.arctan2(u @ e2, u @ e1), 2.0 * np.pi)
         d = np.minimum(np.abs(phi - 0.5 * np.pi), np.abs(phi - 1.5 * np.pi))
-        return zeta0 + amplitude * np.exp(-sigma * np.abs(th - 0.5 * np.pi) ** p) * np.exp(-sigma_phi * d ** 4)
+        return zeta0 + amplitude * np.exp(-sigma * np.abs(th - 0.5 * np.pi) ** p) * np.exp(-sigma_phi * d**4)
+
     return f
 
 
 def ring_mean(p, amplitude, sigma=10.0, zeta0=1.0) -> float:
     """Mean of the ring over the unit sphere by adaptive quadrature in theta (scipy.quad)."""
     from scipy.integrate import quad
-    g = lambda t: amplitude * math.exp(-sigma * abs(t - 0.5 * math.pi) ** p) * math.sin(t)
+
+    def g(t):
+        return amplitude * math.exp(-sigma * abs(t - 0.5 * math.pi) ** p) * math.sin(t)
+
     lo = quad(g, 0.0, 0.5 * math.pi, epsabs=1e-14, epsrel=1e-13, limit=400)[0]
     hi = quad(g, 0.5 * math.pi, math.pi, epsabs=1e-14, epsrel=1e-13, limit=400)[0]
     return zeta0 + 0.5 * (lo + hi)
@@ -106,6 +112,7 @@ def grad_y21(x, R):
 
 # ------------------------------------------------------------------ quadrature
 
+
 def sphere_grid(n: int, R: float = 1.0):
     """Points (n * 2n, 3) on the sphere of radius R and area weights (sum = 4 pi R^2)."""
     z, w = np.polynomial.legendre.leggauss(n)
@@ -119,7 +126,7 @@ def sphere_grid(n: int, R: float = 1.0):
 
 # ------------------------------------------------------------------ finite-difference residual
 
-_FD = ((-2, 1.0 / 12.0), (-1, -8.0 / 12.0), (1, 8.0 / 12.0), (2, -1.0 / 12.0))   # 4th order
+_FD = ((-2, 1.0 / 12.0), (-1, -8.0 / 12.0), (1, 8.0 / 12.0), (2, -1.0 / 12.0))  # 4th order
 
 
 def _stencil(x, h):
@@ -151,26 +158,29 @@ def fd_balance_residual(vfun, zfun, X, *, R, eta_s, eta_b, eta_bar=0.0, eta_bar_
     """
     X = np.atleast_2d(X)
     N = X.shape[0]
-    proj = lambda x: R * x / np.linalg.norm(x, axis=-1, keepdims=True)
-    Y = proj(_stencil(X, h)).reshape(-1, 3)                     # outer stencil, (N*12, 3)
+
+    def proj(x):
+        return R * x / np.linalg.norm(x, axis=-1, keepdims=True)
+
+    Y = proj(_stencil(X, h)).reshape(-1, 3)  # outer stencil, (N*12, 3)
     Yall = np.concatenate([Y, X])
-    Z = proj(_stencil(Yall, h)).reshape(-1, 3)                  # inner stencil
+    Z = proj(_stencil(Yall, h)).reshape(-1, 3)  # inner stencil
     vz = vfun(np.concatenate([Z, Yall])).reshape(-1, 3)
     vZ = vz[: Z.shape[0]].reshape(Yall.shape[0], 3, 4, 3)
-    vY = vz[Z.shape[0]:]
+    vY = vz[Z.shape[0] :]
     uZ = Z.reshape(Yall.shape[0], 3, 4, 3) / R
     uY = Yall / R
-    G = _d(vZ, h)                                               # (M, 3, 3): d_k v_j
+    G = _d(vZ, h)  # (M, 3, 3): d_k v_j
     Pm = np.eye(3)[None] - uY[:, :, None] * uY[:, None, :]
     E = 0.5 * Pm @ (G + np.swapaxes(G, 1, 2)) @ Pm
     trE = np.trace(E, axis1=1, axis2=2)
     zY = zfun(Yall)
     T = 2 * eta_s * (E - 0.5 * trE[:, None, None] * Pm) + (eta_b * trE + zY)[:, None, None] * Pm
-    gvn = _d(np.einsum("nkqj,nkqj->nkq", vZ, uZ), h)            # grad v_n (tangential), (M, 3)
+    gvn = _d(np.einsum("nkqj,nkqj->nkq", vZ, uZ), h)  # grad v_n (tangential), (M, 3)
     nY = N * 12
     TY = T[:nY].reshape(N, 3, 4, 3, 3)
-    dT = _d(TY, h)                                              # (N, 3(k), 3, 3): d_k T_ij
-    f = np.einsum("niij->nj", dT)                               # d_i T_ij
+    dT = _d(TY, h)  # (N, 3(k), 3, 3): d_k T_ij
+    f = np.einsum("niij->nj", dT)  # d_i T_ij
     u = X / R
     PX = Pm[nY:]
     vn = np.sum(vY[nY:] * u, axis=1)

@@ -33,7 +33,7 @@ def test_every_model_of_the_schema_is_registered_and_runs_from_python():
 def test_a_scene_is_immutable_and_an_override_makes_a_new_one():
     scene = ct.load_scene("furrow_p8_a1")
     data = scene.data
-    data["mesh"]["nodes"] = 42              # edits a copy
+    data["mesh"]["nodes"] = 42  # edits a copy
     assert scene.settings.mesh.nodes == 2562 and scene["mesh.nodes"] == 2562
     other = ct.load_scene(scene, nodes=642)
     assert other is not scene and other.settings.mesh.nodes == 642 and scene.settings.mesh.nodes == 2562

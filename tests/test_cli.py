@@ -31,8 +31,12 @@ pytestmark = pytest.mark.usefixtures("taichi_runtime")
 
 FULL_EFFECTS = "active_stress,bulk_viscosity,incompressibility,normal_balance,shear_viscosity"
 Y20 = [{"type": "harmonics", "terms": [{"l": 2, "m": 0, "coeff": 1.0}]}]
-Y21 = [{"type": "harmonics", "terms": [{"l": 0, "m": 0, "coeff": math.sqrt(4.0 * math.pi)},
-                                       {"l": 2, "m": 1, "coeff": 1.0}]}]
+Y21 = [
+    {
+        "type": "harmonics",
+        "terms": [{"l": 0, "m": 0, "coeff": math.sqrt(4.0 * math.pi)}, {"l": 2, "m": 1, "coeff": 1.0}],
+    }
+]
 
 
 def run(argv, capsys):
@@ -51,8 +55,9 @@ def open_output(path):
 def test_run_full_scene(tmp_path, capsys):
     """sphere_y20_full on 162 nodes (default fit: quartic). Measured eps_rel 0.0203, P ~ 1e-15."""
     out = tmp_path / "out.h5"
-    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--threads", "2",
-                              "-o", str(out)], capsys)
+    rc, stdout, stderr = run(
+        ["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--threads", "2", "-o", str(out)], capsys
+    )
     assert rc == 0, stderr
     assert stdout.strip().splitlines()[-1] == str(out)
     assert "Traceback" not in stderr
@@ -62,7 +67,7 @@ def test_run_full_scene(tmp_path, capsys):
         assert ds.attrs["effects"] == FULL_EFFECTS
         scene = yaml.safe_load(ds.attrs["scene"])
         assert scene["name"] == "sphere_y20_full"
-        assert scene["mesh"]["nodes"] == 162                    # the override is recorded
+        assert scene["mesh"]["nodes"] == 162  # the override is recorded
         assert ds.attrs["fit_scheme"] == "quartic"
         points = ds["points"].values[0]
         velocity = ds["velocity"].values[0]
@@ -83,8 +88,9 @@ def test_run_tangential_scene(tmp_path, capsys):
     """sphere_y21_tangential on 162 nodes: no pressure (NaN), flow vs the analytic one
     (measured eps_rel 1.27e-3), tangent to the sphere."""
     out = tmp_path / "tan.h5"
-    rc, _, stderr = run(["run", "sphere_y21_tangential", "--set", "mesh.nodes=162", "--threads", "2",
-                         "-o", str(out)], capsys)
+    rc, _, stderr = run(
+        ["run", "sphere_y21_tangential", "--set", "mesh.nodes=162", "--threads", "2", "-o", str(out)], capsys
+    )
     assert rc == 0, stderr
     with open_output(out) as ds:
         assert ds.attrs["effects"] == "active_stress,fixed_normal_velocity,shear_viscosity"
@@ -114,13 +120,13 @@ def nonmanifold_mesh_file(tmp_path):
     """Two spheres touching at one node: every edge has two faces, but the node has two fans."""
     m = icosphere(162)
     v = 0
-    other = 2.0 * m.points[v] - m.points            # point reflection through node v
+    other = 2.0 * m.points[v] - m.points  # point reflection through node v
     index = np.arange(m.n_nodes) + m.n_nodes
     index[v] = v
     keep = np.arange(m.n_nodes) != v
     points = np.vstack([m.points, other[keep]])
     index[keep] = m.n_nodes + np.arange(keep.sum())
-    faces = np.vstack([m.faces, index[m.faces][:, ::-1]])   # reflected: reverse to stay outward
+    faces = np.vstack([m.faces, index[m.faces][:, ::-1]])  # reflected: reverse to stay outward
     return write_obj(tmp_path / "pinched.obj", points, faces)
 
 
@@ -138,8 +144,10 @@ BAD_SETS = {
     "nan viscosity": (["--set", "viscosity.bulk=.nan"], ["viscosity.bulk", "nan"]),
     "node count": (["--set", "mesh.nodes=100"], ["mesh.nodes", "100"]),
     "missing mesh": (["--set", "mesh.file=nope.obj"], ["nope.obj", "does not exist"]),
-    "unknown effect": (["--set", "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,"
-                                 "incompressibility,bogus]"], ["bogus", "unknown effect"]),
+    "unknown effect": (
+        ["--set", "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,incompressibility,bogus]"],
+        ["bogus", "unknown effect"],
+    ),
 }
 BAD_MESHES = {
     "open mesh": (open_mesh_file, ["open.obj", "not closed"]),
@@ -166,8 +174,9 @@ def test_run_rejects_bad_value(tmp_path, capsys, monkeypatch, case):
     monkeypatch.chdir(tmp_path)
     args, words = BAD_SETS[case]
     out = tmp_path / "out.h5"
-    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", *args, "--threads", "2",
-                              "-o", str(out)], capsys)
+    rc, stdout, stderr = run(
+        ["run", "sphere_y20_full", "--set", "mesh.nodes=162", *args, "--threads", "2", "-o", str(out)], capsys
+    )
     assert_clean_failure(rc, stdout, stderr, words, out)
 
 
@@ -176,8 +185,9 @@ def test_run_rejects_bad_mesh_file(tmp_path, capsys, case):
     make, words = BAD_MESHES[case]
     path = make(tmp_path)
     out = tmp_path / "out.h5"
-    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", f"mesh.file={path}", "--threads", "2",
-                              "-o", str(out)], capsys)
+    rc, stdout, stderr = run(
+        ["run", "sphere_y20_full", "--set", f"mesh.file={path}", "--threads", "2", "-o", str(out)], capsys
+    )
     assert_clean_failure(rc, stdout, stderr, words, out)
     # check reports the same problem
     rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", f"mesh.file={path}"], capsys)
@@ -201,9 +211,23 @@ def test_good_mesh_file_runs(tmp_path, capsys):
 
 def test_run_refuses_bulk_viscosity_only(tmp_path, capsys):
     out = tmp_path / "bulk.h5"
-    rc, stdout, stderr = run(["run", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", "viscosity.shear=0",
-                              "--set", "effects=[active_stress,bulk_viscosity,normal_balance,incompressibility]",
-                              "--threads", "2", "-o", str(out)], capsys)
+    rc, stdout, stderr = run(
+        [
+            "run",
+            "sphere_y20_full",
+            "--set",
+            "mesh.nodes=162",
+            "--set",
+            "viscosity.shear=0",
+            "--set",
+            "effects=[active_stress,bulk_viscosity,normal_balance,incompressibility]",
+            "--threads",
+            "2",
+            "-o",
+            str(out),
+        ],
+        capsys,
+    )
     assert rc == 2 and not out.exists(), stderr
 
 
@@ -214,8 +238,10 @@ def test_check_valid_scene(capsys):
     rc, stdout, stderr = run(["check", "sphere_y20_full", "--set", "mesh.nodes=162"], capsys)
     assert rc == 0, stderr
     lines = stdout.strip().splitlines()
-    assert lines[-2] == ("sphere_y20_full: valid (162 nodes, effects: active_stress, bulk_viscosity, "
-                         "incompressibility, normal_balance, shear_viscosity)")
+    assert lines[-2] == (
+        "sphere_y20_full: valid (162 nodes, effects: active_stress, bulk_viscosity, "
+        "incompressibility, normal_balance, shear_viscosity)"
+    )
     assert lines[-1] == "  numerics: formulation paper, quartic fit; fit-residual rows off"
 
 
@@ -224,12 +250,27 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     assert rc == 0
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov",
-        "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension"]
-    rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162", "--set", "time.scheme=heun",
-                         "--set", "numerics.formulation=paper", "--set", "numerics.fit_residual_weight=1e-3"], capsys)
+        "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension",
+    ]
+    rc, stdout, _ = run(
+        [
+            "check",
+            "shear_075",
+            "--set",
+            "mesh.nodes=162",
+            "--set",
+            "time.scheme=heun",
+            "--set",
+            "numerics.formulation=paper",
+            "--set",
+            "numerics.fit_residual_weight=1e-3",
+        ],
+        capsys,
+    )
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation paper, quadratic fit; fit-residual rows at 0.001",
-        "  time: heun from dt = 0.005 to t = 3.5, explicit tension"]
+        "  time: heun from dt = 0.005 to t = 3.5, explicit tension",
+    ]
 
 
 def test_check_rejects_bad_scene(capsys):
@@ -248,20 +289,27 @@ def test_check_evaluates_field_and_python_patterns(tmp_path, capsys, monkeypatch
     np.save(tmp_path / "nan.npy", nan)
     (tmp_path / "cli_check_patterns.py").write_text(
         "import numpy as np\n\ndef flat(points, value=1.0):\n    return np.full(len(points), value)\n\n"
-        "def pair(points):\n    return np.ones((len(points), 2))\n")
+        "def pair(points):\n    return np.ones((len(points), 2))\n"
+    )
     monkeypatch.syspath_prepend(str(tmp_path))
 
     def check(pattern):
-        return run(["check", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", f"active_stress=[{pattern}]"],
-                   capsys)
+        return run(
+            ["check", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", f"active_stress=[{pattern}]"], capsys
+        )
 
-    for pattern in ("{type: field, file: ok.npy}", "{type: python, function: 'cli_check_patterns:flat'}",
-                    "{type: python, function: 'cli_check_patterns:flat', params: {value: 2}}"):
+    for pattern in (
+        "{type: field, file: ok.npy}",
+        "{type: python, function: 'cli_check_patterns:flat'}",
+        "{type: python, function: 'cli_check_patterns:flat', params: {value: 2}}",
+    ):
         rc, stdout, stderr = check(pattern)
         assert rc == 0, stderr
         assert "valid (162 nodes" in stdout
     bad = {
-        "{type: field, file: short.npy}": [f"field file '{tmp_path / 'short.npy'}' has 42 values but the mesh has 162 nodes"],
+        "{type: field, file: short.npy}": [
+            f"field file '{tmp_path / 'short.npy'}' has 42 values but the mesh has 162 nodes"
+        ],
         "{type: field, file: nan.npy}": [f"field file '{tmp_path / 'nan.npy'}'", "non-finite", "node 7"],
         "{type: field, file: none.npy}": ["active_stress.0.file", str(tmp_path / "none.npy"), "does not exist"],
         "{type: python, function: 'no_such_module_q:f'}": ["'no_such_module_q:f'", "cannot import module"],
@@ -294,9 +342,14 @@ def test_console_script_runs(tmp_path):
     assert exe, "the cortex-ti console script is not installed"
     out = tmp_path / "y21.h5"
     env = dict(os.environ, CORTEX_TI_THREADS="2")
-    proc = subprocess.run([exe, "run", "sphere_y21_full", "--set", "mesh.nodes=162", "--threads", "2",
-                           "-o", str(out)], capture_output=True, text=True, timeout=600, env=env,
-                          cwd=tmp_path)
+    proc = subprocess.run(
+        [exe, "run", "sphere_y21_full", "--set", "mesh.nodes=162", "--threads", "2", "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip().splitlines()[-1] == str(out)
     assert "Traceback" not in proc.stderr
@@ -329,8 +382,23 @@ def test_a_solve_failing_mid_run_is_one_line_and_keeps_the_frames(tmp_path, caps
 
     monkeypatch.setattr(Simulation, "evaluate", failing)
     out = tmp_path / "x.h5"
-    rc, stdout, stderr = run(["run", "furrow_p4_a1", "-o", str(out), "--set", "mesh.nodes=162", "--set",
-                              "time.scheme=euler", "--set", "time.dt=1e-3", "--set", "time.save_every=1e-3"], capsys)
+    rc, stdout, stderr = run(
+        [
+            "run",
+            "furrow_p4_a1",
+            "-o",
+            str(out),
+            "--set",
+            "mesh.nodes=162",
+            "--set",
+            "time.scheme=euler",
+            "--set",
+            "time.dt=1e-3",
+            "--set",
+            "time.save_every=1e-3",
+        ],
+        capsys,
+    )
     assert rc == 2
     lines = [ln for ln in stderr.strip().splitlines() if ln.startswith("cortex-ti: error:")]
     assert len(lines) == 1 and "the solve at t = 0.006 for a step dt = 0.001 failed" in lines[0]
@@ -339,11 +407,14 @@ def test_a_solve_failing_mid_run_is_one_line_and_keeps_the_frames(tmp_path, caps
         assert ds.sizes["time"] == 6
 
 
-@pytest.mark.parametrize("overrides, words", [
-    (["viscosity.shear=1e308"], "viscosities"),
-    (["viscosity.shear=1e308", "numerics.formulation=paper"], "viscosities"),
-    (["time.dt=1e9", "time.scheme=euler", "numerics.formulation=paper"], "time.dt"),
-])
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        (["viscosity.shear=1e308"], "viscosities"),
+        (["viscosity.shear=1e308", "numerics.formulation=paper"], "viscosities"),
+        (["time.dt=1e9", "time.scheme=euler", "numerics.formulation=paper"], "time.dt"),
+    ],
+)
 def test_an_impossible_solve_is_one_line(tmp_path, capsys, overrides, words):
     """Finite but absurd input the schema lets through: the solve fails, and says which and why."""
     args = ["run", "furrow_p4_a1", "-o", str(tmp_path / "y.h5"), "--set", "mesh.nodes=162"]
@@ -360,9 +431,27 @@ def test_frames_land_on_the_extra_save_times(tmp_path, capsys, model):
     """``time.save_times`` adds frames at exactly those times (a figure's snapshot times), the
     regular grid of ``save_every`` staying where it was, and nothing past ``t_end``."""
     out = tmp_path / "x.h5"
-    rc, _, err = run(["run", "furrow_p4_a1", "-o", str(out), "--set", f"model={model}", "--set", "mesh.nodes=162",
-                      "--set", "time.scheme=euler", "--set", "time.dt=5e-3", "--set", "time.t_end=0.025",
-                      "--set", "time.save_times=[0.0035, 0.087, 0.02]"], capsys)
+    rc, _, err = run(
+        [
+            "run",
+            "furrow_p4_a1",
+            "-o",
+            str(out),
+            "--set",
+            f"model={model}",
+            "--set",
+            "mesh.nodes=162",
+            "--set",
+            "time.scheme=euler",
+            "--set",
+            "time.dt=5e-3",
+            "--set",
+            "time.t_end=0.025",
+            "--set",
+            "time.save_times=[0.0035, 0.087, 0.02]",
+        ],
+        capsys,
+    )
     assert rc == 0, err
     with open_output(out) as ds:
         np.testing.assert_allclose(ds["time"].values, [0.0, 0.0035, 0.01, 0.02, 0.025], rtol=0, atol=1e-12)

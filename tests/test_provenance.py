@@ -1,4 +1,4 @@
-"""Provenance: every output file says what made it (cortex_ti.provenance), and the version comes from the
+"""Provenance: every output file says what made it (cortex_ti.about), and the version comes from the
 repository's tags with a fallback when there is no git metadata.
 
 Truths: the installed distributions' own metadata (importlib.metadata), git's own answer for the checkout's
@@ -7,8 +7,8 @@ commit, and setuptools-scm's documented fallback for a source tree without git.
 
 from __future__ import annotations
 
-import shutil
 import os
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -43,8 +43,9 @@ def test_reading_the_versions_does_not_start_taichi():
     assert res.returncode == 0, res.stderr
 
 
-@pytest.mark.skipif(shutil.which("git") is None or _git("rev-parse", "HEAD").returncode != 0,
-                    reason="not a git checkout")
+@pytest.mark.skipif(
+    shutil.which("git") is None or _git("rev-parse", "HEAD").returncode != 0, reason="not a git checkout"
+)
 def test_the_commit_is_the_checkouts():
     head = _git("rev-parse", "HEAD").stdout.strip()
     commit = provenance()["cortex_ti_commit"]
@@ -56,10 +57,26 @@ def test_the_commit_is_the_checkouts():
 @pytest.mark.parametrize("model", ["3d", "axisymmetric"])
 def test_every_trajectory_carries_the_provenance(tmp_path, model):
     out = tmp_path / f"{model}.h5"
-    res = subprocess.run([sys.executable, "-m", "cortex_ti", "run", "sphere_y20_full", "-o", str(out),
-                          "--set", "mesh.nodes=162", "--set", f"model={model}"],
-                         capture_output=True, text=True, cwd=tmp_path, timeout=300,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])})
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cortex_ti",
+            "run",
+            "sphere_y20_full",
+            "-o",
+            str(out),
+            "--set",
+            "mesh.nodes=162",
+            "--set",
+            f"model={model}",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])},
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert {k: ds.attrs[k] for k in PROVENANCE_KEYS} == provenance()
@@ -72,8 +89,9 @@ def test_the_stores_carry_the_provenance():
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(shutil.which("git") is None or _git("rev-parse", "HEAD").returncode != 0,
-                    reason="not a git checkout")
+@pytest.mark.skipif(
+    shutil.which("git") is None or _git("rev-parse", "HEAD").returncode != 0, reason="not a git checkout"
+)
 def test_a_source_archive_without_git_builds_with_the_fallback_version(tmp_path):
     """`pip install .` from an archive of the sources (no .git, no tag): setuptools-scm's fallback_version."""
     src = tmp_path / "src"
@@ -83,8 +101,12 @@ def test_a_source_archive_without_git_builds_with_the_fallback_version(tmp_path)
             (src / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(ROOT / name, src / name)
     assert not (src / ".git").exists()
-    res = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path / "wheel"),
-                          str(src)], capture_output=True, text=True, timeout=600)
+    res = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path / "wheel"), str(src)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert res.returncode == 0, res.stderr[-2000:]
     wheel = next((tmp_path / "wheel").glob("cortex_ti-*.whl"))
     fallback = "0.1.0"  # [tool.setuptools_scm] fallback_version in pyproject.toml

@@ -10,14 +10,14 @@ import yaml
 
 from cortex_ti.dynamics.schemes import SCHEMES
 from cortex_ti.errors import SceneError
+from cortex_ti.physics.formulations import FORMULATIONS
+from cortex_ti.physics.galerkin import PRESSURE_WEIGHTS
 from cortex_ti.physics.model import EFFECTS
 from cortex_ti.physics.patterns import PATTERNS, pattern_schemas, register_pattern
 from cortex_ti.physics.terms import TERMS
 from cortex_ti.scene import full_schema, load_scene, scene_from_dict
 from cortex_ti.solve.factorizations import FACTORIZATIONS
 from cortex_ti.studies.registry import FIGURES, STORES, STUDIES
-from cortex_ti.physics.formulations import FORMULATIONS
-from cortex_ti.physics.galerkin import PRESSURE_WEIGHTS
 from cortex_ti.surface.fits import FIT_SCHEMES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -51,7 +51,7 @@ def test_config_schema_vocabularies_agree_with_the_registries():
     assert methods["additionalProperties"]["items"]["enum"] == list(FIT_SCHEMES)
     # every study of the registry has its section, and no section is unknown to it
     sections = set(CONFIG_SCHEMA["properties"]) - {"threads", "static", "figures"}
-    configured = {name for name, s in STUDIES.items() if not s.twin_of}    # the others are derived
+    configured = {name for name, s in STUDIES.items() if not s.twin_of}  # the others are derived
     assert sections == configured
     for name in configured:
         study = STUDIES[name]
@@ -66,7 +66,7 @@ def test_every_term_declares_a_known_effect():
 def test_every_store_and_figure_source_is_registered():
     assert set(STORES) >= {"convergence", "cost"} | {n for n, s in STUDIES.items() if s.has_store}
     for spec in FIGURES.values():
-        if spec.source == "static":     # the static runs at (nodes, fit, formulation)
+        if spec.source == "static":  # the static runs at (nodes, fit, formulation)
             assert int(spec.data[0]) > 0 and spec.data[1] in FIT_SCHEMES and spec.data[2] in FORMULATIONS, spec.name
             continue
         assert set(spec.data) <= (set(STORES) if spec.source == "store" else set(STUDIES)), spec.name
@@ -79,9 +79,13 @@ def test_a_registered_pattern_is_a_valid_scene_pattern():
     base = yaml.safe_load(load_scene("sphere_y20_full").to_yaml())
     base["active_stress"] = [{"type": "test_cosine", "k": 2.0}]
     with pytest.raises(SceneError, match="test_cosine"):
-        scene_from_dict(base)       # not registered yet: the schema refuses the type
-    schema = {"type": "object", "additionalProperties": False, "required": ["type"],
-              "properties": {"type": {"const": "test_cosine"}, "k": {"type": "number", "default": 1.0}}}
+        scene_from_dict(base)  # not registered yet: the schema refuses the type
+    schema = {
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["type"],
+        "properties": {"type": {"const": "test_cosine"}, "k": {"type": "number", "default": 1.0}},
+    }
 
     @register_pattern("test_cosine", schema=schema)
     def cosine(points, k=1.0):
@@ -92,6 +96,6 @@ def test_a_registered_pattern_is_a_valid_scene_pattern():
         assert scene["active_stress.0"] == {"type": "test_cosine", "k": 2.0}
         bad = dict(base, active_stress=[{"type": "test_cosine", "q": 1.0}])
         with pytest.raises(SceneError, match="unknown key 'active_stress.0.q'"):
-            scene_from_dict(bad)    # and its own schema checks its parameters
+            scene_from_dict(bad)  # and its own schema checks its parameters
     finally:
         PATTERNS.pop("test_cosine")

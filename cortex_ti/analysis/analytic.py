@@ -115,8 +115,9 @@ def _l2_squared(patterns, order=None) -> float:
     return float(integrate_patterns(patterns, weight=lambda p: evaluate_active_stress(p, patterns), order=order))
 
 
-def sphere_full_solution(points, patterns, radius: float = 1.0, eta_b: float = 1.0,
-                         order: int | None = None) -> tuple[np.ndarray, float]:
+def sphere_full_solution(
+    points, patterns, radius: float = 1.0, eta_b: float = 1.0, order: int | None = None
+) -> tuple[np.ndarray, float]:
     """Exact flow of the full system (tangential + normal balance) on a static sphere.
 
     ``v = -(R / (2 eta_b)) (zeta - zeta_bar) n``, ``P = 2 zeta_bar / R``, for any isotropic
@@ -161,8 +162,9 @@ def _terms(terms) -> list[tuple[int, int, float]]:
         out = []
         for i, t in enumerate(terms):
             if t["type"] != "harmonics":
-                raise ValueError(f"pattern {i} has type {t['type']!r}; "
-                                 "only 'harmonics' patterns have this analytic solution")
+                raise ValueError(
+                    f"pattern {i} has type {t['type']!r}; only 'harmonics' patterns have this analytic solution"
+                )
             out.extend(harmonic_terms(t.get("terms", [])))
         return out
     try:
@@ -214,8 +216,9 @@ def sphere_tangential_solution(points, terms, radius: float = 1.0, eta_s: float 
     return v
 
 
-def bending_coefficients(l: int, radius: float, eta_s: float, eta_b: float, eta_bar: float,
-                         eta_bar_b: float) -> tuple[float, float]:
+def bending_coefficients(
+    l: int, radius: float, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float
+) -> tuple[float, float]:
     """``(alpha, beta)`` per unit ``zeta_l`` for one degree ``l >= 2`` (module docstring).
 
     Solves
@@ -248,8 +251,9 @@ def bending_coefficients(l: int, radius: float, eta_s: float, eta_b: float, eta_
     return float(alpha), float(beta)
 
 
-def sphere_bending_solution(points, terms, radius: float, eta_s: float, eta_b: float, eta_bar: float,
-                            eta_bar_b: float) -> tuple[np.ndarray, float]:
+def sphere_bending_solution(
+    points, terms, radius: float, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float
+) -> tuple[np.ndarray, float]:
     """Exact flow on a static sphere with the bending-viscosity normal force on.
 
     ``v = sum_{l >= 2} coeff (alpha_l grad_s Y_lm + beta_l Y_lm n)`` with

@@ -129,8 +129,7 @@ DIAGNOSTIC_ATTRS: dict[str, dict] = {
     "max_tangential_speed": {
         "units": "R0/t_a",
         "long_name": "largest tangential speed",
-        "description": "maximum over nodes of |v - (v . n) n|, v the node velocity and n the unit outward "
-        "node normal",
+        "description": "maximum over nodes of |v - (v . n) n|, v the node velocity and n the unit outward node normal",
     },
     "min_angle_deg": {
         "units": "degrees",
@@ -204,7 +203,7 @@ class _Surface:
             raise ValueError(f"faces refer to nodes outside 0..{pts.shape[0] - 1}")
         self.faces = fc
         self.cols = [np.ascontiguousarray(fc[:, k]) for k in range(3)]
-        self.pts = np.ascontiguousarray(pts.T)                      # (3, N)
+        self.pts = np.ascontiguousarray(pts.T)  # (3, N)
         self.x = [tuple(row.take(col) for row in self.pts) for col in self.cols]
         self._areas = None
         self._centroid = None
@@ -298,12 +297,10 @@ def _quality(surf: _Surface) -> dict:
     ea, eb, ec = _sub(x2, x1), _sub(x0, x2), _sub(x1, x0)  # edges opposite corners 0, 1, 2
     la, lb, lc = np.sqrt(_dot(ea, ea)), np.sqrt(_dot(eb, eb)), np.sqrt(_dot(ec, ec))
     n = _cross(eb, ec)
-    area2 = np.sqrt(_dot(n, n))                            # twice the area
+    area2 = np.sqrt(_dot(n, n))  # twice the area
     # the smallest angle of a triangle lies opposite its shortest edge; at corner k it is
     # atan2(|a x b|, a . b) with a, b the edges leaving k (accurate for tiny and obtuse angles)
-    cos_term = np.where(
-        (la <= lb) & (la <= lc), -_dot(ec, eb), np.where(lb <= lc, -_dot(ea, ec), -_dot(eb, ea))
-    )
+    cos_term = np.where((la <= lb) & (la <= lc), -_dot(ec, eb), np.where(lb <= lc, -_dot(ea, ec), -_dot(eb, ea)))
     min_angle = float(np.degrees(np.arctan2(area2, cos_term).min()))
     lmax = np.maximum(np.maximum(la, lb), lc)
     lmin = np.minimum(np.minimum(la, lb), lc)
@@ -445,7 +442,7 @@ def _line_hits(surf: _Surface, origin: np.ndarray, direction: np.ndarray) -> np.
     pvec = _cross(direction, e2)
     det = _dot(e1, pvec)
     size = np.sqrt(_dot(e1, e1) * _dot(e2, e2))
-    ok = np.abs(det) > 1e-12 * size                      # skip triangles parallel to the line
+    ok = np.abs(det) > 1e-12 * size  # skip triangles parallel to the line
     inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
     tvec = (origin[0] - x0[0], origin[1] - x0[1], origin[2] - x0[2])
     u = _dot(tvec, pvec) * inv
@@ -532,7 +529,7 @@ def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _section(surf: _Surface, axis: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Segments of the plane section, in plane coordinates centred on the axis: P, Q of shape (K, 2)."""
-    rel = surf.pts - c[:, None]                             # (3, N)
+    rel = surf.pts - c[:, None]  # (3, N)
     height = axis[0] * rel[0] + axis[1] * rel[1] + axis[2] * rel[2]  # signed height of each node
     # a node exactly in the plane counts as above it (symbolic perturbation)
     up0, up1, up2 = (height.take(col) >= 0.0 for col in surf.cols)
@@ -544,17 +541,17 @@ def _section(surf: _Surface, axis: np.ndarray, c: np.ndarray) -> tuple[np.ndarra
             "furrow radius is undefined"
         )
     fc = surf.faces[mixed]
-    d = height[fc]                                          # identical for a node in all its faces
+    d = height[fc]  # identical for a node in all its faces
     up = d >= 0.0
     nxt = [1, 2, 0]
-    crossed = up != up[:, nxt]                              # edge k: corner k -> corner k+1
-    y = rel.T[fc]                                           # (M, 3 corners, 3)
+    crossed = up != up[:, nxt]  # edge k: corner k -> corner k+1
+    y = rel.T[fc]  # (M, 3 corners, 3)
     dn = d[:, nxt]
     t = np.where(crossed, d / np.where(crossed, d - dn, 1.0), 0.0)
-    pts = y + t[:, :, None] * (y[:, nxt] - y)               # crossing point on each edge
-    seg = pts[crossed].reshape(-1, 2, 3)                    # exactly two crossed edges per mixed face
+    pts = y + t[:, :, None] * (y[:, nxt] - y)  # crossing point on each edge
+    seg = pts[crossed].reshape(-1, 2, 3)  # exactly two crossed edges per mixed face
     e1, e2 = _basis(axis)
-    plane = np.stack([seg @ e1, seg @ e2], axis=-1)         # (M, 2 ends, 2)
+    plane = np.stack([seg @ e1, seg @ e2], axis=-1)  # (M, 2 ends, 2)
     return plane[:, 0], plane[:, 1]
 
 
@@ -569,8 +566,8 @@ def _segment_stats(p: np.ndarray, q: np.ndarray) -> tuple[float, float, float]:
             "the plane only touches the surface (its section has zero length); the furrow radius is undefined"
         )
     u = dv / length[:, None]
-    x0 = p[:, 0] * u[:, 0] + p[:, 1] * u[:, 1]              # along-line coordinate of p (foot of the axis at 0)
-    h = np.abs(p[:, 0] * u[:, 1] - p[:, 1] * u[:, 0])       # distance of the segment's line from the axis
+    x0 = p[:, 0] * u[:, 0] + p[:, 1] * u[:, 1]  # along-line coordinate of p (foot of the axis at 0)
+    h = np.abs(p[:, 0] * u[:, 1] - p[:, 1] * u[:, 0])  # distance of the segment's line from the axis
     x1 = x0 + length
     pos = h > 0
     hs = np.where(pos, h, 1.0)

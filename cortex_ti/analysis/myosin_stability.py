@@ -107,6 +107,7 @@ def activity(law: str, zeta0: float, gamma: float | None = None) -> float:
 # checks and the per-degree coefficients
 # ---------------------------------------------------------------------------------------------
 
+
 def _degree(l) -> int:
     if isinstance(l, bool) or int(l) != l or l < 0:
         raise ValueError(f"degree l must be an integer >= 0, got {l!r}")
@@ -114,8 +115,16 @@ def _degree(l) -> int:
 
 
 def _check(D, k, c0, eta_s, eta_b, eta_bar, eta_bar_b, radius, translation, formulation) -> None:
-    vals = {"D": D, "k": k, "c0": c0, "eta_s": eta_s, "eta_b": eta_b, "eta_bar": eta_bar,
-            "eta_bar_b": eta_bar_b, "radius": radius}
+    vals = {
+        "D": D,
+        "k": k,
+        "c0": c0,
+        "eta_s": eta_s,
+        "eta_b": eta_b,
+        "eta_bar": eta_bar,
+        "eta_bar_b": eta_bar_b,
+        "radius": radius,
+    }
     for name, v in vals.items():
         if not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
@@ -132,7 +141,7 @@ def _kappa(l: int, R: float, eta_bar: float, eta_bar_b: float) -> float:
     """Bending normal drag per unit normal speed of degree l on the sphere (the 3D code's Eq. 45
     force; the same expression as ``sphere_exact.bending_kappa``, repeated so that this module
     stays independent of the one its tests use as the truth)."""
-    return (2.0 * eta_bar_b * l * (l + 1) + 8.0 * eta_bar - 4.0 * eta_bar_b) / R ** 3
+    return (2.0 * eta_bar_b * l * (l + 1) + 8.0 * eta_bar - 4.0 * eta_bar_b) / R**3
 
 
 def _coefficients(l, eta_s, eta_b, eta_bar, eta_bar_b, R):
@@ -143,13 +152,21 @@ def _coefficients(l, eta_s, eta_b, eta_bar, eta_bar_b, R):
     X = L * R * R * kap + 4.0 * eta_s * (L - 2)
     Dl = R * R * kap * E + 4.0 * eta_b * eta_s * (L - 2)
     if not Dl > 0.0:
-        raise ValueError(f"degree {l}: the normal balance is singular (eta_b = {eta_b} and bending "
-                         f"drag {kap}): it needs eta_b > 0 or a bending viscosity")
+        raise ValueError(
+            f"degree {l}: the normal balance is singular (eta_b = {eta_b} and bending "
+            f"drag {kap}): it needs eta_b > 0 or a bending viscosity"
+        )
     return E, X, Dl
 
 
-def l1_gain(*, eta_b: float = 1.0, eta_bar: float = 0.0, radius: float = 1.0,
-            translation: str = "mean_velocity", formulation: str = "rayleigh_p1") -> tuple[float, float]:
+def l1_gain(
+    *,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    radius: float = 1.0,
+    translation: str = "mean_velocity",
+    formulation: str = "rayleigh_p1",
+) -> tuple[float, float]:
     r"""Degree 1: ``(G_1, a_1)``, the area-dilation rate ``-v^c_c`` and the poloidal potential
     ``a`` of the flow ``v = a grad_s Y_1m + b Y_1m n`` per unit tension ``zeta_1m``.
 
@@ -171,8 +188,9 @@ def l1_gain(*, eta_b: float = 1.0, eta_bar: float = 0.0, radius: float = 1.0,
     R = float(radius)
     if translation == "centroid" or eta_bar == 0.0:
         if not eta_b > 0.0:
-            raise ValueError("degree 1 needs eta_b > 0 (the tension gradient is balanced by the bulk "
-                             "viscous stress alone)")
+            raise ValueError(
+                "degree 1 needs eta_b > 0 (the tension gradient is balanced by the bulk viscous stress alone)"
+            )
         a = R * R / (2.0 * eta_b) if translation == "centroid" else R * R / (6.0 * eta_b)
         return 1.0 / eta_b, a
     kap1 = _kappa(1, R, eta_bar, 0.0)
@@ -185,10 +203,23 @@ def l1_gain(*, eta_b: float = 1.0, eta_bar: float = 0.0, radius: float = 1.0,
 # the linear system per degree
 # ---------------------------------------------------------------------------------------------
 
-def mode_matrix(l: int, zeta0: float, gamma: float, D: float, k: float, *, c0: float = 1.0,
-                eta_s: float = 1.0, eta_b: float = 1.0, eta_bar: float = 0.0, eta_bar_b: float = 0.0,
-                radius: float = 1.0, translation: str = "mean_velocity",
-                formulation: str = "rayleigh_p1") -> np.ndarray:
+
+def mode_matrix(
+    l: int,
+    zeta0: float,
+    gamma: float,
+    D: float,
+    k: float,
+    *,
+    c0: float = 1.0,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    radius: float = 1.0,
+    translation: str = "mean_velocity",
+    formulation: str = "rayleigh_p1",
+) -> np.ndarray:
     r"""The matrix ``J_l`` of ``d/dt x = J_l x`` for one ``(l, m)`` (the same for every m).
 
     State ``x = (c_lm, u_lm)``: myosin and normal shape displacement amplitudes. ``l = 0``:
@@ -208,20 +239,21 @@ def mode_matrix(l: int, zeta0: float, gamma: float, D: float, k: float, *, c0: f
     R = float(radius)
     A = float(zeta0) * float(gamma)
     L = l * (l + 1)
-    mu = D * L / R ** 2 + k
+    mu = D * L / R**2 + k
     if l == 0:
         return np.array([[-float(k)]])
     if l == 1:
-        G1, a1 = l1_gain(eta_b=eta_b, eta_bar=eta_bar, radius=R, translation=translation,
-                         formulation=formulation)
+        G1, a1 = l1_gain(eta_b=eta_b, eta_bar=eta_bar, radius=R, translation=translation, formulation=formulation)
         if translation == "centroid":
             return np.array([[A * G1 - mu]])
         return np.array([[A * G1 - mu, 0.0], [-2.0 * a1 / R * A / c0, 0.0]])
     E, X, Dl = _coefficients(l, eta_s, eta_b, eta_bar, eta_bar_b, R)
-    return np.array([
-        [A * X / Dl - mu, 2.0 * c0 * zeta0 * eta_s * (L - 2) ** 2 / (R * Dl)],
-        [-2.0 * eta_s * (L - 2) * R * A / (c0 * Dl), -(L - 2) * E * zeta0 / Dl],
-    ])
+    return np.array(
+        [
+            [A * X / Dl - mu, 2.0 * c0 * zeta0 * eta_s * (L - 2) ** 2 / (R * Dl)],
+            [-2.0 * eta_s * (L - 2) * R * A / (c0 * Dl), -(L - 2) * E * zeta0 / Dl],
+        ]
+    )
 
 
 @dataclass(frozen=True)
@@ -276,10 +308,23 @@ def modes(l: int, zeta0: float, gamma: float, D: float, k: float, **kw) -> Modes
     return Modes(lam[order], vec[:, order], ("c", "u")[: J.shape[0]])
 
 
-def growth_rates(l: int, zeta0: float, gamma: float, D: float, k: float, *, eta_s: float = 1.0,
-                 eta_b: float = 1.0, eta_bar: float = 0.0, eta_bar_b: float = 0.0,
-                 translation: str = "mean_velocity", c0: float = 1.0, radius: float = 1.0,
-                 formulation: str = "rayleigh_p1", decimals: int | None = 6) -> np.ndarray:
+def growth_rates(
+    l: int,
+    zeta0: float,
+    gamma: float,
+    D: float,
+    k: float,
+    *,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    translation: str = "mean_velocity",
+    c0: float = 1.0,
+    radius: float = 1.0,
+    formulation: str = "rayleigh_p1",
+    decimals: int | None = 6,
+) -> np.ndarray:
     r"""Growth rates of degree l (largest real part first; complex only past a Hopf point).
 
     ``decimals``: rounding of the result (the doctests' display; ``None`` for full precision).
@@ -291,14 +336,35 @@ def growth_rates(l: int, zeta0: float, gamma: float, D: float, k: float, *, eta_
     >>> growth_rates(3, 1.0, 0.0, 0.05, 0.2)                      # no activity: -D L - k, Laplace
     array([-0.8, -5.5])
     """
-    m = modes(l, zeta0, gamma, D, k, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b,
-              translation=translation, c0=c0, radius=radius, formulation=formulation)
+    m = modes(
+        l,
+        zeta0,
+        gamma,
+        D,
+        k,
+        eta_s=eta_s,
+        eta_b=eta_b,
+        eta_bar=eta_bar,
+        eta_bar_b=eta_bar_b,
+        translation=translation,
+        c0=c0,
+        radius=radius,
+        formulation=formulation,
+    )
     r = m.rates
     return r if decimals is None else np.round(r, decimals) + 0.0
 
 
-def laplace_rate(l: int, zeta0: float, *, eta_s: float = 1.0, eta_b: float = 1.0, eta_bar: float = 0.0,
-                 eta_bar_b: float = 0.0, radius: float = 1.0) -> float:
+def laplace_rate(
+    l: int,
+    zeta0: float,
+    *,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    radius: float = 1.0,
+) -> float:
     r"""Relaxation rate of a shape mode of degree l >= 2 of a uniformly tense sphere (no myosin
     feedback): ``-(L-2) E_l zeta0 / D_l``; without bending ``-zeta0 (eta_s (L-2) + eta_b L) /
     (4 eta_s eta_b)`` (independent of R). ``l = 1`` (translation): 0.
@@ -321,10 +387,21 @@ def laplace_rate(l: int, zeta0: float, *, eta_s: float = 1.0, eta_b: float = 1.0
 # onsets
 # ---------------------------------------------------------------------------------------------
 
-def critical_activity(l: int, D: float, k: float, *, gamma: float = 1.0, eta_s: float = 1.0,
-                      eta_b: float = 1.0, eta_bar: float = 0.0, eta_bar_b: float = 0.0,
-                      translation: str = "mean_velocity", radius: float = 1.0,
-                      formulation: str = "rayleigh_p1") -> float:
+
+def critical_activity(
+    l: int,
+    D: float,
+    k: float,
+    *,
+    gamma: float = 1.0,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    translation: str = "mean_velocity",
+    radius: float = 1.0,
+    formulation: str = "rayleigh_p1",
+) -> float:
     r"""The activity ``A = zeta0 gamma`` at which degree l starts to grow, raising ``zeta0`` at
     fixed ``gamma`` (``inf`` if it never does).
 
@@ -342,12 +419,11 @@ def critical_activity(l: int, D: float, k: float, *, gamma: float = 1.0, eta_s: 
     _check(D, k, 1.0, eta_s, eta_b, eta_bar, eta_bar_b, radius, translation, formulation)
     R = float(radius)
     L = l * (l + 1)
-    mu = D * L / R ** 2 + k
+    mu = D * L / R**2 + k
     if l == 0:
         return math.inf
     if l == 1:
-        G1, _ = l1_gain(eta_b=eta_b, eta_bar=eta_bar, radius=R, translation=translation,
-                        formulation=formulation)
+        G1, _ = l1_gain(eta_b=eta_b, eta_bar=eta_bar, radius=R, translation=translation, formulation=formulation)
         return mu / G1
     E, X, Dl = _coefficients(l, eta_s, eta_b, eta_bar, eta_bar_b, R)
     stationary = E * mu / L

@@ -32,16 +32,18 @@ def reference_dir(path=None) -> Path:
 def load_radii(path=None) -> dict[str, np.ndarray]:
     """``t``, ``pole_radius``, ``furrow_radius`` of the reference (p = 8, zeta_hat = 1)."""
     data = np.genfromtxt(reference_dir(path) / "caseA_p8_zh1_radii_vs_time.csv", delimiter=",", names=True)
-    return {"t": data["t_over_ta"], "pole_radius": data["pole_radius_over_R0"],
-            "furrow_radius": data["furrow_radius_over_R0"]}
+    return {
+        "t": data["t_over_ta"],
+        "pole_radius": data["pole_radius_over_R0"],
+        "furrow_radius": data["furrow_radius_over_R0"],
+    }
 
 
 def load_profile(t: float, path=None) -> dict[str, np.ndarray]:
     """The reference flow along the meridian at time ``t`` (one of :data:`PROFILE_TIMES`)."""
     name = f"caseA_p8_zh1_velocity_t{t:.1f}.csv"
     data = np.genfromtxt(reference_dir(path) / name, delimiter=",", names=True)
-    return {"z": data["z_over_R0"], "r": data["r_over_R0"], "abs_vt": data["abs_vt_over_va"],
-            "vn": data["vn_over_va"]}
+    return {"z": data["z_over_R0"], "r": data["r_over_R0"], "abs_vt": data["abs_vt_over_va"], "vn": data["vn_over_va"]}
 
 
 #: The ring of the reference run (its README): the furrow of paper Fig. 5.
@@ -61,7 +63,9 @@ def matches_reference(settings) -> bool:
     ring = settings.patterns[0]
     return ring.get("type") == "ring" and all(
         np.allclose(np.asarray(ring.get(k, want), dtype=float), np.asarray(want, dtype=float), rtol=1e-12, atol=1e-12)
-        for k, want in REFERENCE_RING.items() if k != "type")
+        for k, want in REFERENCE_RING.items()
+        if k != "type"
+    )
 
 
 def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
@@ -76,9 +80,13 @@ def radii_deviation(times, pole, furrow, path=None) -> dict[str, float]:
         raise CortexError("no frame time falls on the reference's 0.01 t_a grid")
     dp = np.abs(np.asarray(pole)[ok] - ref["pole_radius"][idx[ok]])
     df = np.abs(np.asarray(furrow)[ok] - ref["furrow_radius"][idx[ok]])
-    return {"pole": float(dp.max()), "furrow": float(df.max()),
-            "t_pole": float(np.asarray(times)[ok][dp.argmax()]), "t_furrow": float(np.asarray(times)[ok][df.argmax()]),
-            "frames": int(ok.sum())}
+    return {
+        "pole": float(dp.max()),
+        "furrow": float(df.max()),
+        "t_pole": float(np.asarray(times)[ok][dp.argmax()]),
+        "t_furrow": float(np.asarray(times)[ok][df.argmax()]),
+        "frames": int(ok.sum()),
+    }
 
 
 def profile_deviation(points, velocity, normals, t: float, path=None) -> dict[str, float]:
@@ -94,6 +102,11 @@ def profile_deviation(points, velocity, normals, t: float, path=None) -> dict[st
     vt = np.linalg.norm(velocity - vn[:, None] * normals, axis=1)
     vn_ref = np.interp(z, ref["z"][order], ref["vn"][order])
     vt_ref = np.interp(z, ref["z"][order], ref["abs_vt"][order])
-    return {"vn_max": float(np.abs(vn - vn_ref).max()), "vn_rms": float(np.sqrt(np.mean((vn - vn_ref) ** 2))),
-            "vt_max": float(np.abs(vt - vt_ref).max()), "vt_rms": float(np.sqrt(np.mean((vt - vt_ref) ** 2))),
-            "vn_scale": float(np.abs(ref["vn"]).max()), "vt_scale": float(np.abs(ref["abs_vt"]).max())}
+    return {
+        "vn_max": float(np.abs(vn - vn_ref).max()),
+        "vn_rms": float(np.sqrt(np.mean((vn - vn_ref) ** 2))),
+        "vt_max": float(np.abs(vt - vt_ref).max()),
+        "vt_rms": float(np.sqrt(np.mean((vt - vt_ref) ** 2))),
+        "vn_scale": float(np.abs(ref["vn"]).max()),
+        "vt_scale": float(np.abs(ref["abs_vt"]).max()),
+    }

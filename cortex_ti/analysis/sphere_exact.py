@@ -38,8 +38,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = [
-    "sphere_flow", "expand", "Spectrum", "flow_coefficients", "l1_coefficients", "bending_kappa",
-    "real_sph_harm", "sphere_mean", "frame_matrix", "NotConvergedError", "L1Error",
+    "sphere_flow",
+    "expand",
+    "Spectrum",
+    "flow_coefficients",
+    "l1_coefficients",
+    "bending_kappa",
+    "real_sph_harm",
+    "sphere_mean",
+    "frame_matrix",
+    "NotConvergedError",
+    "L1Error",
 ]
 
 FOUR_PI = 4.0 * math.pi
@@ -58,6 +67,7 @@ class L1Error(ValueError):
 # per-degree coefficients
 # ---------------------------------------------------------------------------------------------
 
+
 def bending_kappa(l: int, radius: float, eta_bar: float, eta_bar_b: float) -> float:
     r"""Normal bending-viscosity force per unit normal speed for a degree-l ``v_n`` on a sphere.
 
@@ -68,12 +78,19 @@ def bending_kappa(l: int, radius: float, eta_bar: float, eta_bar_b: float) -> fl
     ``kappa_l = (2 eta_bar_b l(l+1) + 8 eta_bar - 4 eta_bar_b) / R^3``.
     """
     L = l * (l + 1)
-    return (2.0 * eta_bar_b * L + 8.0 * eta_bar - 4.0 * eta_bar_b) / radius ** 3
+    return (2.0 * eta_bar_b * L + 8.0 * eta_bar - 4.0 * eta_bar_b) / radius**3
 
 
-def flow_coefficients(l: int, *, radius: float = 1.0, eta_s: float = 1.0, eta_b: float = 1.0,
-                      eta_bar: float = 0.0, eta_bar_b: float = 0.0,
-                      system: str = "full") -> tuple[float, float]:
+def flow_coefficients(
+    l: int,
+    *,
+    radius: float = 1.0,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    system: str = "full",
+) -> tuple[float, float]:
     r"""``(alpha_l, beta_l)`` of ``v = zeta_lm (alpha_l grad_s Y_lm + beta_l Y_lm n)`` for l >= 2.
 
     ``l = 0`` returns ``(0, 0)`` (a uniform tension only sets ``P``). For ``l = 1`` use
@@ -110,13 +127,21 @@ def flow_coefficients(l: int, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     if not den > 0.0:
         raise ValueError(
             f"full system, degree {l}: no solution (eta_b = {eta_b}, kappa_l = {kap}); the normal "
-            "balance needs eta_b > 0 or a bending viscosity")
-    return R ** 4 * kap / den, -2.0 * eta_s * (L - 2) * R / den
+            "balance needs eta_b > 0 or a bending viscosity"
+        )
+    return R**4 * kap / den, -2.0 * eta_s * (L - 2) * R / den
 
 
-def l1_coefficients(*, radius: float = 1.0, eta_s: float = 1.0, eta_b: float = 1.0,
-                    eta_bar: float = 0.0, eta_bar_b: float = 0.0, system: str = "full",
-                    weight: float = math.inf) -> tuple[float, float, bool, float, float]:
+def l1_coefficients(
+    *,
+    radius: float = 1.0,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    system: str = "full",
+    weight: float = math.inf,
+) -> tuple[float, float, bool, float, float]:
     r"""Degree 1: ``(alpha_1, beta_1, exact, res_t, res_n)``.
 
     All l = 1 motions are shear-free, so the tangential balance reduces to
@@ -145,31 +170,32 @@ def l1_coefficients(*, radius: float = 1.0, eta_s: float = 1.0, eta_b: float = 1
         return 0.0, 0.0, False, 1.0, float("nan")
     if system != "full":
         raise ValueError(f"system must be 'full' or 'tangential', got {system!r}")
-    kap1 = bending_kappa(1, R, eta_bar, eta_bar_b)   # = 8 eta_bar / R^3
+    kap1 = bending_kappa(1, R, eta_bar, eta_bar_b)  # = 8 eta_bar / R^3
     if kap1 == 0.0 and eta_b > 0.0:
         return R * R / (6.0 * eta_b), -R / (3.0 * eta_b), True, 0.0, 0.0
     # unknown a, b = -2 a / R; s = 1 - 6 eta_b a / R^2; normal = 2 s / R + kap1 b
     if math.isinf(weight):
-        c = 6.0 * eta_b / R ** 2 + kap1
+        c = 6.0 * eta_b / R**2 + kap1
         if c == 0.0:
             raise L1Error("degree 1 undetermined: eta_b = 0 and no bending viscosity")
         a = 1.0 / c
     else:
         w = float(weight)
         r0 = np.array([math.sqrt(2.0) / R, 2.0 * w / R])
-        r1 = np.array([-6.0 * math.sqrt(2.0) * eta_b / R ** 3, w * (-12.0 * eta_b / R ** 3 - 2.0 * kap1 / R)])
+        r1 = np.array([-6.0 * math.sqrt(2.0) * eta_b / R**3, w * (-12.0 * eta_b / R**3 - 2.0 * kap1 / R)])
         nn = float(r1 @ r1)
         if nn == 0.0:
             raise L1Error("degree 1 undetermined: eta_b = 0 and no bending viscosity")
         a = -float(r0 @ r1) / nn
     b = -2.0 * a / R
-    s = 1.0 - 6.0 * eta_b * a / R ** 2
+    s = 1.0 - 6.0 * eta_b * a / R**2
     return a, b, False, s, 2.0 * s / R + kap1 * b
 
 
 # ---------------------------------------------------------------------------------------------
 # frames and normalised associated Legendre functions
 # ---------------------------------------------------------------------------------------------
+
 
 def frame_matrix(axis=None) -> np.ndarray:
     """Rotation ``Q`` (rows ``e1, e2, a``) taking global to local coordinates, ``x_loc = Q x``.
@@ -209,8 +235,7 @@ def _rec_tables(lmax: int) -> tuple[np.ndarray, np.ndarray]:
     return _REC_CACHE[lmax]
 
 
-def _legendre_rows(z: np.ndarray, lmax: int, s: np.ndarray | None = None, deriv: bool = False,
-                   mmax: int | None = None):
+def _legendre_rows(z: np.ndarray, lmax: int, s: np.ndarray | None = None, deriv: bool = False, mmax: int | None = None):
     r"""Yield ``(l, q, dq)`` for l = 0..lmax, ``q[:, m]`` for m = 0..min(l, mmax).
 
     ``s is None``: ``q = Qbar_l^m(z) = Pbar_l^m(z) / s^m``, a polynomial in z (regular at the
@@ -245,7 +270,7 @@ def _legendre_rows(z: np.ndarray, lmax: int, s: np.ndarray | None = None, deriv:
         w = min(l, mmax) + 1
         q = np.zeros((n, M))
         d = np.zeros((n, M)) if deriv else None
-        k = min(l - 1, w)          # m < l - 1 by the three-term recurrence
+        k = min(l - 1, w)  # m < l - 1 by the three-term recurrence
         if k > 0:
             al = a[l, :k]
             bl = b[l, :k]
@@ -289,6 +314,7 @@ def real_sph_harm(l: int, m: int, points) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 # expansion of a callable
 # ---------------------------------------------------------------------------------------------
+
 
 @dataclass
 class Spectrum:
@@ -385,8 +411,15 @@ def gauss_legendre(n: int) -> tuple[np.ndarray, np.ndarray]:
     return _GL_CACHE[n]
 
 
-def expand(zeta, lmax: int = 120, *, axis=None, axisymmetric: bool | None = None,
-           nquad: int | None = None, axisym_rtol: float = 1e-12) -> Spectrum:
+def expand(
+    zeta,
+    lmax: int = 120,
+    *,
+    axis=None,
+    axisymmetric: bool | None = None,
+    nquad: int | None = None,
+    axisym_rtol: float = 1e-12,
+) -> Spectrum:
     """Expand the callable ``zeta(points (N, 3) on the unit sphere) -> (N,)`` up to ``lmax``.
 
     General: Gauss-Legendre in ``z_loc = a . n`` (``nquad`` nodes, default ``3 lmax / 2 + 16``,
@@ -420,10 +453,11 @@ def expand(zeta, lmax: int = 120, *, axis=None, axisymmetric: bool | None = None
     z, wz = gauss_legendre(nz)
     s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
     phi = np.arange(nphi) * (2.0 * math.pi / nphi)
-    loc = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)),
-                    np.repeat(z[:, None], nphi, axis=1)], axis=-1).reshape(-1, 3)
+    loc = np.stack(
+        [np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)), np.repeat(z[:, None], nphi, axis=1)], axis=-1
+    ).reshape(-1, 3)
     f = _call(zeta, loc @ Q).reshape(nz, nphi)
-    F = np.fft.fft(f, axis=1)[:, : lmax + 1] * (2.0 * math.pi / nphi)   # int f e^{-i m phi} dphi
+    F = np.fft.fft(f, axis=1)[:, : lmax + 1] * (2.0 * math.pi / nphi)  # int f e^{-i m phi} dphi
     nu = np.full(lmax + 1, math.sqrt(2.0))
     nu[0] = 1.0
     G = (wz[:, None] * F) * nu[None, :]
@@ -442,6 +476,7 @@ def sphere_mean(zeta, *, axis=None, axisymmetric: bool | None = None, lmax: int 
 # ---------------------------------------------------------------------------------------------
 # synthesis
 # ---------------------------------------------------------------------------------------------
+
 
 def _legendre_m(z: np.ndarray, m: int, lmax: int, deriv: bool = False):
     """Column m of the table: ``Qbar_l^m(z)`` (and ``d/dz``) for l = m..lmax, shape (lmax-m+1, n)."""
@@ -476,8 +511,7 @@ def _legendre_m(z: np.ndarray, m: int, lmax: int, deriv: bool = False):
     return q, d
 
 
-def _synthesize(spec: Spectrum, wb: np.ndarray, wa: np.ndarray, u: np.ndarray,
-                half: int | None = None) -> dict:
+def _synthesize(spec: Spectrum, wb: np.ndarray, wa: np.ndarray, u: np.ndarray, half: int | None = None) -> dict:
     r"""``vn = sum_l wb[l] zeta_l`` and ``g = sum_l wa[l] grad_1 zeta_l`` at unit directions u.
 
     ``grad_1`` is the surface gradient on the *unit* sphere, computed from the polynomial
@@ -494,10 +528,10 @@ def _synthesize(spec: Spectrum, wb: np.ndarray, wa: np.ndarray, u: np.ndarray,
     mmax = 0 if spec.axisymmetric else lmax
     nsets = 2 if half is not None else 1
     vn = np.zeros((nsets, N))
-    gxy = np.zeros((nsets, N), dtype=complex)      # sum m S_m w^(m-1)  -> (dF/dx, -dF/dy)
+    gxy = np.zeros((nsets, N), dtype=complex)  # sum m S_m w^(m-1)  -> (dF/dx, -dF/dy)
     gz = np.zeros((nsets, N))
-    wm = np.ones(N, dtype=complex)        # w^m
-    wm1 = np.zeros(N, dtype=complex)      # w^(m-1)
+    wm = np.ones(N, dtype=complex)  # w^m
+    wm1 = np.zeros(N, dtype=complex)  # w^(m-1)
     lv = np.arange(lmax + 1)
     for m in range(mmax + 1):
         nu = 1.0 if m == 0 else math.sqrt(2.0)
@@ -506,14 +540,14 @@ def _synthesize(spec: Spectrum, wb: np.ndarray, wa: np.ndarray, u: np.ndarray,
         for s_ in range(nsets):
             keep = np.ones(lmax + 1 - m) if s_ == 0 else (lv[m:] <= half).astype(float)
             cols += [c * wb[m:] * keep, c * wa[m:] * keep]
-        C = np.stack(cols, axis=1)                                # (nl, 2 nsets) complex
+        C = np.stack(cols, axis=1)  # (nl, 2 nsets) complex
         if not np.any(C):
             wm1 = wm
             wm = wm * w
             continue
         q, d = _legendre_m(z, m, lmax, deriv=True)
-        Cr = np.concatenate([C.real, C.imag], axis=1)             # (nl, 4 nsets)
-        S = q.T @ Cr                                              # (N, 4 nsets)
+        Cr = np.concatenate([C.real, C.imag], axis=1)  # (nl, 4 nsets)
+        S = q.T @ Cr  # (N, 4 nsets)
         D = d.T @ Cr
         k = 2 * nsets
         for s_ in range(nsets):
@@ -538,7 +572,7 @@ def _synthesize(spec: Spectrum, wb: np.ndarray, wa: np.ndarray, u: np.ndarray,
 def _synthesize_chunked(spec, wb, wa, u, half=None, chunk=16384) -> dict:
     if u.shape[0] <= chunk:
         return _synthesize(spec, wb, wa, u, half)
-    parts = [_synthesize(spec, wb, wa, u[i:i + chunk], half) for i in range(0, u.shape[0], chunk)]
+    parts = [_synthesize(spec, wb, wa, u[i : i + chunk], half) for i in range(0, u.shape[0], chunk)]
     return {k: np.concatenate([p_[k] for p_ in parts]) for k in parts[0]}
 
 
@@ -546,25 +580,27 @@ def _synthesize_chunked(spec, wb, wa, u, half=None, chunk=16384) -> dict:
 # the flow
 # ---------------------------------------------------------------------------------------------
 
+
 def _degree_weights(lmax, R, eta_s, eta_b, eta_bar, eta_bar_b, system):
     alpha = np.zeros(lmax + 1)
     beta = np.zeros(lmax + 1)
     for l in range(2, lmax + 1):
-        alpha[l], beta[l] = flow_coefficients(l, radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar,
-                                              eta_bar_b=eta_bar_b, system=system)
+        alpha[l], beta[l] = flow_coefficients(
+            l, radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, system=system
+        )
     return alpha, beta
 
 
 def _truncation(B: np.ndarray, noise: np.ndarray) -> tuple[float, float]:
     """(geometric tail estimate beyond lmax, rigorous bound on |v_lmax - v_lmax/2|)."""
     lmax = B.size - 1
-    half = sum(B[lmax // 2 + 1:])
+    half = sum(B[lmax // 2 + 1 :])
     q = max(lmax // 4, 1)
-    S4 = float(np.sum(B[lmax - q + 1:]))
-    S3 = float(np.sum(B[lmax - 2 * q + 1: lmax - q + 1]))
-    floor = 10.0 * float(np.sum(noise[lmax - q + 1:]))
+    S4 = float(np.sum(B[lmax - q + 1 :]))
+    S3 = float(np.sum(B[lmax - 2 * q + 1 : lmax - q + 1]))
+    floor = 10.0 * float(np.sum(noise[lmax - q + 1 :]))
     if S4 <= floor:
-        return S4, float(half)           # at the rounding level
+        return S4, float(half)  # at the rounding level
     if S3 <= 0.0:
         return math.inf, float(half)
     r = S4 / S3
@@ -572,11 +608,27 @@ def _truncation(B: np.ndarray, noise: np.ndarray) -> tuple[float, float]:
     return float(tail), float(half)
 
 
-def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b: float = 1.0,
-                eta_bar: float = 0.0, eta_bar_b: float = 0.0, system: str = "full", axis=None,
-                axisymmetric: bool | None = None, lmax=120, tol: float = 1e-10,
-                on_unconverged: str = "raise", l1: str = "auto", l1_weight: float = math.inf,
-                l1_rtol: float = 1e-11, check_radius: float = 1e-8, spectrum: Spectrum | None = None):
+def sphere_flow(
+    zeta,
+    points,
+    *,
+    radius: float = 1.0,
+    eta_s: float = 1.0,
+    eta_b: float = 1.0,
+    eta_bar: float = 0.0,
+    eta_bar_b: float = 0.0,
+    system: str = "full",
+    axis=None,
+    axisymmetric: bool | None = None,
+    lmax=120,
+    tol: float = 1e-10,
+    on_unconverged: str = "raise",
+    l1: str = "auto",
+    l1_weight: float = math.inf,
+    l1_rtol: float = 1e-11,
+    check_radius: float = 1e-8,
+    spectrum: Spectrum | None = None,
+):
     r"""Exact flow on the static sphere of radius ``radius`` centred at the origin.
 
     Parameters
@@ -613,10 +665,28 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     R = float(radius)
     u = _check_flow_input(points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_unconverged, l1, check_radius)
     if isinstance(lmax, str):
-        return _flow_auto_lmax(zeta, points, lmax, spectrum, axis, axisymmetric, on_unconverged,
-                               dict(radius=radius, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b,
-                                    system=system, tol=tol, l1=l1, l1_weight=l1_weight, l1_rtol=l1_rtol,
-                                    check_radius=check_radius))
+        return _flow_auto_lmax(
+            zeta,
+            points,
+            lmax,
+            spectrum,
+            axis,
+            axisymmetric,
+            on_unconverged,
+            dict(
+                radius=radius,
+                eta_s=eta_s,
+                eta_b=eta_b,
+                eta_bar=eta_bar,
+                eta_bar_b=eta_bar_b,
+                system=system,
+                tol=tol,
+                l1=l1,
+                l1_weight=l1_weight,
+                l1_rtol=l1_rtol,
+                check_radius=check_radius,
+            ),
+        )
     t1 = time.perf_counter()
     spec = spectrum if spectrum is not None else expand(zeta, int(lmax), axis=axis, axisymmetric=axisymmetric)
     lmax = spec.lmax
@@ -636,17 +706,32 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     vscale = max(vrms, vmax)
     rel = trunc / vscale if vscale > 0 else 0.0
     info = {
-        "lmax": lmax, "system": system, "axisymmetric": spec.axisymmetric,
-        "truncation_error": trunc, "truncation_error_rel": rel, "change_half": change_half,
+        "lmax": lmax,
+        "system": system,
+        "axisymmetric": spec.axisymmetric,
+        "truncation_error": trunc,
+        "truncation_error_rel": rel,
+        "change_half": change_half,
         "change_half_points": float(np.max(np.linalg.norm(v - vh, axis=1))) if v.shape[0] else 0.0,
-        "v_rms": vrms, "v_max_points": vmax, "zeta_mean": zbar, "alpha": alpha, "beta": beta,
-        "degree_bound": B, "l1": l1info, "spectrum": spec, "quadrature": spec.quadrature,
-        "time_expand": t2 - t1, "time_evaluate": t3 - t2, "time_total": t3 - t0,
+        "v_rms": vrms,
+        "v_max_points": vmax,
+        "zeta_mean": zbar,
+        "alpha": alpha,
+        "beta": beta,
+        "degree_bound": B,
+        "l1": l1info,
+        "spectrum": spec,
+        "quadrature": spec.quadrature,
+        "time_expand": t2 - t1,
+        "time_evaluate": t3 - t2,
+        "time_total": t3 - t0,
     }
     P = 2.0 * zbar / R if system == "full" else float("nan")
     if rel > tol:
-        msg = (f"sphere_flow: estimated truncation error {trunc:.3g} ({rel:.3g} relative) at "
-               f"lmax = {lmax} exceeds tol = {tol:.3g}")
+        msg = (
+            f"sphere_flow: estimated truncation error {trunc:.3g} ({rel:.3g} relative) at "
+            f"lmax = {lmax} exceeds tol = {tol:.3g}"
+        )
         if on_unconverged == "raise":
             err = NotConvergedError(msg)
             err.info = info
@@ -656,8 +741,9 @@ def sphere_flow(zeta, points, *, radius: float = 1.0, eta_s: float = 1.0, eta_b:
     return v, P, info
 
 
-def _check_flow_input(points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_unconverged, l1,
-                      check_radius) -> np.ndarray:
+def _check_flow_input(
+    points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_unconverged, l1, check_radius
+) -> np.ndarray:
     """The points' unit directions, after checking every argument of :func:`sphere_flow`."""
     if not (R > 0 and eta_s > 0 and eta_b >= 0 and eta_bar >= 0 and eta_bar_b >= 0):
         raise ValueError("need radius > 0, eta_s > 0 and eta_b, eta_bar, eta_bar_b >= 0")
@@ -672,8 +758,9 @@ def _check_flow_input(points, R, eta_s, eta_b, eta_bar, eta_bar_b, system, on_un
         raise ValueError(f"points must have shape (N, 3), got {p.shape}")
     rad = np.linalg.norm(p, axis=1)
     if p.shape[0] and np.max(np.abs(rad - R)) > check_radius * R:
-        raise ValueError(f"points are not on the sphere of radius {R} (max | |x| - R | = "
-                         f"{np.max(np.abs(rad - R)):.3g})")
+        raise ValueError(
+            f"points are not on the sphere of radius {R} (max | |x| - R | = {np.max(np.abs(rad - R)):.3g})"
+        )
     return p / rad[:, None] if p.shape[0] else p.copy()
 
 
@@ -691,16 +778,22 @@ def _flow_auto_lmax(zeta, points, lmax, spectrum, axis, axisymmetric, on_unconve
     L = 32
     while True:
         try:
-            return sphere_flow(zeta, points, axis=axis, axisymmetric=bool(axisymmetric), lmax=L,
-                               on_unconverged="raise" if L < top else on_unconverged, **kw)
+            return sphere_flow(
+                zeta,
+                points,
+                axis=axis,
+                axisymmetric=bool(axisymmetric),
+                lmax=L,
+                on_unconverged="raise" if L < top else on_unconverged,
+                **kw,
+            )
         except NotConvergedError:
             if L >= top:
                 raise
             L *= 2
 
 
-def _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, system, l1, l1_weight,
-                l1_rtol) -> dict:
+def _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, system, l1, l1_weight, l1_rtol) -> dict:
     """The treatment of a degree-1 part of the tension (``alpha[1]``, ``beta[1]`` set in place), as
     :func:`sphere_flow`'s ``l1`` asks; what was done, as the ``info["l1"]`` dict."""
     lmax, norms = spec.lmax, spec.degree_norms
@@ -710,8 +803,9 @@ def _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, 
     sup1 = math.sqrt(3.0 / FOUR_PI) * norms[1]
     l1info["zeta_1_sup"] = sup1
     present = sup1 > l1_rtol * zscale
-    a1, b1, exact, rt, rn = l1_coefficients(radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar,
-                                           eta_bar_b=eta_bar_b, system=system, weight=l1_weight)
+    a1, b1, exact, rt, rn = l1_coefficients(
+        radius=R, eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, system=system, weight=l1_weight
+    )
     l1info.update(exact_solution_exists=exact)
     if not present:
         l1info["treatment"] = "negligible (dropped)"
@@ -723,7 +817,8 @@ def _degree_one(spec, alpha, beta, zscale, R, eta_s, eta_b, eta_bar, eta_bar_b, 
             f"{l1info['zeta_1_vector']}) and the {system} system"
             + (" with bending viscosity" if system == "full" and eta_bar > 0 else "")
             + " has no exact solution satisfying the zero-total-velocity gauge; pass "
-              "l1='lsq' for the gauge-constrained least-squares answer or l1='drop'")
+            "l1='lsq' for the gauge-constrained least-squares answer or l1='drop'"
+        )
     else:
         alpha[1], beta[1] = a1, b1
         l1info["treatment"] = "exact" if exact else f"least squares (normal weight {l1_weight})"
@@ -739,7 +834,7 @@ def _truncation_estimate(norms, alpha, beta, R, lmax):
     Lv = lv * (lv + 1.0)
     amp = np.sqrt((2 * lv + 1) / FOUR_PI) * (np.abs(beta) + np.abs(alpha) * np.sqrt(Lv) / R)
     B = amp * norms
-    noise = amp * 1e-15 * float(np.sqrt(np.sum(norms ** 2)))
+    noise = amp * 1e-15 * float(np.sqrt(np.sum(norms**2)))
     trunc, change_half = _truncation(B, noise) if lmax >= 4 else (math.inf, math.inf)
-    vrms = float(np.sqrt(np.sum((norms * beta) ** 2 + (norms * alpha) ** 2 * Lv / R ** 2) / FOUR_PI))
+    vrms = float(np.sqrt(np.sum((norms * beta) ** 2 + (norms * alpha) ** 2 * Lv / R**2) / FOUR_PI))
     return trunc, change_half, vrms, B

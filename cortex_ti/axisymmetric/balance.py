@@ -13,8 +13,8 @@ enclosed volume's centroid. Conventions: ``conventions.md`` (outward normal, a s
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import scipy.linalg as sla
@@ -209,7 +209,9 @@ def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False) ->
     if float(radius) <= 0.0:
         raise ValueError(f"radius must be > 0, got {radius!r}")
     if float(eta_b) == 0.0 and float(eta_bar) == 0.0 and float(eta_bar_b) == 0.0 and not fixed_normal:
-        raise ValueError("eta_b = 0 without bending viscosity leaves v_n undetermined on a sphere (singular normal balance)")
+        raise ValueError(
+            "eta_b = 0 without bending viscosity leaves v_n undetermined on a sphere (singular normal balance)"
+        )
     return _Physics(float(eta_s), float(eta_b), float(eta_bar), float(eta_bar_b), bool(fixed_normal))
 
 

@@ -24,9 +24,17 @@ def twin_of(tr: Trajectory):
     """The axisymmetric solution of the trajectory's scene at its frame times."""
     run = AxisymmetricRun(scene_from_dict(dict(tr.scene.data, model="axisymmetric")))
     s = run.settings
-    return simulate(run.zeta, **viscosities(s), radius=s.mesh.radius, t_end=float(tr.times[-1]),
-                    save_times=tr.times, n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
-                    **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False))
+    return simulate(
+        run.zeta,
+        **viscosities(s),
+        radius=s.mesh.radius,
+        t_end=float(tr.times[-1]),
+        save_times=tr.times,
+        n=s.axisymmetric.n,
+        rtol=s.axisymmetric.rtol,
+        interpolate=True,
+        **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False),
+    )
 
 
 def compare(path: str, times=PROFILE_TIMES) -> dict:
@@ -51,11 +59,20 @@ def compare(path: str, times=PROFILE_TIMES) -> dict:
         vt = np.linalg.norm(v - vn[:, None] * n, axis=1)
         e = res.evaluate(k, labels, coordinate="sigma" if res.params["parametrization"] == "lagrangian" else "label")
         dvn, dvt = vn - e["v_n"], vt - np.abs(e["v_s"])
-        out[f"profile_{t:g}"] = (float(np.abs(dvn).max()), float(np.sqrt(np.mean(dvn ** 2))),
-                                 float(np.abs(dvt).max()), float(np.sqrt(np.mean(dvt ** 2))),
-                                 float(np.abs(e["v_n"]).max()), float(np.abs(e["v_s"]).max()))
+        out[f"profile_{t:g}"] = (
+            float(np.abs(dvn).max()),
+            float(np.sqrt(np.mean(dvn**2))),
+            float(np.abs(dvt).max()),
+            float(np.sqrt(np.mean(dvt**2))),
+            float(np.abs(e["v_n"]).max()),
+            float(np.abs(e["v_s"]).max()),
+        )
     out["twin_wall_s"] = res.wall_time
-    out["final"] = (float(ds["pole_radius"].values[-1]), float(ds["furrow_radius"].values[-1]),
-                    float(res.pole_radius[-1]), float(res.furrow_radius[-1]))
+    out["final"] = (
+        float(ds["pole_radius"].values[-1]),
+        float(ds["furrow_radius"].values[-1]),
+        float(res.pole_radius[-1]),
+        float(res.furrow_radius[-1]),
+    )
     tr.close()
     return out

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 import scipy.linalg as sla
@@ -63,8 +63,16 @@ class _Dynamics:
     the material label is carried along, ``du/dt = (w / h) du/dsigma`` (``h = |dX/dsigma|``).
     """
 
-    def __init__(self, sp: Spectral, system: ForceBalance, zeta: ZetaFn, mode: str, relax: float = 1.0,
-                 carried: bool = False, monitor: float = 0.0):
+    def __init__(
+        self,
+        sp: Spectral,
+        system: ForceBalance,
+        zeta: ZetaFn,
+        mode: str,
+        relax: float = 1.0,
+        carried: bool = False,
+        monitor: float = 0.0,
+    ):
         self.sp, self.system, self.zeta_fn, self.mode = sp, system, zeta, mode
         self.n = sp.n
         self.relax = relax
@@ -294,8 +302,21 @@ class SimulationResult:
         vn = sp.evaluate("E", st["v_n"], sig)
         nr, nz = -tz, tr
         return dict(
-            label=lab, sigma=sig, r=r, z=z, n_r=nr, n_z=nz, t_r=tr, t_z=tz, k1=k1, k2=k2, v_s=vs, v_n=vn,
-            v_r=vs * tr + vn * nr, v_z=vs * tz + vn * nz, zeta=_eval_zeta(self._zeta_fn, lab),
+            label=lab,
+            sigma=sig,
+            r=r,
+            z=z,
+            n_r=nr,
+            n_z=nz,
+            t_r=tr,
+            t_z=tz,
+            k1=k1,
+            k2=k2,
+            v_s=vs,
+            v_n=vn,
+            v_r=vs * tr + vn * nr,
+            v_z=vs * tz + vn * nz,
+            zeta=_eval_zeta(self._zeta_fn, lab),
         )
 
     def surface(self, i: int, n_u: int = 65, n_phi: int = 64, *, coordinate: str = "sigma") -> tuple[ArrayF, ArrayF]:
@@ -323,8 +344,13 @@ def revolve(r: ArrayF, z: ArrayF, n_phi: int) -> tuple[ArrayF, ArrayF, ArrayF]:
     rr, zz = np.asarray(r)[1:-1, None], np.asarray(z)[1:-1, None]
     ring_pts = np.stack([rr * np.cos(phi), rr * np.sin(phi), np.broadcast_to(zz, (n_u - 2, n_phi))], -1)
     pts = np.concatenate([[[0.0, 0.0, z[0]]], ring_pts.reshape(-1, 3), [[0.0, 0.0, z[-1]]]])
-    where = np.concatenate([[[0, 0.0]], np.stack(np.broadcast_arrays(np.arange(1, n_u - 1)[:, None], phi[None, :]),
-                                                 -1).reshape(-1, 2), [[n_u - 1, 0.0]]])
+    where = np.concatenate(
+        [
+            [[0, 0.0]],
+            np.stack(np.broadcast_arrays(np.arange(1, n_u - 1)[:, None], phi[None, :]), -1).reshape(-1, 2),
+            [[n_u - 1, 0.0]],
+        ]
+    )
     k = np.arange(n_phi)
     kp = (k + 1) % n_phi
 
@@ -369,10 +395,25 @@ def _diagnostics(dyn: _Dynamics, y: ArrayF, g: dict, x: ArrayF, radius: float) -
     margin = _bending_margin(system.ph, sp, y) if system.ph.bending else float("nan")
     stretch = float(mat.max() / mat.min()) if np.all(us > 0) else float("inf")  # inf: label map folded
     return dict(
-        u=u, r=g["r"], z=z, v_s=vs, v_n=vn, v_r=vs * g["rs"] - vn * g["zs"], v_z=vs * g["zs"] + vn * g["rs"],
-        zeta=np.asarray(g["zeta"]), P=float(f["P"]), lam=float(f["lam"]), area=float(area), volume=volume, z_centroid=zc,
-        pole_radius=pole, furrow_radius=furrow, stretch=stretch,
-        grid_stretch=float(g["h"].max() / g["h"].min()), neck_radius=_neck(dyn, y), bending_margin=margin,
+        u=u,
+        r=g["r"],
+        z=z,
+        v_s=vs,
+        v_n=vn,
+        v_r=vs * g["rs"] - vn * g["zs"],
+        v_z=vs * g["zs"] + vn * g["rs"],
+        zeta=np.asarray(g["zeta"]),
+        P=float(f["P"]),
+        lam=float(f["lam"]),
+        area=float(area),
+        volume=volume,
+        z_centroid=zc,
+        pole_radius=pole,
+        furrow_radius=furrow,
+        stretch=stretch,
+        grid_stretch=float(g["h"].max() / g["h"].min()),
+        neck_radius=_neck(dyn, y),
+        bending_margin=margin,
     )
 
 
@@ -387,7 +428,9 @@ def _furrow(sp: Spectral, r: ArrayF, z: ArrayF, zc: float) -> float:
         if f[j] == 0.0:
             roots.append(uu[j])
             continue
-        roots.append(brentq(lambda s: float(sp.evaluate("Z", z, [s])[0]) - zc, uu[j], uu[j + 1], xtol=1e-15, rtol=1e-15))
+        roots.append(
+            brentq(lambda s: float(sp.evaluate("Z", z, [s])[0]) - zc, uu[j], uu[j + 1], xtol=1e-15, rtol=1e-15)
+        )
     if not roots:
         return float("nan")
     return float(min(sp.evaluate("R", r, roots)))
@@ -511,8 +554,14 @@ def simulate(
     if monitor and parametrization != "arclength":
         raise ValueError("monitor needs parametrization = 'arclength' (the nodes must be free to move tangentially)")
     sp = Spectral(n, symmetric)
-    dyn = _Dynamics(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, parametrization,
-                    carried=tension == "material", monitor=monitor)
+    dyn = _Dynamics(
+        sp,
+        ForceBalance(sp, phys, _check_gauge(gauge)),
+        zeta,
+        parametrization,
+        carried=tension == "material",
+        monitor=monitor,
+    )
     y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if dyn.labelled else [])
     y0 = np.concatenate(y0)  # on the sphere the monitor is uniform: the nodes start equidistributed
     stops = {}
@@ -521,21 +570,47 @@ def simulate(
     if stop_ill_posed and phys.bending:
         stops["bending"] = lambda y: _bending_margin(phys, sp, y)
     t0 = time.perf_counter()
-    saved, nsteps, nlu, stopped = _integrate(dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF,
-                                             rtol, atol, interpolate, max_steps, stops)
+    saved, nsteps, nlu, stopped = _integrate(
+        dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF, rtol, atol, interpolate, max_steps, stops
+    )
     stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
-    params = dict(eta_s=phys.eta_s, eta_b=phys.eta_b, eta_bar=phys.eta_bar, eta_bar_b=phys.eta_bar_b, radius=R, n=n,
-                  rtol=rtol, atol=atol, symmetric=symmetric, method=method, parametrization=parametrization,
-                  gauge=gauge, interpolate=interpolate, tension=tension, monitor=monitor, stop_neck=stop_neck,
-                  stop_ill_posed=stop_ill_posed)
+    params = dict(
+        eta_s=phys.eta_s,
+        eta_b=phys.eta_b,
+        eta_bar=phys.eta_bar,
+        eta_bar_b=phys.eta_bar_b,
+        radius=R,
+        n=n,
+        rtol=rtol,
+        atol=atol,
+        symmetric=symmetric,
+        method=method,
+        parametrization=parametrization,
+        gauge=gauge,
+        interpolate=interpolate,
+        tension=tension,
+        monitor=monitor,
+        stop_neck=stop_neck,
+        stop_ill_posed=stop_ill_posed,
+    )
     out = _result(dyn, saved, R, stats, params)
     out.stopped = stopped
     return out
 
 
-def full_meridian_dynamics(zeta: ZetaFn, n: int, *, eta_s: float, eta_b: float, eta_bar: float, eta_bar_b: float,
-                           radius: float = 1.0, gauge: str = "velocity", cls: type | None = None,
-                           tension: str = "nodes") -> "_Dynamics":
+def full_meridian_dynamics(
+    zeta: ZetaFn,
+    n: int,
+    *,
+    eta_s: float,
+    eta_b: float,
+    eta_bar: float,
+    eta_bar_b: float,
+    radius: float = 1.0,
+    gauge: str = "velocity",
+    cls: type | None = None,
+    tension: str = "nodes",
+) -> _Dynamics:
     """The shape dynamics of ``simulate(..., symmetric=False, parametrization='lagrangian')``:
     points at ``n`` labels on the whole meridian moving with ``v_n n``, state ``y = (r, z)``
     (``tension='material'``: ``y = (r, z, u)``, ``u`` the material label at each point, initially
@@ -546,11 +621,12 @@ def full_meridian_dynamics(zeta: ZetaFn, n: int, *, eta_s: float, eta_b: float, 
     sp = Spectral(_check_n(n), False)
     if tension not in ("nodes", "material"):
         raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
-    return (cls or _Dynamics)(sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian",
-                              carried=tension == "material")
+    return (cls or _Dynamics)(
+        sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian", carried=tension == "material"
+    )
 
 
-def normal_embedding(dyn: "_Dynamics", y: ArrayF) -> ArrayF:
+def normal_embedding(dyn: _Dynamics, y: ArrayF) -> ArrayF:
     """(2n, n): the node displacements ``(dr, dz)`` of a normal displacement ``s`` per node on
     the state ``y``, so that ``N.T @ dyn.jac(t, y) @ N`` is the normal-normal operator the 3D
     spectrum computes (:func:`cortex_ti.dynamics.spectrum.normal_jacobian`)."""
@@ -564,18 +640,32 @@ def normal_embedding(dyn: "_Dynamics", y: ArrayF) -> ArrayF:
 def _check_times(t_end, save_times, rtol, atol, R) -> tuple[ArrayF, float]:
     """The save times (default ``[0, t_end]``) and ``atol`` (default ``rtol R``), checked."""
     for name, val in (("t_end", t_end), ("rtol", rtol)):
-        if isinstance(val, bool) or not isinstance(val, (int, float, np.floating, np.integer)) \
-                or not math.isfinite(val) or val <= 0:
+        if (
+            isinstance(val, bool)
+            or not isinstance(val, (int, float, np.floating, np.integer))
+            or not math.isfinite(val)
+            or val <= 0
+        ):
             raise ValueError(f"{name} must be a finite number > 0, got {val!r}")
     atol = rtol * R if atol is None else atol
-    if isinstance(atol, bool) or not isinstance(atol, (int, float, np.floating)) or not math.isfinite(atol) or atol <= 0:
+    if (
+        isinstance(atol, bool)
+        or not isinstance(atol, (int, float, np.floating))
+        or not math.isfinite(atol)
+        or atol <= 0
+    ):
         raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
     try:
         st = np.asarray([0.0, float(t_end)] if save_times is None else save_times, dtype=float).ravel()
     except (TypeError, ValueError):
         raise ValueError("save_times must be a sequence of numbers") from None
-    if st.size == 0 or not np.all(np.isfinite(st)) or np.any(st < 0) or np.any(st > t_end * (1 + 1e-12)) \
-            or np.any(np.diff(st) < 0):
+    if (
+        st.size == 0
+        or not np.all(np.isfinite(st))
+        or np.any(st < 0)
+        or np.any(st > t_end * (1 + 1e-12))
+        or np.any(np.diff(st) < 0)
+    ):
         raise ValueError("save_times must be finite, sorted and within [0, t_end]")
     return st, atol
 
@@ -617,8 +707,8 @@ def _bending_margin(ph, sp: Spectral, y: ArrayF) -> float:
     n, y = sp.n, np.asarray(y).real
     r = y[:n] if sp.FR is None else sp.FR @ y[:n]
     sig = np.concatenate([_MARGIN_GRID, [np.pi / 2]])
-    ru, zu = sp.evaluate("R", r, sig, 1), sp.evaluate("Z", y[n:2 * n], sig, 1)
-    ruu, zuu = sp.evaluate("R", r, sig, 2), sp.evaluate("Z", y[n:2 * n], sig, 2)
+    ru, zu = sp.evaluate("R", r, sig, 1), sp.evaluate("Z", y[n : 2 * n], sig, 1)
+    ruu, zuu = sp.evaluate("R", r, sig, 2), sp.evaluate("Z", y[n : 2 * n], sig, 2)
     h = np.hypot(ru, zu)
     k1 = (zu * ruu - ru * zuu) / h**3
     k2 = -zu / h / sp.evaluate("R", r, sig)
@@ -629,7 +719,7 @@ def _bending_margin(ph, sp: Spectral, y: ArrayF) -> float:
 _STOP_MESSAGES = {
     "neck": "neck {neck:.4g} R0 at t={t:.6g}",
     "bending": "ill-posed at t={t:.6g}: the bending-viscosity normal force lost its sign on the meridian "
-               "(2 eta_bar k_i + (eta_bar_b - eta_bar) C = 0; neck {neck:.4g} R0)",
+    "(2 eta_bar k_i + (eta_bar_b - eta_bar) C = 0; neck {neck:.4g} R0)",
 }
 
 
@@ -725,12 +815,29 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         return np.array([d[key] for d in diags])
 
     return SimulationResult(
-        t=np.array([s[0] for s in saved]), u=stack("u", -1, np.pi),
-        r=stack("r", 1), z=stack("z", -1), v_s=stack("v_s", -1), v_n=stack("v_n", 1),
-        v_r=stack("v_r", 1), v_z=stack("v_z", -1), zeta=stack("zeta", 1),
-        P=series("P"), lam=series("lam"), pole_radius=series("pole_radius"), furrow_radius=series("furrow_radius"),
-        volume=series("volume"), area=series("area"), z_centroid=series("z_centroid"), stretch=series("stretch"),
-        grid_stretch=series("grid_stretch"), neck_radius=series("neck_radius"),
-        bending_margin=series("bending_margin"), **stats, params=params,
-        _states=states, _spectral=sp, _zeta_fn=dyn.zeta_fn,
+        t=np.array([s[0] for s in saved]),
+        u=stack("u", -1, np.pi),
+        r=stack("r", 1),
+        z=stack("z", -1),
+        v_s=stack("v_s", -1),
+        v_n=stack("v_n", 1),
+        v_r=stack("v_r", 1),
+        v_z=stack("v_z", -1),
+        zeta=stack("zeta", 1),
+        P=series("P"),
+        lam=series("lam"),
+        pole_radius=series("pole_radius"),
+        furrow_radius=series("furrow_radius"),
+        volume=series("volume"),
+        area=series("area"),
+        z_centroid=series("z_centroid"),
+        stretch=series("stretch"),
+        grid_stretch=series("grid_stretch"),
+        neck_radius=series("neck_radius"),
+        bending_margin=series("bending_margin"),
+        **stats,
+        params=params,
+        _states=states,
+        _spectral=sp,
+        _zeta_fn=dyn.zeta_fn,
     )

@@ -37,8 +37,10 @@ __all__ = ["axisymmetric_tension", "viscosities", "evolution_options", "Axisymme
 
 #: The meridian arrays of an axisymmetric trajectory (dims: time, meridian).
 MERIDIAN_VARIABLES = {
-    "meridian_label": {"units": "rad", "long_name": "material label: the polar angle theta0 of the point on the "
-                                                    "initial sphere"},
+    "meridian_label": {
+        "units": "rad",
+        "long_name": "material label: the polar angle theta0 of the point on the initial sphere",
+    },
     "meridian_r": {"units": "R0", "long_name": "distance from the axis along the meridian"},
     "meridian_z": {"units": "R0", "long_name": "height along the meridian"},
     "meridian_s": {"units": "R0", "long_name": "arc length from the north pole"},
@@ -68,8 +70,10 @@ def axisymmetric_tension(settings: RunSettings):
         dev = float(np.max(np.abs(at(theta, phi) - ref)))
         if dev > 1e-10 * scale:
             which = ", ".join(f"active_stress.{i} ({p['type']})" for i, p in enumerate(patterns))
-            raise SceneError(f"scene '{settings.name}': model = axisymmetric needs a tension that does not vary about "
-                             f"the z axis, but {which} changes by {dev:.3g} between azimuths 0 and {phi:.3g} rad")
+            raise SceneError(
+                f"scene '{settings.name}': model = axisymmetric needs a tension that does not vary about "
+                f"the z axis, but {which} changes by {dev:.3g} between azimuths 0 and {phi:.3g} rad"
+            )
     return lambda th: at(th)
 
 
@@ -81,9 +85,12 @@ def evolution_options(settings: RunSettings) -> dict:
     """The shape evolution's keywords from the scene: the tension carried by the material or
     glued to the normally moving points, the neck-resolving parametrisation and the neck stop."""
     a = settings.axisymmetric
-    return dict(tension="material" if settings.tension_carried else "nodes",
-                parametrization="arclength" if a.neck_resolution > 0 else "auto", monitor=a.neck_resolution,
-                stop_neck=a.stop_neck if a.stop_neck < settings.mesh.radius else None)
+    return dict(
+        tension="material" if settings.tension_carried else "nodes",
+        parametrization="arclength" if a.neck_resolution > 0 else "auto",
+        monitor=a.neck_resolution,
+        stop_neck=a.stop_neck if a.stop_neck < settings.mesh.radius else None,
+    )
 
 
 def viscosities(settings: RunSettings) -> dict:
@@ -110,8 +117,14 @@ class AxisymmetricRun:
         """The static flow on the initial sphere (:class:`~cortex_ti.axisymmetric.balance.StaticResult`)."""
         s = self.settings
         try:
-            return static_flow(self.zeta, **viscosities(s), radius=s.mesh.radius, n=2 * s.axisymmetric.n,
-                               fixed_normal=s.has("fixed_normal_velocity"), gauge=GAUGES[s.translation])
+            return static_flow(
+                self.zeta,
+                **viscosities(s),
+                radius=s.mesh.radius,
+                n=2 * s.axisymmetric.n,
+                fixed_normal=s.has("fixed_normal_velocity"),
+                gauge=GAUGES[s.translation],
+            )
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
@@ -124,9 +137,18 @@ class AxisymmetricRun:
         times = np.concatenate([np.arange(n_frames + 1) * st.save_every, st.save_times, [st.t_end]])
         times = np.unique(np.round(np.minimum(times, st.t_end), 12))
         try:
-            res = simulate(self.zeta, **viscosities(s), radius=s.mesh.radius, t_end=st.t_end, save_times=times,
-                           n=s.axisymmetric.n, rtol=s.axisymmetric.rtol, interpolate=True,
-                           gauge=GAUGES[s.translation], **evolution_options(s))
+            res = simulate(
+                self.zeta,
+                **viscosities(s),
+                radius=s.mesh.radius,
+                t_end=st.t_end,
+                save_times=times,
+                n=s.axisymmetric.n,
+                rtol=s.axisymmetric.rtol,
+                interpolate=True,
+                gauge=GAUGES[s.translation],
+                **evolution_options(s),
+            )
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         if res.stopped != "t_end":
@@ -144,35 +166,65 @@ class AxisymmetricRun:
         self.seconds = time.perf_counter() - t0
         first = frames[0][1]
         n_meridian = len(first["meridian_label"])
-        writer = TrajectoryWriter(output, first["triangles"], len(first["points"]), self._attrs(),
-                                  extra_vars=self._extra_vars(), extra_dims={"meridian": n_meridian})
+        writer = TrajectoryWriter(
+            output,
+            first["triangles"],
+            len(first["points"]),
+            self._attrs(),
+            extra_vars=self._extra_vars(),
+            extra_dims={"meridian": n_meridian},
+        )
         with writer:
             for t, f in frames:
-                writer.append(t, f["points"], f["velocity"], f["zeta"], f["pressure"],
-                              **{k: f[k] for k in self._extra_vars()})
-        log.info("%s (axisymmetric): %d frames to t = %.4g in %.2f s", self.settings.name, len(frames), frames[-1][0],
-                 self.seconds)
+                writer.append(
+                    t, f["points"], f["velocity"], f["zeta"], f["pressure"], **{k: f[k] for k in self._extra_vars()}
+                )
+        log.info(
+            "%s (axisymmetric): %d frames to t = %.4g in %.2f s",
+            self.settings.name,
+            len(frames),
+            frames[-1][0],
+            self.seconds,
+        )
         return output
 
     def summary(self) -> dict:
         """What the run took (the cost tables' fields of a 3D run's summary)."""
         s, r = self.settings, self.result
-        out = {"scene": s.name, "model": "axisymmetric", "n_nodes": 2 * s.axisymmetric.n, "fit": "spectral",
-               "solver_backend": "dense LU", "effects": sorted(s.effects), "implicit_tension": False,
-               "fit_residual_weight": 0.0}
+        out = {
+            "scene": s.name,
+            "model": "axisymmetric",
+            "n_nodes": 2 * s.axisymmetric.n,
+            "fit": "spectral",
+            "solver_backend": "dense LU",
+            "effects": sorted(s.effects),
+            "implicit_tension": False,
+            "fit_residual_weight": 0.0,
+        }
         if r is None or not s.dynamic:
             out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
         else:
-            out.update(steps=int(r.n_steps), rejected=0, solves=int(r.n_rhs), t_reached=float(r.t[-1]),
-                       stopped=r.stopped.split(" ")[0] if r.stopped != "t_end" else "t_end")
+            out.update(
+                steps=int(r.n_steps),
+                rejected=0,
+                solves=int(r.n_rhs),
+                t_reached=float(r.t[-1]),
+                stopped=r.stopped.split(" ")[0] if r.stopped != "t_end" else "t_end",
+            )
         out["ms_solve_per_solve"] = 1e3 * self.seconds / max(out["solves"], 1)
         return out
 
     def _attrs(self) -> dict:
         s = self.settings
-        return {"scene": self.scene.to_yaml(), "effects": ",".join(sorted(s.effects)), "model": "axisymmetric",
-                "fit_scheme": "spectral", "solver_backend": "dense LU", "n_meridian_points": 2 * s.axisymmetric.n,
-                **provenance()}
+        return {
+            "scene": self.scene.to_yaml(),
+            "effects": ",".join(sorted(s.effects)),
+            "model": "axisymmetric",
+            "fit_scheme": "spectral",
+            "solver_backend": "dense LU",
+            "n_meridian_points": 2 * s.axisymmetric.n,
+            **provenance(),
+        }
 
     def _extra_vars(self) -> dict:
         out = {"normal": (("time", "node", "xyz"), {"units": "1", "long_name": "outward unit normal at the nodes"})}
@@ -188,12 +240,25 @@ class AxisymmetricRun:
         self.result = res
         theta = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
         at = res.at(theta)
-        e = dict(label=theta, r=s.mesh.radius * np.sin(theta), z=s.mesh.radius * np.cos(theta),
-                 n_r=np.sin(theta), n_z=np.cos(theta), v_s=at["v_s"], v_n=at["v_n"], v_r=at["v_r"], v_z=at["v_z"],
-                 zeta=self.zeta(theta))
+        e = dict(
+            label=theta,
+            r=s.mesh.radius * np.sin(theta),
+            z=s.mesh.radius * np.cos(theta),
+            n_r=np.sin(theta),
+            n_z=np.cos(theta),
+            v_s=at["v_s"],
+            v_n=at["v_n"],
+            v_r=at["v_r"],
+            v_z=at["v_z"],
+            zeta=self.zeta(theta),
+        )
         pressure = res.P if s.has("incompressibility") else float("nan")
-        exact = {"pole_radius": s.mesh.radius, "furrow_radius": s.mesh.radius,
-                 "volume": 4.0 / 3.0 * np.pi * s.mesh.radius ** 3, "area": 4.0 * np.pi * s.mesh.radius ** 2}
+        exact = {
+            "pole_radius": s.mesh.radius,
+            "furrow_radius": s.mesh.radius,
+            "volume": 4.0 / 3.0 * np.pi * s.mesh.radius**3,
+            "area": 4.0 * np.pi * s.mesh.radius**2,
+        }
         yield 0.0, self._frame(e, pressure, exact, dt=None)
 
     def _dynamic_frames(self):
@@ -225,10 +290,22 @@ class AxisymmetricRun:
         diag = frame_diagnostics(points, triangles, velocity, normal, axis=s.pattern_axis)
         diag.update(exact)
         ds = np.hypot(np.diff(e["r"]), np.diff(e["z"]))
-        frame = dict(points=points, triangles=triangles, velocity=velocity, zeta=e["zeta"][j], pressure=pressure,
-                     normal=normal, meridian_label=e["label"], meridian_r=e["r"], meridian_z=e["z"],
-                     meridian_s=np.concatenate([[0.0], np.cumsum(ds)]), meridian_v_s=e["v_s"], meridian_v_n=e["v_n"],
-                     meridian_zeta=e["zeta"], **diag)
+        frame = dict(
+            points=points,
+            triangles=triangles,
+            velocity=velocity,
+            zeta=e["zeta"][j],
+            pressure=pressure,
+            normal=normal,
+            meridian_label=e["label"],
+            meridian_r=e["r"],
+            meridian_z=e["z"],
+            meridian_s=np.concatenate([[0.0], np.cumsum(ds)]),
+            meridian_v_s=e["v_s"],
+            meridian_v_n=e["v_n"],
+            meridian_zeta=e["zeta"],
+            **diag,
+        )
         if dt is not None:
             frame["dt"] = dt
         return frame

@@ -36,8 +36,10 @@ def extensile_tension(zeta) -> str | None:
     if not np.any(neg):
         return None
     share = "everywhere" if np.all(neg) else f"at {int(neg.sum())} of {z.size} nodes"
-    return (f"the active tension is extensile (zeta < 0 {share}, down to {float(z.min()):.3g}): a cortex under "
-            "extensile tension is physically unstable (its shape modes grow whatever the step and the mesh)")
+    return (
+        f"the active tension is extensile (zeta < 0 {share}, down to {float(z.min()):.3g}): a cortex under "
+        "extensile tension is physically unstable (its shape modes grow whatever the step and the mesh)"
+    )
 
 
 @dataclass
@@ -63,7 +65,7 @@ class StabilityGuard:
     max_residual: float = 0.05
     angle_fraction: float = 0.2
     faces: np.ndarray | None = None
-    zeta: np.ndarray | None = None     # the tension the nodes carry: tells a physical instability
+    zeta: np.ndarray | None = None  # the tension the nodes carry: tells a physical instability
     _history: list = field(default_factory=list)
     _angle0: float | None = None
 
@@ -73,11 +75,15 @@ class StabilityGuard:
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
         physical = extensile_tension(self.zeta)
         if physical is not None:
-            suggestion = (f"{physical}; this is the physics, not the numerics: a smaller step or a finer mesh "
-                          "only changes when it blows up")
+            suggestion = (
+                f"{physical}; this is the physics, not the numerics: a smaller step or a finer mesh "
+                "only changes when it blows up"
+            )
         else:
-            suggestion = (f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the "
-                          f"mesh is too coarse for the force balance: {RESOLUTION_HINT}")
+            suggestion = (
+                f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the "
+                f"mesh is too coarse for the force balance: {RESOLUTION_HINT}"
+            )
         if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
             raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
         move = np.linalg.norm(new_points - old_points, axis=1)
@@ -86,24 +92,29 @@ class StabilityGuard:
             raise StabilityError(
                 f"the step dt={dt:.3g} at t={t:.4g} moves node {worst} by {move[worst]:.3g}, "
                 f"{move[worst] / edge_length[worst]:.2f} of its edge length: "
-                f"{'the shape is unstable' if physical else 'the explicit scheme is unstable'}; {suggestion}")
+                f"{'the shape is unstable' if physical else 'the explicit scheme is unstable'}; {suggestion}"
+            )
         vmax = float(np.max(np.abs(ev.normal_speed)))
         self._history.append(vmax)
         h = self._history
         if len(h) > self.patience:
-            recent = h[-self.patience - 1:]
-            if all(b > self.growth * a for a, b in zip(recent[:-1], recent[1:])) and vmax > self.jump * min(h):
+            recent = h[-self.patience - 1 :]
+            if all(
+                b > self.growth * a for a, b in zip(recent[:-1], recent[1:], strict=False)
+            ) and vmax > self.jump * min(h):
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
                     f"(t={t:.4g}): "
                     f"{'the shape is unstable' if physical else 'the explicit scheme is unstable at this step'}; "
-                    f"{suggestion}")
+                    f"{suggestion}"
+                )
         residual = ev.solution.info.relative_residual
         if residual > self.max_residual:
             raise StabilityError(
                 f"the force balance is no longer satisfied at t={t - dt:.4g}: relative least-squares residual "
                 f"{residual:.2g} > {self.max_residual:g} (resolved runs stay below 3e-3); the shape is not resolved: "
-                f"{physical + '; ' if physical else ''}{RESOLUTION_HINT}")
+                f"{physical + '; ' if physical else ''}{RESOLUTION_HINT}"
+            )
         if self.faces is not None:
             if self._angle0 is None:
                 self._angle0 = self._min_angle(old_points)
@@ -112,4 +123,5 @@ class StabilityGuard:
                 raise StabilityError(
                     f"the mesh is collapsing at t={t:.4g}: smallest triangle angle {angle:.2g} deg, from "
                     f"{self._angle0:.3g} at the start; either the step is unstable ({suggestion}) or the shape is "
-                    "not resolved")
+                    "not resolved"
+                )

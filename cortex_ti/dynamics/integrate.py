@@ -2,7 +2,8 @@ r"""Advancing a shape in time: the integration loop of every scheme.
 
 Frames are written every ``time.save_every`` and at the extra times ``time.save_times`` (the
 steps are shortened to land on the frame times exactly), and the run stops at ``time.t_end``
-or when ``max |v_n|`` falls below ``time.steady_tol``. With ``time.implicit_tension`` (default for the first-order schemes) each
+or when ``max |v_n|`` falls below ``time.steady_tol``. With ``time.implicit_tension`` (default for the first-order
+schemes) each
 solve is for the step about to be taken: the active tension's curvature is evaluated at the
 end of the step (:mod:`cortex_ti.physics.terms.implicit_tension`), which holds down the stiff
 high-frequency normal modes, so the step is set by accuracy rather than by the explicit
@@ -31,14 +32,26 @@ class RunStats:
     rejected: int = 0
     solves: int = 0
     wall: float = 0.0
-    t: float = 0.0             # the time reached
-    stopped: str = "t_end"     # why the run ended: t_end or steady
+    t: float = 0.0  # the time reached
+    stopped: str = "t_end"  # why the run ended: t_end or steady
 
 
-def integrate(evaluate, state0: State | np.ndarray, t0: float, t_end: float, dt0: float, scheme,
-              save_every: float, on_frame, steady_tol: float = 0.0, progress=None,
-              guard: StabilityGuard | None = None, write_first: bool = True,
-              implicit: bool = False, save_times: tuple[float, ...] = ()) -> RunStats:
+def integrate(
+    evaluate,
+    state0: State | np.ndarray,
+    t0: float,
+    t_end: float,
+    dt0: float,
+    scheme,
+    save_every: float,
+    on_frame,
+    steady_tol: float = 0.0,
+    progress=None,
+    guard: StabilityGuard | None = None,
+    write_first: bool = True,
+    implicit: bool = False,
+    save_times: tuple[float, ...] = (),
+) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
     ``state0`` is the :class:`~cortex_ti.dynamics.state.State` to start from (an array: positions only).
@@ -120,5 +133,9 @@ def _which_solve(exc: SolverError, t: float, step: float, with_step: bool) -> So
     """The solver's message, prefixed with the solve that failed (and what to change when the
     step is in the matrix: the semi-implicit tension puts ``dt`` into it)."""
     what = f"the solve at t = {t:.4g}" + (f" for a step dt = {step:.3g}" if with_step else "")
-    hint = " (the semi-implicit tension puts dt into the matrix: try a smaller time.dt)" if with_step and step > 1.0 else ""
+    hint = (
+        " (the semi-implicit tension puts dt into the matrix: try a smaller time.dt)"
+        if with_step and step > 1.0
+        else ""
+    )
     return SolverError(f"{what} failed: {exc}{hint}")

@@ -15,13 +15,20 @@ by: the velocity relative to the mesh, ``v - w`` (:mod:`cortex_ti.surface.transp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
-__all__ = ["MESH_MOTIONS", "MeshMotion", "MotionContext", "register_motion", "ale_velocity", "conformal_distortion",
-           "volume_gradient"]
+__all__ = [
+    "MESH_MOTIONS",
+    "MeshMotion",
+    "MotionContext",
+    "register_motion",
+    "ale_velocity",
+    "conformal_distortion",
+    "volume_gradient",
+]
 
 
 @dataclass(frozen=True)
@@ -39,7 +46,7 @@ class MotionContext:
     t = 0 (``reference``), the local mesh size and the ALE relaxation time."""
 
     faces: np.ndarray
-    reference: np.ndarray             # (N, 3) the nodes at t = 0
+    reference: np.ndarray  # (N, 3) the nodes at t = 0
     ale_time: float = 0.05
     _dm_inv: np.ndarray | None = field(default=None, repr=False)
 
@@ -52,8 +59,9 @@ class MotionContext:
             u = e1 / np.linalg.norm(e1, axis=1)[:, None]
             n = np.cross(e1, e2)
             w = np.cross(n / np.linalg.norm(n, axis=1)[:, None], u)
-            dm = np.stack([np.stack([(u * e1).sum(1), (u * e2).sum(1)], 1),
-                           np.stack([(w * e1).sum(1), (w * e2).sum(1)], 1)], 1)
+            dm = np.stack(
+                [np.stack([(u * e1).sum(1), (u * e2).sum(1)], 1), np.stack([(w * e1).sum(1), (w * e2).sum(1)], 1)], 1
+            )
             self._dm_inv = np.linalg.inv(dm)
         return self._dm_inv
 
@@ -64,6 +72,7 @@ MESH_MOTIONS: dict[str, MeshMotion] = {}
 
 def register_motion(name: str, description: str):
     """Decorator adding a mesh velocity function to :data:`MESH_MOTIONS` under ``name``."""
+
     def deco(func):
         MESH_MOTIONS[name] = MeshMotion(name, description, func)
         return func
@@ -91,9 +100,9 @@ def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: b
     """
     faces = context.faces
     x = points[faces]
-    ds = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]], axis=2)           # (T, 3, 2)
-    f = ds @ context.dm_inv                                                 # (T, 3, 2)
-    c = np.transpose(f, (0, 2, 1)) @ f                                      # (T, 2, 2)
+    ds = np.stack([x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]], axis=2)  # (T, 3, 2)
+    f = ds @ context.dm_inv  # (T, 3, 2)
+    c = np.transpose(f, (0, 2, 1)) @ f  # (T, 2, 2)
     i1 = c[:, 0, 0] + c[:, 1, 1]
     det = c[:, 0, 0] * c[:, 1, 1] - c[:, 0, 1] * c[:, 1, 0]
     j = np.sqrt(det)
@@ -104,7 +113,7 @@ def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: b
     cinv = np.stack([np.stack([c[:, 1, 1], -c[:, 0, 1]], 1), np.stack([-c[:, 1, 0], c[:, 0, 0]], 1)], 1)
     cinv /= det[:, None, None]
     de_df = (f - 0.5 * i1[:, None, None] * (f @ cinv)) / j[:, None, None]
-    de_ds = de_df @ np.transpose(context.dm_inv, (0, 2, 1))                 # (T, 3, 2)
+    de_ds = de_df @ np.transpose(context.dm_inv, (0, 2, 1))  # (T, 3, 2)
     n = points.shape[0]
     idx = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
     w = np.concatenate([de_ds[:, :, 0], de_ds[:, :, 1], -(de_ds[:, :, 0] + de_ds[:, :, 1])])
@@ -112,8 +121,11 @@ def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: b
     return energy, g
 
 
-@register_motion("ale", "v_n n plus a tangential mesh velocity relaxing the triangles toward their initial "
-                        "shapes (relaxation time mesh.ale_time)")
+@register_motion(
+    "ale",
+    "v_n n plus a tangential mesh velocity relaxing the triangles toward their initial "
+    "shapes (relaxation time mesh.ale_time)",
+)
 def ale_velocity(velocity, normal, points, context: MotionContext):
     r"""``w = v_n n + w_t`` with ``w_t = -(h_i^2 / (tau n_i)) P_i dE/dx_i``: the tangential gradient
     flow of the triangles' conformal distortion (:func:`conformal_distortion`) with mobility
@@ -125,10 +137,9 @@ def ale_velocity(velocity, normal, points, context: MotionContext):
     faces = context.faces
     _, g = conformal_distortion(points, context, gradient=True)
     x = points[faces]
-    edges = np.linalg.norm(x - x[:, [1, 2, 0]], axis=2)                     # (T, 3)
+    edges = np.linalg.norm(x - x[:, [1, 2, 0]], axis=2)  # (T, 3)
     count = np.bincount(faces.ravel(), minlength=points.shape[0]).astype(float)
-    hsum = np.bincount(faces.ravel(), weights=(edges + edges[:, [2, 0, 1]]).ravel() / 2.0,
-                       minlength=points.shape[0])
+    hsum = np.bincount(faces.ravel(), weights=(edges + edges[:, [2, 0, 1]]).ravel() / 2.0, minlength=points.shape[0])
     h = hsum / count
     g = g - np.einsum("nc,nc->n", g, normal)[:, None] * normal
     wt = -(h * h / (context.ale_time * count))[:, None] * g

@@ -35,12 +35,22 @@ from .state import Rates, State
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SCHEMES", "Scheme", "Evaluation", "StepResult", "register_scheme", "make_scheme", "advance",
-           "RESOLUTION_HINT"]
+__all__ = [
+    "SCHEMES",
+    "Scheme",
+    "Evaluation",
+    "StepResult",
+    "register_scheme",
+    "make_scheme",
+    "advance",
+    "RESOLUTION_HINT",
+]
 
 #: how to get out of a resolution problem
-RESOLUTION_HINT = ("use more mesh nodes (e.g. mesh.nodes=2562); with numerics.formulation=paper, switch to "
-                   "numerics.formulation=rayleigh_p1 (the default), which has no growing spurious modes")
+RESOLUTION_HINT = (
+    "use more mesh nodes (e.g. mesh.nodes=2562); with numerics.formulation=paper, switch to "
+    "numerics.formulation=rayleigh_p1 (the default), which has no growing spurious modes"
+)
 
 
 @dataclass
@@ -54,10 +64,10 @@ class Evaluation:
     pressure: float
     solution: object  # simulation.Solution
     edge_length: np.ndarray | None = None  # (N,) mean edge length at each node
-    state: State | None = None             # the state evaluated (None: positions only)
+    state: State | None = None  # the state evaluated (None: positions only)
     mesh_velocity: np.ndarray | None = None  # (N, 3) dx/dt of the nodes (None: v_n n)
-    field_rates: dict = field(default_factory=dict)   # name -> rate of the stored quantity
-    transport: dict = field(default_factory=dict)     # name -> FieldTransport (kind, implicit part)
+    field_rates: dict = field(default_factory=dict)  # name -> rate of the stored quantity
+    transport: dict = field(default_factory=dict)  # name -> FieldTransport (kind, implicit part)
 
     @property
     def normal_speed(self) -> np.ndarray:
@@ -84,9 +94,9 @@ def advance(ev: Evaluation, dt: float, rates: Rates) -> State:
 
 @dataclass
 class StepResult:
-    state: State              # the new state
-    dt: float                 # the step taken
-    error: float              # estimated local displacement error (R0), nan if not estimated
+    state: State  # the new state
+    dt: float  # the step taken
+    error: float  # estimated local displacement error (R0), nan if not estimated
     accepted: bool = True
     dt_next: float | None = None
     solves: int = 1
@@ -97,11 +107,12 @@ class StepResult:
         return self.state.points
 
 
-SCHEMES: dict[str, type["Scheme"]] = {}
+SCHEMES: dict[str, type[Scheme]] = {}
 
 
 def register_scheme(name):
     """Class decorator adding a :class:`Scheme` to :data:`SCHEMES` under ``name``."""
+
     def deco(cls):
         cls.name = name
         SCHEMES[name] = cls
@@ -114,9 +125,9 @@ class Scheme:
     """One step of the shape evolution, and the rules that belong to the scheme."""
 
     name = "scheme"
-    adaptive = False       # the step follows a controller (a resumed run continues with its step)
-    first_order = True     # the semi-implicit tension (first order) keeps the scheme's order
-    dt_cap = math.inf      # largest step the scheme accepts (adaptive_euler learns its own)
+    adaptive = False  # the step follows a controller (a resumed run continues with its step)
+    first_order = True  # the semi-implicit tension (first order) keeps the scheme's order
+    dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
 
     def __init__(self, evaluate, **_):
         self.evaluate = evaluate
@@ -171,7 +182,7 @@ class AdaptiveHeun(Heun):
     def step(self, ev, dt):
         new, err = self._pair(ev, dt)
         ratio = err / self.tol
-        factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio ** -0.5))
+        factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio**-0.5))
         dt_next = min(self.dt_max, dt * factor)
         if ratio > 1.0 or not np.all(np.isfinite(new.points)):
             if dt <= self.dt_min:
@@ -207,7 +218,7 @@ class AdaptiveEuler(Euler):
         super().__init__(evaluate)
         self.tol, self.dt_max, self.dt_min = tol, dt_max, dt_min
         self.dt_cap = dt_max
-        self._prev = None    # (rate, dt) of the step before
+        self._prev = None  # (rate, dt) of the step before
         self._change = None  # the rate change of the step before
 
     def step(self, ev, dt):
@@ -218,7 +229,7 @@ class AdaptiveEuler(Euler):
             prev_rate, prev_dt = self._prev
             change = rate - prev_rate
             curvature = float(np.max(np.linalg.norm(change, axis=1))) / prev_dt
-            err = 0.5 * prev_dt ** 2 * curvature
+            err = 0.5 * prev_dt**2 * curvature
             if self._change is not None:
                 flip = float(np.sum(change * self._change)) < 0.0
                 grows = np.linalg.norm(change) > 1.2 * np.linalg.norm(self._change)
@@ -227,10 +238,12 @@ class AdaptiveEuler(Euler):
                         raise StabilityError(
                             f"the normal rates keep oscillating at steps down to dt = {prev_dt:.2g}: this is not a "
                             "time-step instability but an unresolved shape (spurious modes of the discrete force "
-                            f"balance); {RESOLUTION_HINT}")
+                            f"balance); {RESOLUTION_HINT}"
+                        )
                     self.dt_cap = self.CAP * prev_dt
-                    log.info("adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g",
-                             prev_dt, self.dt_cap)
+                    log.info(
+                        "adaptive_euler: oscillating rates at dt = %.3g; step capped at %.3g", prev_dt, self.dt_cap
+                    )
             self._change = change
             ideal = np.sqrt(2.0 * self.tol / curvature) if curvature > 0 else self.dt_max
             dt_next = min(self.dt_max, self.dt_cap, dt * self.GROW, max(dt * self.SHRINK, ideal))

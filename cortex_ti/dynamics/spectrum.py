@@ -47,7 +47,14 @@ import scipy.sparse.linalg as spla
 
 from ..solve.constrained import ConstrainedSolver
 
-__all__ = ["normal_spectrum", "normal_jacobian", "Spectrum", "NormalJacobian", "distance_colouring", "translation_share"]
+__all__ = [
+    "normal_spectrum",
+    "normal_jacobian",
+    "Spectrum",
+    "NormalJacobian",
+    "distance_colouring",
+    "translation_share",
+]
 
 
 def adjacency(ring: np.ndarray) -> sp.csr_matrix:
@@ -71,7 +78,7 @@ def distance_colouring(adj: sp.csr_matrix, separation: int) -> np.ndarray:
     colour = np.full(n, -1, dtype=np.int64)
     indptr, indices = reach.indptr, reach.indices
     for i in range(n):
-        used = colour[indices[indptr[i]:indptr[i + 1]]]
+        used = colour[indices[indptr[i] : indptr[i + 1]]]
         used = np.unique(used[used >= 0])
         c = 0
         for u in used:
@@ -93,19 +100,19 @@ class NormalJacobian:
     """``J = d v_n / dX [s n]`` at one shape; build with :func:`normal_jacobian`."""
 
     n_nodes: int
-    normal: np.ndarray                 # (N, 3) at the base shape
-    basis: np.ndarray                  # (N, nb, 3)
-    fx: sp.csr_matrix                  # F_X on the unknowns, (n_unknowns, N)
-    fs: np.ndarray                     # F_X on the scalar rows, (q, N)
-    dn: sp.csr_matrix                  # (dn_i/dX [s n]) . v_i, (N, N)
+    normal: np.ndarray  # (N, 3) at the base shape
+    basis: np.ndarray  # (N, nb, 3)
+    fx: sp.csr_matrix  # F_X on the unknowns, (n_unknowns, N)
+    fs: np.ndarray  # F_X on the scalar rows, (q, N)
+    dn: sp.csr_matrix  # (dn_i/dX [s n]) . v_i, (N, N)
     solver: ConstrainedSolver
-    velocity: np.ndarray               # (N, 3) at the base shape
-    leak: float                        # relative size of the entries outside every ring (should be ~1e-12)
+    velocity: np.ndarray  # (N, 3) at the base shape
+    leak: float  # relative size of the entries outside every ring (should be ~1e-12)
     seconds: dict = field(default_factory=dict)
 
     def _vn(self, x: np.ndarray) -> np.ndarray:
         nb = self.basis.shape[1]
-        proj = np.einsum("nbc,nc->nb", self.basis, self.normal)          # (N, nb)
+        proj = np.einsum("nbc,nc->nb", self.basis, self.normal)  # (N, nb)
         if x.ndim == 1:
             return (x.reshape(-1, nb) * proj).sum(1)
         return (x.reshape(self.n_nodes, nb, -1) * proj[:, :, None]).sum(1)
@@ -128,8 +135,8 @@ class _Assembled:
 
     def __init__(self, n: int, nb: int):
         self.n, self.nb = n, nb
-        self.x: list[tuple] = []          # (rows, owners, values) of F_X on the unknowns
-        self.normal: list[tuple] = []     # the same for (dn_i/dX [s n]) . v_i
+        self.x: list[tuple] = []  # (rows, owners, values) of F_X on the unknowns
+        self.normal: list[tuple] = []  # the same for (dn_i/dX [s n]) . v_i
         self.fs = None
         self.leak2 = self.total2 = 0.0
 
@@ -141,7 +148,7 @@ class _Assembled:
         nz = inside & (dvec != 0.0)
         self.x.append((np.flatnonzero(nz), own[nz], dvec[nz]))
         self.leak2 += float(np.sum(dvec[~inside] ** 2)) + float(np.sum(dsc[:, owner < 0] ** 2))
-        self.total2 += float(np.sum(dvec ** 2)) + float(np.sum(dsc ** 2))
+        self.total2 += float(np.sum(dvec**2)) + float(np.sum(dsc**2))
         ins = owner >= 0
         np.add.at(self.fs, (slice(None), owner[ins]), dsc[:, ins])
         nzn = ins & (dnv != 0.0)
@@ -149,16 +156,21 @@ class _Assembled:
 
     @staticmethod
     def _matrix(parts, shape) -> sp.csr_matrix:
-        rows, cols, vals = (np.concatenate(k) for k in zip(*parts))
+        rows, cols, vals = (np.concatenate(k) for k in zip(*parts, strict=False))
         return sp.csr_matrix((vals, (rows, cols)), shape=shape)
 
     def matrices(self) -> tuple[sp.csr_matrix, np.ndarray, sp.csr_matrix, float]:
-        return (self._matrix(self.x, (self.n * self.nb, self.n)), self.fs,
-                self._matrix(self.normal, (self.n, self.n)), float(np.sqrt(self.leak2 / max(self.total2, 1e-300))))
+        return (
+            self._matrix(self.x, (self.n * self.nb, self.n)),
+            self.fs,
+            self._matrix(self.normal, (self.n, self.n)),
+            float(np.sqrt(self.leak2 / max(self.total2, 1e-300))),
+        )
 
 
-def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None = None,
-                    backend: str = "auto") -> NormalJacobian:
+def normal_jacobian(
+    sim, points: np.ndarray, dt: float = 0.0, eps: float | None = None, backend: str = "auto"
+) -> NormalJacobian:
     """Linearise the normal dynamics of ``sim``'s formulation at the shape ``points``.
 
     ``dt > 0``: the velocity a step of that length is solved for (the semi-implicit tension),
@@ -193,18 +205,38 @@ def normal_jacobian(sim, points: np.ndarray, dt: float = 0.0, eps: float | None 
     gathered = _Assembled(n, basis.shape[1])
     for c in range(int(colour.max()) + 1):
         src = np.flatnonzero(colour == c)
-        dist, _, owner = csgraph.dijkstra(adj, directed=False, indices=src, unweighted=True, limit=radius + 0.5,
-                                          min_only=True, return_predecessors=True)
+        dist, _, owner = csgraph.dijkstra(
+            adj,
+            directed=False,
+            indices=src,
+            unweighted=True,
+            limit=radius + 0.5,
+            min_only=True,
+            return_predecessors=True,
+        )
         d = np.zeros(n)
         d[src] = eps
         (vp, sp_, np_), (vm, sm_, nm_) = parts(x0 + d[:, None] * normal), parts(x0 - d[:, None] * normal)
-        gathered.add(np.where(np.isfinite(dist), owner, -1), (vp - vm) / (2 * eps), (sp_ - sm_) / (2 * eps),
-                     np.einsum("nc,nc->n", (np_ - nm_) / (2 * eps), velocity))
+        gathered.add(
+            np.where(np.isfinite(dist), owner, -1),
+            (vp - vm) / (2 * eps),
+            (sp_ - sm_) / (2 * eps),
+            np.einsum("nc,nc->n", (np_ - nm_) / (2 * eps), velocity),
+        )
     fx, fs, dn, leak = gathered.matrices()
     t2 = time.perf_counter()
-    return NormalJacobian(n_nodes=n, normal=normal, basis=basis, fx=fx, fs=fs, dn=dn, solver=solver,
-                          velocity=velocity, leak=leak,
-                          seconds={"solve": t1 - t0, "linearise": t2 - t1, "colours": int(colour.max()) + 1})
+    return NormalJacobian(
+        n_nodes=n,
+        normal=normal,
+        basis=basis,
+        fx=fx,
+        fs=fs,
+        dn=dn,
+        solver=solver,
+        velocity=velocity,
+        leak=leak,
+        seconds={"solve": t1 - t0, "linearise": t2 - t1, "colours": int(colour.max()) + 1},
+    )
 
 
 @dataclass
@@ -236,9 +268,18 @@ def _deterministic_start(n: int) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def normal_spectrum(sim, points: np.ndarray | None = None, dt: float = 0.0, k: int = 12,
-                    dense: bool | None = None, modes: bool = False, tol: float = 1e-8,
-                    ncv: int | None = None, maxiter: int | None = None, which: str = "LR") -> Spectrum:
+def normal_spectrum(
+    sim,
+    points: np.ndarray | None = None,
+    dt: float = 0.0,
+    k: int = 12,
+    dense: bool | None = None,
+    modes: bool = False,
+    tol: float = 1e-8,
+    ncv: int | None = None,
+    maxiter: int | None = None,
+    which: str = "LR",
+) -> Spectrum:
     """Eigenvalues of ``J`` (largest real part first): all of them with ``dense`` (default up to
     3000 nodes), else ``k`` of them by ARPACK with a deterministic start vector: those of
     largest real part (``which='LR'``, the growing modes) or of largest magnitude
@@ -258,15 +299,29 @@ def normal_spectrum(sim, points: np.ndarray | None = None, dt: float = 0.0, k: i
         method = "dense"
     else:
         op = jac.operator()
-        res = spla.eigs(op, k=k, which=which, v0=_deterministic_start(n), tol=tol,
-                        ncv=ncv or max(2 * k + 1, 40), maxiter=maxiter or 20 * n, return_eigenvectors=modes)
-        w, vecs = (res if modes else (res, None))
+        res = spla.eigs(
+            op,
+            k=k,
+            which=which,
+            v0=_deterministic_start(n),
+            tol=tol,
+            ncv=ncv or max(2 * k + 1, 40),
+            maxiter=maxiter or 20 * n,
+            return_eigenvectors=modes,
+        )
+        w, vecs = res if modes else (res, None)
         method = f"arpack {which}"
     order = np.argsort(-w.real)
     seconds = dict(jac.seconds)
     seconds["eig"] = time.perf_counter() - t0
-    return Spectrum(eigenvalues=w[order], n_nodes=n, method=method, leak=jac.leak, seconds=seconds,
-                    modes=None if vecs is None else vecs[:, order])
+    return Spectrum(
+        eigenvalues=w[order],
+        n_nodes=n,
+        method=method,
+        leak=jac.leak,
+        seconds=seconds,
+        modes=None if vecs is None else vecs[:, order],
+    )
 
 
 def translation_share(s: np.ndarray, normal: np.ndarray, area: np.ndarray) -> tuple[float, np.ndarray]:

@@ -96,13 +96,14 @@ class State:
             rate = rates.fields.get(name)
             tr = transport.get(name)
             if tr is None or (rate is None and tr.kind != DENSITY and tr.diffusion == 0.0 and tr.turnover == 0.0):
-                fields[name] = values          # glued to the nodes: unchanged
+                fields[name] = values  # glued to the nodes: unchanged
                 continue
             stored = self.stored(name, tr.kind)
             if rate is not None:
                 stored = stored + dt * rate
-            fields[name] = implicit_diffusion_reaction(stored, tr.kind, points, self.faces, dt, tr.diffusion,
-                                                       tr.turnover, tr.target)
+            fields[name] = implicit_diffusion_reaction(
+                stored, tr.kind, points, self.faces, dt, tr.diffusion, tr.turnover, tr.target
+            )
         return State(points, fields, self.faces)
 
     def total(self, name: str) -> float:

@@ -11,15 +11,27 @@ files already there (``claim``), and the VTU/PVD export (``export``, atomic). Ma
 
 from .files import PARTIAL_SUFFIX, read_benchmark, write_dataset, write_json
 from .trajectory import (
-                         FRAME_VARIABLES,
-                         ResumeState,
-                         Trajectory,
-                         TrajectoryWriter,
-                         last_frame,
-                         load_trajectory,
-                         open_trajectory,
-                         partial_path,
+    FRAME_VARIABLES,
+    ResumeState,
+    Trajectory,
+    TrajectoryWriter,
+    last_frame,
+    load_trajectory,
+    open_trajectory,
+    partial_path,
 )
 
-__all__ = ["PARTIAL_SUFFIX", "FRAME_VARIABLES", "Trajectory", "TrajectoryWriter", "ResumeState", "last_frame",
-           "load_trajectory", "open_trajectory", "partial_path", "read_benchmark", "write_dataset", "write_json"]
+__all__ = [
+    "PARTIAL_SUFFIX",
+    "FRAME_VARIABLES",
+    "Trajectory",
+    "TrajectoryWriter",
+    "ResumeState",
+    "last_frame",
+    "load_trajectory",
+    "open_trajectory",
+    "partial_path",
+    "read_benchmark",
+    "write_dataset",
+    "write_json",
+]

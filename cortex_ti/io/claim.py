@@ -98,8 +98,9 @@ class OutputClaim:
                     raise
                 who = _holder(fd)
                 os.close(fd)
-                raise OutputBusy(f"'{path}' is being written by another run ({who}); wait for it to end or "
-                                 "choose another output") from None
+                raise OutputBusy(
+                    f"'{path}' is being written by another run ({who}); wait for it to end or choose another output"
+                ) from None
             # the holder before us may have deleted the lock file between our open and our lock:
             # then we hold a lock on a file nobody else sees, so take the one at the path again
             try:
@@ -115,7 +116,7 @@ class OutputClaim:
             os.ftruncate(fd, 0)
             os.pwrite(fd, note.encode(), 0)
         except OSError:
-            pass    # a full disk: the lock holds all the same, only its note is missing
+            pass  # a full disk: the lock holds all the same, only its note is missing
         return fd
 
     def release(self) -> None:
@@ -126,7 +127,7 @@ class OutputClaim:
         _HELD.pop(_key(self.path), None)
         fd, self._fd = self._fd, -1
         try:
-            self.lock.unlink(missing_ok=True)   # while still locked: see _take
+            self.lock.unlink(missing_ok=True)  # while still locked: see _take
         except OSError:
             pass
         finally:
@@ -182,19 +183,23 @@ def check_output(path: str | os.PathLike, resume: bool, force: bool) -> str:
         try:
             frames = committed_frames(partial)
         except CortexError:
-            raise CortexError(f"'{partial}' exists and is not a readable trajectory; pass --force to replace it") \
-                from None
+            raise CortexError(
+                f"'{partial}' exists and is not a readable trajectory; pass --force to replace it"
+            ) from None
     if path.exists():
         if not resume:
             raise CortexError(f"'{path}' exists; pass --force to replace it, or --resume to extend a finished run")
         try:
             committed_frames(path)
         except CortexError:
-            raise CortexError(f"'{path}' exists and is not a trajectory; choose another output or pass --force to "
-                              "replace it") from None
+            raise CortexError(
+                f"'{path}' exists and is not a trajectory; choose another output or pass --force to replace it"
+            ) from None
         return "resume" if frames[0] else "extend"
     if frames[0] and not resume:
         n, t = frames
-        raise CortexError(f"'{partial}' holds {n} frames (to t = {t:.6g}) of an interrupted run: continue it with "
-                          "--resume, or pass --force to start over")
+        raise CortexError(
+            f"'{partial}' holds {n} frames (to t = {t:.6g}) of an interrupted run: continue it with "
+            "--resume, or pass --force to start over"
+        )
     return "resume" if frames[0] else "new"

@@ -31,8 +31,7 @@ from ..errors import CortexError
 from .files import OutputError, atomic_path, describe_os_error, refuse_file_parent
 from .trajectory import Trajectory
 
-__all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf",
-           "export_vtu_series"]
+__all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
 
 #: Export formats: name -> file suffix.
 EXPORT_FORMATS: dict[str, str] = {"vtkhdf": ".vtkhdf", "pvd": ".pvd"}
@@ -128,12 +127,12 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                 steps["ConnectivityIdOffsets"] = np.zeros((m, 1), dtype=np.int64)
                 offsets = steps.create_group("PointDataOffsets")
                 for j, k in enumerate(ks):
-                    points[j * n:(j + 1) * n] = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
+                    points[j * n : (j + 1) * n] = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
                     for name, values in _point_data(tr, k).items():
                         if name not in pdata:
                             pdata.create_dataset(name, (m * n, *values.shape[1:]), dtype=np.float64)
                             offsets[name] = np.arange(m, dtype=np.int64) * n
-                        pdata[name][j * n:(j + 1) * n] = values
+                        pdata[name][j * n : (j + 1) * n] = values
             os.replace(tmp, out)
         finally:
             tmp.unlink(missing_ok=True)
@@ -160,8 +159,9 @@ def export_vtu_series(path, output=None, every: int = 1) -> Path:
             name = f"{pvd.stem}_{k:05d}.vtu"
             tmp = out_dir / f".{name}.tmp.vtu"
             try:
-                meshio.write(tmp, meshio.Mesh(pts, [("triangle", tri)], point_data=_point_data(tr, k)),
-                             file_format="vtu")
+                meshio.write(
+                    tmp, meshio.Mesh(pts, [("triangle", tri)], point_data=_point_data(tr, k)), file_format="vtu"
+                )
                 os.replace(tmp, out_dir / name)
             finally:
                 tmp.unlink(missing_ok=True)
@@ -192,5 +192,6 @@ def export_trajectory(path, output=None, fmt: str = "vtkhdf", every: int = 1, fo
     try:
         return writer(path, output, every)
     except OSError as exc:
-        raise OutputError(f"exporting '{path}' to '{target}' failed ({describe_os_error(exc)}); nothing was "
-                          "written") from None
+        raise OutputError(
+            f"exporting '{path}' to '{target}' failed ({describe_os_error(exc)}); nothing was written"
+        ) from None

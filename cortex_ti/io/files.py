@@ -12,8 +12,16 @@ import numpy as np
 
 from ..errors import CortexError
 
-__all__ = ["PARTIAL_SUFFIX", "OutputError", "atomic_path", "describe_os_error", "refuse_file_parent", "write_json",
-           "write_dataset", "read_benchmark"]
+__all__ = [
+    "PARTIAL_SUFFIX",
+    "OutputError",
+    "atomic_path",
+    "describe_os_error",
+    "refuse_file_parent",
+    "write_json",
+    "write_dataset",
+    "read_benchmark",
+]
 
 #: Suffix of a file being written (renamed when complete).
 PARTIAL_SUFFIX = ".partial"
@@ -33,7 +41,7 @@ def read_benchmark(path) -> dict[str, float]:
         raise ValueError(f"benchmark file '{path}' has no data row")
     keys, values = lines[0].split("\t"), lines[1].split("\t")
     out = {}
-    for k, v in zip(keys, values):
+    for k, v in zip(keys, values, strict=False):
         try:
             out[k] = float(v)
         except ValueError:
@@ -43,6 +51,7 @@ def read_benchmark(path) -> dict[str, float]:
 
 def write_json(obj, path: str | os.PathLike) -> Path:
     """Write ``obj`` as JSON atomically (temporary name, then rename); NaN becomes null."""
+
     def clean(v):
         if isinstance(v, float) and not math.isfinite(v):
             return None

@@ -43,10 +43,11 @@ import errno
 import math
 import os
 import signal
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import h5netcdf
 import h5py
@@ -76,7 +77,13 @@ FRAME_VARIABLES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
     "points": (("time", "node", "xyz"), {"units": "R0", "long_name": "node positions"}),
     "velocity": (("time", "node", "xyz"), {"units": "R0/t_a", "long_name": "cortex velocity at the nodes"}),
     "active_stress": (("time", "node"), {"units": "zeta_0", "long_name": "isotropic active tension zeta at the nodes"}),
-    "pressure": (("time",), {"units": "zeta_0/R0", "long_name": "pressure difference P = p_inside - p_outside (NaN without incompressibility)"}),
+    "pressure": (
+        ("time",),
+        {
+            "units": "zeta_0/R0",
+            "long_name": "pressure difference P = p_inside - p_outside (NaN without incompressibility)",
+        },
+    ),
 }
 _TIME_ATTRS = {"units": "t_a", "long_name": "time"}
 _TRIANGLE_ATTRS = {"units": "1", "long_name": "node indices (0-based) of each triangle"}
@@ -106,6 +113,8 @@ def _signals_held():
         yield
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 #: Variables renamed since older files were written: old name -> the name a reader sees
 RENAMED_VARIABLES = {"lsq_residual": "force_residual"}
 
@@ -246,8 +255,7 @@ def _declared(extra_vars: Mapping, allowed=_EXTRA_DIMS) -> dict[str, tuple[tuple
         dims = tuple(dims)
         if name in _RESERVED:
             raise ValueError(f"extra variable {name!r} clashes with a standard variable")
-        if not dims or dims[0] != "time" or any(d not in allowed for d in dims) \
-                or len(set(dims)) != len(dims):
+        if not dims or dims[0] != "time" or any(d not in allowed for d in dims) or len(set(dims)) != len(dims):
             raise ValueError(
                 f"extra variable {name!r}: dims must start with 'time' and use "
                 f"{tuple(allowed)} without repeats, got {dims}"
@@ -301,8 +309,14 @@ def _resume_problems(nc, n_nodes: int, triangles: np.ndarray, variables, scene: 
 
 def _layout(nc, sizes: dict, triangles: np.ndarray, variables: Mapping, attrs: Mapping) -> None:
     """Dimensions, variables (chunked one frame per chunk), triangles and attributes of a new file."""
-    nc.dimensions = {"time": None, "node": sizes["node"], "xyz": 3, "face": len(triangles), "corner": 3,
-                     **{k: v for k, v in sizes.items() if k not in ("time", "node", "xyz")}}
+    nc.dimensions = {
+        "time": None,
+        "node": sizes["node"],
+        "xyz": 3,
+        "face": len(triangles),
+        "corner": 3,
+        **{k: v for k, v in sizes.items() if k not in ("time", "node", "xyz")},
+    }
     t = nc.create_variable("time", ("time",), "f8", chunks=(_TIME_CHUNK,))
     t.attrs.update(_TIME_ATTRS)
     for name, (dims, var_attrs) in variables.items():
@@ -333,8 +347,9 @@ def _frame_values(sizes: dict, declared: Mapping, points, velocity, active_stres
     unknown = sorted(set(extra) - set(declared))
     missing = sorted(set(declared) - set(extra))
     if unknown or missing:
-        problems = ([f"undeclared extra variables {unknown}"] if unknown else []) + \
-                   ([f"missing extra variables {missing}"] if missing else [])
+        problems = ([f"undeclared extra variables {unknown}"] if unknown else []) + (
+            [f"missing extra variables {missing}"] if missing else []
+        )
         raise ValueError("append(): " + "; ".join(problems))
     for name, (dims, _) in declared.items():
         values[name] = _array(name, extra[name], tuple(sizes[d] for d in dims[1:]))
@@ -433,9 +448,9 @@ class TrajectoryWriter:
         self._n = 0
         self._last_t = -math.inf
         self._state = "open"
-        self._fd = -1              # a descriptor of the partial file, to reserve space with
+        self._fd = -1  # a descriptor of the partial file, to reserve space with
         self._reserve = 0
-        self._claim = OutputClaim.acquire(self.path)   # before the partial file is truncated or opened
+        self._claim = OutputClaim.acquire(self.path)  # before the partial file is truncated or opened
         try:
             if resume and self.partial.exists():
                 self._reopen()
@@ -464,15 +479,17 @@ class TrajectoryWriter:
             self._close()
             self.partial.unlink(missing_ok=True)
             if isinstance(exc, OSError):
-                raise OutputError(f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}") \
-                    from None
+                raise OutputError(
+                    f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}"
+                ) from None
             raise
 
     def _open_fd(self) -> None:
         self._fd = os.open(self.partial, os.O_RDWR | os.O_CLOEXEC)
         data = self._datasets()
         self._reserve = _METADATA_RESERVE + sum(
-            int(np.prod(d.chunks)) * d.dtype.itemsize for d in data.values() if d.chunks is not None)
+            int(np.prod(d.chunks)) * d.dtype.itemsize for d in data.values() if d.chunks is not None
+        )
 
     def _reopen(self) -> None:
         where = f"cannot resume '{self.partial}'"
@@ -481,17 +498,21 @@ class TrajectoryWriter:
             self._nc = h5netcdf.File(self._h5, "a")
         except (OSError, ValueError, KeyError, RuntimeError) as exc:
             self._close()
-            raise CortexError(f"{where}: it is not a readable trajectory ({exc}); pass --force (or delete it) to "
-                              "start over") from None
+            raise CortexError(
+                f"{where}: it is not a readable trajectory ({exc}); pass --force (or delete it) to start over"
+            ) from None
         nc = self._nc
         try:
-            problems = _resume_problems(nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars},
-                                        self._attrs["scene"])
+            problems = _resume_problems(
+                nc, self.n_nodes, self.triangles, {**self._variables(), **self._node_vars}, self._attrs["scene"]
+            )
             if problems:
-                raise CortexError(f"{where}: {'; '.join(problems)}; pass --force (or delete it) to start over, or "
-                                 "choose another output")
+                raise CortexError(
+                    f"{where}: {'; '.join(problems)}; pass --force (or delete it) to start over, or "
+                    "choose another output"
+                )
             self._n = _committed(self._h5)
-            if int(nc.dimensions["time"].size) != self._n:   # drop a frame written but not committed
+            if int(nc.dimensions["time"].size) != self._n:  # drop a frame written but not committed
                 nc.resize_dimension("time", self._n)
             self._h5.attrs[COMMIT_ATTR] = np.int64(self._n)
             if self._n:
@@ -504,8 +525,9 @@ class TrajectoryWriter:
         except BaseException as exc:
             self._close()
             if isinstance(exc, OSError):
-                raise OutputError(f"{where}: {describe_os_error(exc) if exc.errno else exc}; its frames are "
-                                  "unchanged") from None
+                raise OutputError(
+                    f"{where}: {describe_os_error(exc) if exc.errno else exc}; its frames are unchanged"
+                ) from None
             raise
 
     # ----------------------------------------------------------------------------- writing
@@ -527,8 +549,8 @@ class TrajectoryWriter:
         return self._h5data
 
     def _flush(self) -> None:
-        self._nc.flush()   # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
-        self._h5.flush()   # push data and metadata to disk
+        self._nc.flush()  # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
+        self._h5.flush()  # push data and metadata to disk
 
     def append(self, t: float, points, velocity, active_stress, pressure: float, **extra) -> None:
         """Write one frame and flush it to disk.
@@ -551,9 +573,7 @@ class TrajectoryWriter:
             raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
         t = float(t)
         if not math.isfinite(t) or t <= self._last_t:
-            raise ValueError(
-                f"frame time must be finite and increase: got t = {t} after t = {self._last_t}"
-            )
+            raise ValueError(f"frame time must be finite and increase: got t = {t} after t = {self._last_t}")
         values = _frame_values(self._sizes, self._extra, points, velocity, active_stress, pressure, extra)
         k = self._n
         with _signals_held():
@@ -565,7 +585,7 @@ class TrajectoryWriter:
                     data[name][k, ...] = value
                 data["time"][k] = t
                 self._flush()
-                self._h5.attrs.modify(COMMIT_ATTR, np.int64(k + 1))   # last: the frame is complete
+                self._h5.attrs.modify(COMMIT_ATTR, np.int64(k + 1))  # last: the frame is complete
                 self._flush()
             except OSError as exc:
                 self._state = "failed"
@@ -583,14 +603,16 @@ class TrajectoryWriter:
             os.posix_fallocate(self._fd, 0, end)
         except OSError as exc:
             if exc.errno in (errno.EOPNOTSUPP, errno.EINVAL, errno.ENOSYS):
-                self._fd = _close_fd(self._fd)   # cannot reserve here: rely on the commit marker
+                self._fd = _close_fd(self._fd)  # cannot reserve here: rely on the commit marker
                 return
             raise
 
     def _write_error(self, what: str, exc: OSError) -> OutputError:
         if self._n:
-            kept = (f"the {self._n} frame{'s' if self._n > 1 else ''} to t = {self._last_t:.6g} before it "
-                    f"{'are' if self._n > 1 else 'is'} kept there")
+            kept = (
+                f"the {self._n} frame{'s' if self._n > 1 else ''} to t = {self._last_t:.6g} before it "
+                f"{'are' if self._n > 1 else 'is'} kept there"
+            )
             hint = "; make room and continue with --resume"
         else:
             kept, hint = "no frame was complete", ""
@@ -672,12 +694,12 @@ class TrajectoryWriter:
         try:
             self._close()
         except OSError:
-            pass    # the committed frames are on disk already; a failed close cannot take them back
+            pass  # the committed frames are on disk already; a failed close cannot take them back
         finally:
             self._release()
         return self.partial
 
-    def __enter__(self) -> "TrajectoryWriter":
+    def __enter__(self) -> TrajectoryWriter:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> bool:
@@ -694,6 +716,7 @@ class TrajectoryWriter:
 # --------------------------------------------------------------------------------------
 # Reading
 # --------------------------------------------------------------------------------------
+
 
 def _existing(path: str | os.PathLike) -> Path:
     p = Path(os.fspath(path))
@@ -821,8 +844,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
             n = _committed(h5)
             out: dict[str, Any] = {"path": file, "n_frames": n}
             if n == 0:
-                out.update(time=None, points=None, velocity=None, active_stress=None,
-                           pressure=None, extra={})
+                out.update(time=None, points=None, velocity=None, active_stress=None, pressure=None, extra={})
                 return out
             out["time"] = float(nc["time"][n - 1])
             for name in FRAME_VARIABLES:
@@ -842,16 +864,16 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
 class ResumeState:
     """Where an interrupted run continues: the last flushed frame of its ``.partial`` file."""
 
-    path: Path              # the partial file
+    path: Path  # the partial file
     n_frames: int
     time: float
-    points: np.ndarray      # (N, 3)
-    active_stress: np.ndarray   # (N,) the tension carried by the nodes
-    dt: float | None        # the step the integrator was about to take (None if not stored)
-    fields: dict = field(default_factory=dict)   # every other (time, node) variable of the frame
+    points: np.ndarray  # (N, 3)
+    active_stress: np.ndarray  # (N,) the tension carried by the nodes
+    dt: float | None  # the step the integrator was about to take (None if not stored)
+    fields: dict = field(default_factory=dict)  # every other (time, node) variable of the frame
 
     @classmethod
-    def read(cls, output: str | os.PathLike) -> "ResumeState | None":
+    def read(cls, output: str | os.PathLike) -> ResumeState | None:
         """The state of ``<output>.partial``, or None if there is none or it holds no frame."""
         partial = partial_path(output)
         if not partial.exists():
@@ -862,10 +884,15 @@ class ResumeState:
         dt = last["extra"].get("dt")
         n = np.shape(last["points"])[0]
         nodal = {k: np.asarray(v, dtype=float) for k, v in last["extra"].items() if np.shape(v) == (n,)}
-        return cls(path=partial, n_frames=last["n_frames"], time=float(last["time"]),
-                   points=np.asarray(last["points"], dtype=float),
-                   active_stress=np.asarray(last["active_stress"], dtype=float),
-                   dt=None if dt is None else float(dt), fields=nodal)
+        return cls(
+            path=partial,
+            n_frames=last["n_frames"],
+            time=float(last["time"]),
+            points=np.asarray(last["points"], dtype=float),
+            active_stress=np.asarray(last["active_stress"], dtype=float),
+            dt=None if dt is None else float(dt),
+            fields=nodal,
+        )
 
 
 class Trajectory:
@@ -894,7 +921,7 @@ class Trajectory:
         else:
             self.ds = load_trajectory(self.path)
 
-    def __enter__(self) -> "Trajectory":
+    def __enter__(self) -> Trajectory:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -917,8 +944,11 @@ class Trajectory:
         from ..scene.yamltext import dump_yaml, load_yaml
 
         text = self.ds.attrs["scene"]
-        stored = {int(name[len(FIELD_PREFIX):]): name for name in self.ds.variables
-                  if name.startswith(FIELD_PREFIX) and name[len(FIELD_PREFIX):].isdigit()}
+        stored = {
+            int(name[len(FIELD_PREFIX) :]): name
+            for name in self.ds.variables
+            if name.startswith(FIELD_PREFIX) and name[len(FIELD_PREFIX) :].isdigit()
+        }
         if not stored:
             return scene_from_yaml(text)
         import tempfile
@@ -954,8 +984,11 @@ class Trajectory:
         surface is computed again with the file's fit scheme."""
         if "normal" in self.ds:
             return np.asarray(self.ds["normal"].isel(time=k).values, dtype=float)
-        return _fitted_normals(np.asarray(self.ds["points"].isel(time=k).values, dtype=float), self.triangles,
-                               self.ds.attrs.get("fit_scheme", "quadratic"))
+        return _fitted_normals(
+            np.asarray(self.ds["points"].isel(time=k).values, dtype=float),
+            self.triangles,
+            self.ds.attrs.get("fit_scheme", "quadratic"),
+        )
 
 
 def _fitted_normals(points: np.ndarray, triangles: np.ndarray, fit: str) -> np.ndarray:

@@ -18,7 +18,6 @@ Taichi kernel (:func:`_scatter_kernel`), writing COO triplets that SciPy convert
 to CSR.
 """
 
-
 import numpy as np
 import scipy.sparse as sp
 
@@ -36,8 +35,7 @@ i64_1 = ti.types.ndarray(dtype=ti.i64, ndim=1)
 
 
 @ti.func
-def _emit(rows: ti.template(), cols: ti.template(), vals: ti.template(), basis: ti.template(),
-          base, row, node, coef):
+def _emit(rows: ti.template(), cols: ti.template(), vals: ti.template(), basis: ti.template(), base, row, node, coef):
     for b in range(basis.shape[1]):
         bv = ti.Vector([basis[node, b, 0], basis[node, b, 1], basis[node, b, 2]])
         rows[base + b] = row
@@ -47,9 +45,19 @@ def _emit(rows: ti.template(), cols: ti.template(), vals: ti.template(), basis: 
 
 @kernel
 def _scatter_kernel(
-    stencil: i32_2, ssize: i32_1, fit: f64_3, normal: f64_2, basis: f64_3,
-    W: f64_4, W0: f64_3, Wn: f64_3, Wn0: f64_2, offsets: i64_1,
-    rows: i64_1, cols: i64_1, vals: f64_1,
+    stencil: i32_2,
+    ssize: i32_1,
+    fit: f64_3,
+    normal: f64_2,
+    basis: f64_3,
+    W: f64_4,
+    W0: f64_3,
+    Wn: f64_3,
+    Wn0: f64_2,
+    offsets: i64_1,
+    rows: i64_1,
+    cols: i64_1,
+    vals: f64_1,
 ):
     """Row r of node i: sum_k W[k] . V_k + W0 . v_i + sum_k Wn[k] d_k v_n + Wn0 v_n,i,
     with V_k = sum_a F[k, a] (v_a - v_i) and d_k v_n = sum_a F[k, a] (n_a . v_a - n_i . v_i).
@@ -96,12 +104,12 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     if res is None:
         raise SolverError("fit-residual rows need the geometry computed with residual=True")
     n, smax, _ = res.shape
-    w_eig, vec = np.linalg.eigh(res)                       # ascending; the range has eigenvalue 1
+    w_eig, vec = np.linalg.eigh(res)  # ascending; the range has eigenvalue 1
     k = int((w_eig > 0.5).sum(axis=1).max()) if n else 0
     if k == 0 or weight <= 0.0:
         return sp.csr_matrix((0, n * basis.shape[1]))
-    q = vec[:, :, smax - k:] * (w_eig[:, None, smax - k:] > 0.5)   # (N, S, k), zero where absent
-    scale = np.sqrt(weight) * eta_s / geometry.edge_length ** 2   # (N,)
+    q = vec[:, :, smax - k :] * (w_eig[:, None, smax - k :] > 0.5)  # (N, S, k), zero where absent
+    scale = np.sqrt(weight) * eta_s / geometry.edge_length**2  # (N,)
     q = q * scale[:, None, None]
     nb = basis.shape[1]
     st = geometry.stencil
@@ -109,21 +117,30 @@ def fit_residual_rows(geometry: Geometry, basis: np.ndarray, weight: float, eta_
     nodes = np.where(valid, st, 0)
     # rows (i, k, c); columns: the stencil nodes and the node itself, each with nb unknowns
     row = (np.arange(n)[:, None, None] * k + np.arange(k)[None, :, None]) * 3 + np.arange(3)[None, None, :]  # (N,k,3)
-    nbr_val = np.einsum("nsk,nsbc->nkcsb", q * valid[:, :, None], basis[nodes])                       # (N,k,3,S,nb)
-    nbr_col = (nodes[:, :, None] * nb + np.arange(nb)[None, None, :])                                    # (N,S,nb)
-    ctr_val = -np.einsum("nk,nbc->nkcb", q.sum(axis=1), basis)                                           # (N,k,3,nb)
-    ctr_col = np.arange(n)[:, None] * nb + np.arange(nb)[None, :]                                        # (N,nb)
-    rows = np.concatenate([np.broadcast_to(row[..., None, None], nbr_val.shape).ravel(),
-                           np.broadcast_to(row[..., None], ctr_val.shape).ravel()])
-    cols = np.concatenate([np.broadcast_to(nbr_col[:, None, None], nbr_val.shape).ravel(),
-                           np.broadcast_to(ctr_col[:, None, None, :], ctr_val.shape).ravel()])
+    nbr_val = np.einsum("nsk,nsbc->nkcsb", q * valid[:, :, None], basis[nodes])  # (N,k,3,S,nb)
+    nbr_col = nodes[:, :, None] * nb + np.arange(nb)[None, None, :]  # (N,S,nb)
+    ctr_val = -np.einsum("nk,nbc->nkcb", q.sum(axis=1), basis)  # (N,k,3,nb)
+    ctr_col = np.arange(n)[:, None] * nb + np.arange(nb)[None, :]  # (N,nb)
+    rows = np.concatenate(
+        [
+            np.broadcast_to(row[..., None, None], nbr_val.shape).ravel(),
+            np.broadcast_to(row[..., None], ctr_val.shape).ravel(),
+        ]
+    )
+    cols = np.concatenate(
+        [
+            np.broadcast_to(nbr_col[:, None, None], nbr_val.shape).ravel(),
+            np.broadcast_to(ctr_col[:, None, None, :], ctr_val.shape).ravel(),
+        ]
+    )
     vals = np.concatenate([nbr_val.ravel(), ctr_val.ravel()])
     keep = vals != 0.0
     return sp.csr_matrix((vals[keep], (rows[keep], cols[keep])), shape=(n * k * 3, n * nb))
 
 
-def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0,
-             implicit_dt: float = 0.0) -> LinearSystem:
+def assemble(
+    geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residual_weight: float = 0.0, implicit_dt: float = 0.0
+) -> LinearSystem:
     """Build the least-squares system of the effects in ``physics`` on this shape.
 
     ``fit_residual_weight > 0`` appends the rows of :func:`fit_residual_rows`;
@@ -145,8 +162,21 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
     rows = np.empty(nnz, dtype=np.int64)
     cols = np.empty(nnz, dtype=np.int64)
     vals = np.empty(nnz)
-    _scatter_kernel(geometry.stencil, geometry.stencil_size, geometry.fit, geometry.normal, basis,
-                    ctx.W, ctx.W0, ctx.Wn, ctx.Wn0, offsets, rows, cols, vals)
+    _scatter_kernel(
+        geometry.stencil,
+        geometry.stencil_size,
+        geometry.fit,
+        geometry.normal,
+        basis,
+        ctx.W,
+        ctx.W0,
+        ctx.Wn,
+        ctx.Wn0,
+        offsets,
+        rows,
+        cols,
+        vals,
+    )
     rhs = ctx.rhs
     if physics.normal_balance:
         # Row equilibration: the tangential rows hold second derivatives (~1/h^2), the
@@ -178,6 +208,13 @@ def assemble(geometry: Geometry, physics: Physics, zeta: np.ndarray, fit_residua
     else:
         gmat = np.zeros((0, n * nb))
     names = constraint_names(ctx.constraints)
-    return LinearSystem(matrix=matrix, rhs=rhs, pressure_column=pcol,
-                        constraints=gmat, constraint_names=names, basis=basis,
-                        terms=[t.name for t in terms], row_node=row_node)
+    return LinearSystem(
+        matrix=matrix,
+        rhs=rhs,
+        pressure_column=pcol,
+        constraints=gmat,
+        constraint_names=names,
+        basis=basis,
+        terms=[t.name for t in terms],
+        row_node=row_node,
+    )

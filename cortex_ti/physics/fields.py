@@ -37,16 +37,16 @@ class FieldSpec:
     :class:`~cortex_ti.scene.RunSettings`."""
 
     name: str
-    kind: str                                   # DENSITY or PROPERTY
-    present: Callable                           # settings -> bool
-    initial: Callable                           # (settings, undeformed points) -> (N,)
-    carried: Callable                           # settings -> bool: transported relative to the mesh
-    tension: Callable | None = None             # (values, settings) -> (N,) its part of the active tension
-    diffusion: Callable = staticmethod(lambda settings: 0.0)        # settings -> D
+    kind: str  # DENSITY or PROPERTY
+    present: Callable  # settings -> bool
+    initial: Callable  # (settings, undeformed points) -> (N,)
+    carried: Callable  # settings -> bool: transported relative to the mesh
+    tension: Callable | None = None  # (values, settings) -> (N,) its part of the active tension
+    diffusion: Callable = staticmethod(lambda settings: 0.0)  # settings -> D
     turnover: Callable = staticmethod(lambda settings: (0.0, 0.0))  # settings -> (k, c_target)
-    variable: str | None = None                 # the trajectory variable (None: the field's name)
-    attrs: tuple = ()                           # (key, value) pairs of the variable's attributes
-    schema: dict | None = None                  # its scene keys under fields.<name> (JSON-schema fragment)
+    variable: str | None = None  # the trajectory variable (None: the field's name)
+    attrs: tuple = ()  # (key, value) pairs of the variable's attributes
+    schema: dict | None = None  # its scene keys under fields.<name> (JSON-schema fragment)
 
     @property
     def var(self) -> str:
@@ -69,17 +69,26 @@ def _prescribed_initial(settings, points: np.ndarray) -> np.ndarray:
     return evaluate_active_stress(points, list(settings.patterns))
 
 
-register_field(FieldSpec(
-    name="prescribed_tension", kind=PROPERTY,
-    present=lambda s: s.has("active_stress"),
-    initial=_prescribed_initial,
-    carried=lambda s: s.tension_carried and s.mesh.motion != "lagrangian",
-    tension=lambda values, s: values,
-    variable="prescribed_tension",
-    attrs=(("units", "zeta_0"), ("long_name", "active tension of the scene's active_stress patterns, assigned on "
-                                             "the initial mesh and glued to the nodes (tension_transport: nodes) or "
-                                             "carried by the material (material)")),
-))
+register_field(
+    FieldSpec(
+        name="prescribed_tension",
+        kind=PROPERTY,
+        present=lambda s: s.has("active_stress"),
+        initial=_prescribed_initial,
+        carried=lambda s: s.tension_carried and s.mesh.motion != "lagrangian",
+        tension=lambda values, s: values,
+        variable="prescribed_tension",
+        attrs=(
+            ("units", "zeta_0"),
+            (
+                "long_name",
+                "active tension of the scene's active_stress patterns, assigned on "
+                "the initial mesh and glued to the nodes (tension_transport: nodes) or "
+                "carried by the material (material)",
+            ),
+        ),
+    )
+)
 
 
 def scene_fields(settings) -> list[FieldSpec]:
@@ -113,40 +122,76 @@ TENSION_LAWS = {
 
 _MYOSIN_SCHEMA = {
     "description": "A myosin (regulator) density c: conserved, carried by the cortex's full velocity (diluted by "
-                   "surface stretching), diffusing (diffusion), turning over toward c0 (turnover), making the active "
-                   "tension zeta(c) (tension), added to the prescribed patterns of active_stress.",
+    "surface stretching), diffusing (diffusion), turning over toward c0 (turnover), making the active "
+    "tension zeta(c) (tension), added to the prescribed patterns of active_stress.",
     "type": "object",
     "additionalProperties": False,
     "properties": {
-        "c0": {"description": "Uniform reference density (the turnover's target; units of c).", "type": "number",
-               "exclusiveMinimum": 0, "default": 1.0},
-        "diffusion": {"description": "Surface diffusion coefficient D (R0^2/t_a), implicit in the step.",
-                      "type": "number", "minimum": 0, "default": 0.0},
-        "turnover": {"description": "Turnover rate k (1/t_a): dc/dt = ... - k (c - c0), implicit in the step.",
-                     "type": "number", "minimum": 0, "default": 0.0},
-        "initial": {"description": "Patterns added to c0 on the initial (undeformed) mesh (the active_stress "
-                                   "pattern types).", "type": "array", "items": {"$ref": "#/$defs/pattern"},
-                    "default": []},
-        "noise": {"description": "Seeded random perturbation added to the initial density: amplitude times a "
-                                 "standard normal per node; symmetric: mirror-symmetric about the equator z = 0.",
-                  "type": "object", "additionalProperties": False,
-                  "properties": {"amplitude": {"type": "number", "minimum": 0, "default": 0.0,
-                                               "description": "Standard deviation (units of c)."},
-                                 "seed": {"type": "integer", "default": 1, "description": "Random seed."},
-                                 "symmetric": {"type": "boolean", "default": False,
-                                               "description": "Mirror-symmetric about z = 0."}},
-                  "default": {}},
-        "tension": {"description": "The active tension of the density: law 'linear', zeta0 (1 - gamma + gamma "
-                                   "c/c0), or 'saturating', 2 zeta0 c^2/(c0^2 + c^2); both give zeta0 at c = c0.",
-                    "type": "object", "additionalProperties": False,
-                    "properties": {"law": {"enum": list(TENSION_LAWS), "default": "linear",
-                                           "description": "The tension law."},
-                                   "zeta0": {"type": "number", "minimum": 0, "default": 1.0,
-                                             "description": "Tension at c = c0 (units of zeta_0)."},
-                                   "gamma": {"type": "number", "minimum": 0, "maximum": 1, "default": 1.0,
-                                             "description": "Linear law: the share of the tension that follows c "
-                                                            "(at most 1, so zeta >= 0 for c >= 0)."}},
-                    "default": {}},
+        "c0": {
+            "description": "Uniform reference density (the turnover's target; units of c).",
+            "type": "number",
+            "exclusiveMinimum": 0,
+            "default": 1.0,
+        },
+        "diffusion": {
+            "description": "Surface diffusion coefficient D (R0^2/t_a), implicit in the step.",
+            "type": "number",
+            "minimum": 0,
+            "default": 0.0,
+        },
+        "turnover": {
+            "description": "Turnover rate k (1/t_a): dc/dt = ... - k (c - c0), implicit in the step.",
+            "type": "number",
+            "minimum": 0,
+            "default": 0.0,
+        },
+        "initial": {
+            "description": "Patterns added to c0 on the initial (undeformed) mesh (the active_stress pattern types).",
+            "type": "array",
+            "items": {"$ref": "#/$defs/pattern"},
+            "default": [],
+        },
+        "noise": {
+            "description": "Seeded random perturbation added to the initial density: amplitude times a "
+            "standard normal per node; symmetric: mirror-symmetric about the equator z = 0.",
+            "type": "object",
+            "additionalProperties": False,
+            "properties": {
+                "amplitude": {
+                    "type": "number",
+                    "minimum": 0,
+                    "default": 0.0,
+                    "description": "Standard deviation (units of c).",
+                },
+                "seed": {"type": "integer", "default": 1, "description": "Random seed."},
+                "symmetric": {"type": "boolean", "default": False, "description": "Mirror-symmetric about z = 0."},
+            },
+            "default": {},
+        },
+        "tension": {
+            "description": "The active tension of the density: law 'linear', zeta0 (1 - gamma + gamma "
+            "c/c0), or 'saturating', 2 zeta0 c^2/(c0^2 + c^2); both give zeta0 at c = c0.",
+            "type": "object",
+            "additionalProperties": False,
+            "properties": {
+                "law": {"enum": list(TENSION_LAWS), "default": "linear", "description": "The tension law."},
+                "zeta0": {
+                    "type": "number",
+                    "minimum": 0,
+                    "default": 1.0,
+                    "description": "Tension at c = c0 (units of zeta_0).",
+                },
+                "gamma": {
+                    "type": "number",
+                    "minimum": 0,
+                    "maximum": 1,
+                    "default": 1.0,
+                    "description": "Linear law: the share of the tension that follows c "
+                    "(at most 1, so zeta >= 0 for c >= 0).",
+                },
+            },
+            "default": {},
+        },
     },
 }
 
@@ -177,15 +222,20 @@ def _myosin_tension(values: np.ndarray, settings) -> np.ndarray:
     return TENSION_LAWS[t["law"]](values, float(f["c0"]), float(t["zeta0"]), float(t["gamma"]))
 
 
-register_field(FieldSpec(
-    name="myosin", kind=DENSITY,
-    present=lambda s: s.field("myosin") is not None,
-    initial=_myosin_initial,
-    carried=lambda s: s.mesh.motion != "lagrangian",
-    tension=_myosin_tension,
-    diffusion=lambda s: float(s.field("myosin")["diffusion"]),
-    turnover=lambda s: (float(s.field("myosin")["turnover"]), float(s.field("myosin")["c0"])),
-    attrs=(("units", "c0 units (amount per R0^2)"),
-           ("long_name", "myosin density: conserved, carried by the full velocity, diffusing, turning over")),
-    schema=_MYOSIN_SCHEMA,
-))
+register_field(
+    FieldSpec(
+        name="myosin",
+        kind=DENSITY,
+        present=lambda s: s.field("myosin") is not None,
+        initial=_myosin_initial,
+        carried=lambda s: s.mesh.motion != "lagrangian",
+        tension=_myosin_tension,
+        diffusion=lambda s: float(s.field("myosin")["diffusion"]),
+        turnover=lambda s: (float(s.field("myosin")["turnover"]), float(s.field("myosin")["c0"])),
+        attrs=(
+            ("units", "c0 units (amount per R0^2)"),
+            ("long_name", "myosin density: conserved, carried by the full velocity, diffusing, turning over"),
+        ),
+        schema=_MYOSIN_SCHEMA,
+    )
+)

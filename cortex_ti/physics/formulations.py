@@ -44,12 +44,13 @@ class Formulation:
 
     name: str
     description: str
-    build: Callable            # (geometry, physics, zeta, faces, numerics, dt) -> system
-    keys: tuple[str, ...]      # the numerics keys only this formulation reads
+    build: Callable  # (geometry, physics, zeta, faces, numerics, dt) -> system
+    keys: tuple[str, ...]  # the numerics keys only this formulation reads
     uses_fit_residual: Callable = staticmethod(lambda numerics: False)
 
-    def system(self, geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray, numerics,
-               dt: float = 0.0):
+    def system(
+        self, geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray, numerics, dt: float = 0.0
+    ):
         """The linear system on one shape (``dt > 0``: the semi-implicit step of that length)."""
         return self.build(geometry, physics, zeta, faces, numerics, dt)
 
@@ -70,14 +71,21 @@ def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
 #: name -> :class:`Formulation`
 FORMULATIONS: dict[str, Formulation] = {
     "paper": Formulation(
-        "paper", "the paper's strong-form least squares with fitted second derivatives (Sec. 3), kept for "
+        "paper",
+        "the paper's strong-form least squares with fitted second derivatives (Sec. 3), kept for "
         "reproduction; fourth order with the quartic fit, but grid-scale normal modes grow without a mesh-sized "
-        "bending viscosity", _paper, keys=("fit_residual_weight",),
-        uses_fit_residual=lambda numerics: numerics.fit_residual_weight > 0),
+        "bending viscosity",
+        _paper,
+        keys=("fit_residual_weight",),
+        uses_fit_residual=lambda numerics: numerics.fit_residual_weight > 0,
+    ),
     "rayleigh_p1": Formulation(
-        "rayleigh_p1", "stationary point of the discrete Rayleighian, piecewise-linear velocities integrated "
+        "rayleigh_p1",
+        "stationary point of the discrete Rayleighian, piecewise-linear velocities integrated "
         "exactly on the flat triangles: symmetric positive semidefinite, no growing spurious modes; second order",
-        _rayleigh_p1, keys=("pressure_weights",)),
+        _rayleigh_p1,
+        keys=("pressure_weights",),
+    ),
 }
 
 #: the choices of ``numerics.pressure_weights`` (rayleigh_p1), re-exported for the schema

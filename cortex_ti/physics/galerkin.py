@@ -89,8 +89,7 @@ def _pattern(faces: np.ndarray, n_nodes: int) -> _Pattern:
     return _PATTERNS[key]
 
 
-def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_s: float,
-                   eta_b: float) -> np.ndarray:
+def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_s: float, eta_b: float) -> np.ndarray:
     """Per-triangle 9x9 blocks (corner-major) of the second derivative of the dissipation.
 
     With ``G = sum_k v_k g_k^T`` and ``U = (P G + G^T P)/2``: ``|U|^2 = 1/2 sum_km [v_k^T P v_m
@@ -98,9 +97,9 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
     so the (k, m) block of ``d^2/dv^2 A [eta_s |U|^2 + (eta_b - eta_s)/2 (tr U)^2]`` is
     ``A [eta_s (P (g_k . g_m) + g_m g_k^T) + (eta_b - eta_s) g_k g_m^T]``.
     """
-    proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]          # (T, 3, 3)
-    gg = grads @ grads.transpose(0, 2, 1)                                    # g_k . g_m
-    outer = grads[:, :, :, None, None] * grads[:, None, None, :, :]          # [t,k,i,m,j] = g_ki g_mj
+    proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]  # (T, 3, 3)
+    gg = grads @ grads.transpose(0, 2, 1)  # g_k . g_m
+    outer = grads[:, :, :, None, None] * grads[:, None, None, :, :]  # [t,k,i,m,j] = g_ki g_mj
     # absurd viscosities (1e308) overflow here; the solver then refuses the matrix in one line
     with np.errstate(over="ignore", invalid="ignore"):
         blk = eta_s * (gg[:, :, None, :, None] * proj[:, None, :, None, :] + outer.transpose(0, 3, 2, 1, 4))
@@ -108,18 +107,19 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
         return area[:, None, None] * blk.reshape(-1, 9, 9)
 
 
-def normal_blocks(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray,
-                   grads: np.ndarray, area: np.ndarray) -> np.ndarray:
+def normal_blocks(
+    geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray, grads: np.ndarray, area: np.ndarray
+) -> np.ndarray:
     """Per-triangle 9x9 blocks of ``int B^cd d_c v_n d_d v_n dA`` with ``v_n = n_k . v_k`` linear."""
     e = geometry.tangents
-    bt = (e.transpose(0, 2, 1) @ bform @ e)[faces].mean(axis=1)             # B^cd e_c e_d, corner mean
+    bt = (e.transpose(0, 2, 1) @ bform @ e)[faces].mean(axis=1)  # B^cd e_c e_d, corner mean
     proj = np.eye(3)[None] - tnormal[:, :, None] * tnormal[:, None, :]
     bt = proj @ bt @ proj
     bt = 0.5 * (bt + bt.transpose(0, 2, 1))
     # the tensor lies in the triangle's plane (rank 2): PSD iff its trace and the product of its
     # in-plane eigenvalues are >= 0; elsewhere clip the negative eigenvalues
     tr = np.trace(bt, axis1=1, axis2=2)
-    det2 = 0.5 * (tr ** 2 - np.sum(bt * bt, axis=(1, 2)))
+    det2 = 0.5 * (tr**2 - np.sum(bt * bt, axis=(1, 2)))
     bad = (tr < 0.0) | (det2 < 0.0)
     if bad.any():
         w, vec = np.linalg.eigh(bt[bad])
@@ -137,8 +137,14 @@ def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((nn.ravel(), (r.ravel(), r.transpose(0, 2, 1).ravel())), shape=(3 * n, 3 * n))
 
 
-def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray,
-                implicit_dt: float = 0.0, pressure_weights: str = "petrov") -> EnergySystem:
+def assemble_p1(
+    geometry: Geometry,
+    physics: Physics,
+    zeta: np.ndarray,
+    faces: np.ndarray,
+    implicit_dt: float = 0.0,
+    pressure_weights: str = "petrov",
+) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the shape ``geometry`` (module
     docstring): the ``rayleigh_p1`` method of each of their terms, then one matrix;
     ``implicit_dt > 0``: the semi-implicit tension of a step of that length."""
@@ -148,8 +154,17 @@ def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: n
     n = geometry.n_nodes
     faces = np.asarray(faces)
     area, tnormal, grads = triangle_gradients(geometry.points, faces)
-    ctx = P1Context(geometry, physics, zeta, implicit_dt=float(implicit_dt), faces=faces, area=area,
-                    tnormal=tnormal, grads=grads, pressure_weights=pressure_weights)
+    ctx = P1Context(
+        geometry,
+        physics,
+        zeta,
+        implicit_dt=float(implicit_dt),
+        faces=faces,
+        area=area,
+        tnormal=tnormal,
+        grads=grads,
+        pressure_weights=pressure_weights,
+    )
     terms = terms_for(ctx)
     for term in terms:
         term.rayleigh_p1(ctx)
@@ -175,7 +190,7 @@ def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: n
     pidx = next((int(offsets[k]) for k, c in enumerate(ctx.constraints) if c.pressure), None)
 
     basis = velocity_basis(geometry, physics)
-    if basis.shape[1] != 3:          # tangential unknowns only (fixed_normal_velocity)
+    if basis.shape[1] != 3:  # tangential unknowns only (fixed_normal_velocity)
         bmat = sp.block_diag([basis[i].T for i in range(n)], format="csr")  # (3N, nb N)
         kmat = (bmat.T @ kmat @ bmat).tocsr()
         f = bmat.T @ f
@@ -183,7 +198,14 @@ def assemble_p1(geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: n
     def on_unknowns(rows):
         return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
 
-    return EnergySystem(stiffness=kmat, rhs=f, constraints=on_unknowns(cons),
-                        constraint_names=constraint_names(ctx.constraints), basis=basis, pressure_index=pidx,
-                        pressure_sign=-1.0, terms=[t.name for t in terms],
-                        force_rows=None if force is None else on_unknowns(force))
+    return EnergySystem(
+        stiffness=kmat,
+        rhs=f,
+        constraints=on_unknowns(cons),
+        constraint_names=constraint_names(ctx.constraints),
+        basis=basis,
+        pressure_index=pidx,
+        pressure_sign=-1.0,
+        terms=[t.name for t in terms],
+        force_rows=None if force is None else on_unknowns(force),
+    )

@@ -16,7 +16,8 @@ EFFECTS: dict[str, str] = {
     "active_stress": "isotropic active tension zeta from the active_stress patterns",
     "shear_viscosity": "in-plane shear viscous stress, coefficient viscosity.shear (eta_s)",
     "bulk_viscosity": "in-plane bulk (area-change) viscous stress, coefficient viscosity.bulk (eta_b)",
-    "bending_viscosity": "viscous bending moments, coefficients viscosity.bending and viscosity.bending_bulk (paper Eq. 45)",
+    "bending_viscosity": "viscous bending moments, coefficients viscosity.bending and "
+    "viscosity.bending_bulk (paper Eq. 45)",
     "normal_balance": "solve the normal force balance for the normal velocity",
     "fixed_normal_velocity": "impose zero normal velocity: tangential flow only, the shape stays fixed",
     "incompressibility": "conserve the enclosed volume with a pressure P = p_inside - p_outside",
@@ -33,8 +34,8 @@ class Physics:
     eta_b: float = 1.0
     eta_bar: float = 0.0
     eta_bar_b: float = 0.0
-    translation: str = "mean_velocity"   # how the free rigid translation is fixed (scene key ``translation``)
-    material_nodes: bool = False         # the nodes move with the full velocity (mesh.motion: lagrangian)
+    translation: str = "mean_velocity"  # how the free rigid translation is fixed (scene key ``translation``)
+    material_nodes: bool = False  # the nodes move with the full velocity (mesh.motion: lagrangian)
 
     @property
     def centroid_gauge(self) -> bool:

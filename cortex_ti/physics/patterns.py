@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import inspect
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -90,9 +90,13 @@ def pattern_schemas() -> dict[str, dict]:
     two cannot disagree."""
     return {name: func.pattern_schema for name, func in PATTERNS.items()}
 
-_OPEN_SCHEMA = {"type": "object", "required": ["type"],
-                "description": "A pattern registered without a schema: its parameters are checked against "
-                               "the function's signature when it is evaluated."}
+
+_OPEN_SCHEMA = {
+    "type": "object",
+    "required": ["type"],
+    "description": "A pattern registered without a schema: its parameters are checked against "
+    "the function's signature when it is evaluated.",
+}
 
 
 def register_pattern(name: str, *, per_node: bool = False, schema: dict | None = None):
@@ -114,7 +118,9 @@ def register_pattern(name: str, *, per_node: bool = False, schema: dict | None =
     def deco(func):
         old = PATTERNS.get(name)
         if old is not None and (old.__module__, old.__qualname__) != (func.__module__, func.__qualname__):
-            raise ValueError(f"active-stress pattern type {name!r} is already registered ({old.__module__}.{old.__qualname__})")
+            raise ValueError(
+                f"active-stress pattern type {name!r} is already registered ({old.__module__}.{old.__qualname__})"
+            )
         func.pattern_schema = schema if schema is not None else dict(_OPEN_SCHEMA)
         PATTERNS[name] = func
         if per_node:
@@ -185,23 +191,29 @@ def harmonic_terms(terms) -> list[tuple[int, int, float]]:
     return out
 
 
-_HARMONICS_SCHEMA = {'description': 'Real spherical harmonics sum_lm coeff * Y_lm(theta, phi) about the z axis.',
-                     'type': 'object',
-                     'additionalProperties': False,
-                     'required': ['type', 'terms'],
-                     'properties': {'type': {'const': 'harmonics'},
-                                    'terms': {'type': 'array',
-                                              'minItems': 1,
-                                              'items': {'type': 'object',
-                                                        'additionalProperties': False,
-                                                        'required': ['l', 'm', 'coeff'],
-                                                        'properties': {'l': {'description': 'Degree, >= 0.',
-                                                                             'type': 'integer',
-                                                                             'minimum': 0},
-                                                                       'm': {'description': 'Order, |m| <= l.',
-                                                                             'type': 'integer'},
-                                                                       'coeff': {'description': 'Coefficient zeta_lm.',
-                                                                                 'type': 'number'}}}}}}
+_HARMONICS_SCHEMA = {
+    "description": "Real spherical harmonics sum_lm coeff * Y_lm(theta, phi) about the z axis.",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["type", "terms"],
+    "properties": {
+        "type": {"const": "harmonics"},
+        "terms": {
+            "type": "array",
+            "minItems": 1,
+            "items": {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["l", "m", "coeff"],
+                "properties": {
+                    "l": {"description": "Degree, >= 0.", "type": "integer", "minimum": 0},
+                    "m": {"description": "Order, |m| <= l.", "type": "integer"},
+                    "coeff": {"description": "Coefficient zeta_lm.", "type": "number"},
+                },
+            },
+        },
+    },
+}
 
 
 @register_pattern("harmonics", schema=_HARMONICS_SCHEMA)
@@ -222,8 +234,13 @@ def harmonics_pattern(points, terms) -> np.ndarray:
 
 def _pattern_schema(name: str, description: str, required=(), **parameters) -> dict:
     """The JSON-schema fragment of a pattern type: its ``type`` and its parameters (no others)."""
-    return {"description": description, "type": "object", "additionalProperties": False,
-            "required": ["type", *required], "properties": {"type": {"const": name}, **parameters}}
+    return {
+        "description": description,
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["type", *required],
+        "properties": {"type": {"const": name}, **parameters},
+    }
 
 
 def _number(description: str, default=None, **bounds) -> dict:
@@ -238,14 +255,22 @@ def _ring_parameters(amplitude: float, sigma: float, p: float) -> dict:
         "amplitude": _number("Extra tension on the ring.", amplitude),
         "sigma": _number("Sharpness of the ring.", sigma, minimum=0),
         "p": _number("Exponent of the ring profile.", p, exclusiveMinimum=0),
-        "axis": {"description": "Axis through the poles (not all zero; normalised by the user of the scene).",
-                 "type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3, "default": [0, 0, 1]},
+        "axis": {
+            "description": "Axis through the poles (not all zero; normalised by the user of the scene).",
+            "type": "array",
+            "items": {"type": "number"},
+            "minItems": 3,
+            "maxItems": 3,
+            "default": [0, 0, 1],
+        },
     }
 
 
 _RING_SCHEMA = _pattern_schema(
-    "ring", "Contractile ring, paper Eq. 59: zeta0 + amplitude * exp(-sigma |theta - pi/2|^p), theta measured "
-            "from axis.", **_ring_parameters(amplitude=1.0, sigma=10.0, p=8))
+    "ring",
+    "Contractile ring, paper Eq. 59: zeta0 + amplitude * exp(-sigma |theta - pi/2|^p), theta measured from axis.",
+    **_ring_parameters(amplitude=1.0, sigma=10.0, p=8),
+)
 
 
 @register_pattern("ring", schema=_RING_SCHEMA)
@@ -269,11 +294,13 @@ def ring_pattern(points, zeta0, amplitude, sigma, p, axis=(0.0, 0.0, 1.0)) -> np
 
 
 _FOLD_SCHEMA = _pattern_schema(
-    "fold", "Fold stripe, paper Sec. 4.3: the ring of Eq. 59 whose amplitude term is modulated in phi by "
-            "exp(-sigma_phi d^4), d the azimuthal distance from the nearest of the meridians phi = pi/2 and "
-            "phi = 3 pi/2 (one great circle through both poles); phi measured about axis.",
+    "fold",
+    "Fold stripe, paper Sec. 4.3: the ring of Eq. 59 whose amplitude term is modulated in phi by "
+    "exp(-sigma_phi d^4), d the azimuthal distance from the nearest of the meridians phi = pi/2 and "
+    "phi = 3 pi/2 (one great circle through both poles); phi measured about axis.",
     **_ring_parameters(amplitude=3.5, sigma=1.5, p=4),
-    sigma_phi=_number("Sharpness of the stripe in phi (200 narrow, 12 broad in the paper).", 200.0, minimum=0))
+    sigma_phi=_number("Sharpness of the stripe in phi (200 narrow, 12 broad in the paper).", 200.0, minimum=0),
+)
 
 
 @register_pattern("fold", schema=_FOLD_SCHEMA)
@@ -289,10 +316,10 @@ def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 
     sphi = finite_number(sigma_phi, "fold sigma_phi")
     if sphi < 0.0:
         raise SceneError(f"fold sigma_phi must be >= 0, got {sigma_phi!r}")
-    base = ring_pattern(points, 0.0, amplitude, sigma, p, axis)        # amplitude term only
+    base = ring_pattern(points, 0.0, amplitude, sigma, p, axis)  # amplitude term only
     _, phi = direction_angles(points, axis=_axis_param(axis, "fold axis"))
-    d = np.abs(np.mod(phi - 0.5 * np.pi + 0.5 * np.pi, np.pi) - 0.5 * np.pi)   # distance to pi/2 or 3 pi/2
-    return finite_number(zeta0, "fold zeta0") + base * np.exp(-sphi * d ** 4)
+    d = np.abs(np.mod(phi - 0.5 * np.pi + 0.5 * np.pi, np.pi) - 0.5 * np.pi)  # distance to pi/2 or 3 pi/2
+    return finite_number(zeta0, "fold zeta0") + base * np.exp(-sphi * d**4)
 
 
 def _split_pattern(i: int, pat) -> tuple[Callable, dict]:
@@ -302,7 +329,9 @@ def _split_pattern(i: int, pat) -> tuple[Callable, dict]:
         raise SceneError(f"active_stress[{i}] has no 'type'; known types: {', '.join(sorted(PATTERNS))}")
     name = pat["type"]
     if not isinstance(name, str) or name not in PATTERNS:
-        raise SceneError(f"active_stress[{i}]: unknown pattern type {name!r}; known types: {', '.join(sorted(PATTERNS))}")
+        raise SceneError(
+            f"active_stress[{i}]: unknown pattern type {name!r}; known types: {', '.join(sorted(PATTERNS))}"
+        )
     func = PATTERNS[name]
     params = {k: v for k, v in pat.items() if k != "type"}
     sig = inspect.signature(func)
@@ -412,4 +441,3 @@ def mean_over_sphere(patterns: list[dict], order: int | None = None) -> float:
     For a ``harmonics`` pattern the mean is ``coeff_00 / sqrt(4 pi)``.
     """
     return float(integrate_patterns(patterns, order=order)) / (4.0 * np.pi)
-

@@ -13,8 +13,14 @@ import warnings
 import numpy as np
 from scipy import special
 
-__all__ = ["pattern_frame", "direction_angles", "real_sph_harm", "real_sph_harm_surface_gradient",
-           "sphere_quadrature", "integrate_over_sphere"]
+__all__ = [
+    "pattern_frame",
+    "direction_angles",
+    "real_sph_harm",
+    "real_sph_harm_surface_gradient",
+    "sphere_quadrature",
+    "integrate_over_sphere",
+]
 
 
 def pattern_frame(axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -56,7 +62,6 @@ def pattern_frame(axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray, np.ndar
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(a, e1)
     return e1, e2, a
-
 
 
 def direction_angles(points, axis=(0.0, 0.0, 1.0), center=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -273,12 +278,15 @@ def sphere_quadrature(order: int, axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.
     W = (wth[:, None] * wph) * np.ones_like(P)
     e1, e2, a = pattern_frame(axis)
     st = np.sin(T).ravel()
-    pts = (st * np.cos(P).ravel())[:, None] * e1 + (st * np.sin(P).ravel())[:, None] * e2 + np.cos(T).ravel()[:, None] * a
+    pts = (
+        (st * np.cos(P).ravel())[:, None] * e1 + (st * np.sin(P).ravel())[:, None] * e2 + np.cos(T).ravel()[:, None] * a
+    )
     return pts, W.ravel()
 
 
-def integrate_over_sphere(func, axis=(0.0, 0.0, 1.0), order: int | None = None, tol: float = 1e-13,
-                          max_order: int = 512):
+def integrate_over_sphere(
+    func, axis=(0.0, 0.0, 1.0), order: int | None = None, tol: float = 1e-13, max_order: int = 512
+):
     """``int func(u) dOmega`` over the unit sphere by :func:`sphere_quadrature`.
 
     Parameters
@@ -320,5 +328,3 @@ def integrate_over_sphere(func, axis=(0.0, 0.0, 1.0), order: int | None = None, 
             break
         prev = cur
     return float(cur) if np.ndim(cur) == 0 else cur
-
-

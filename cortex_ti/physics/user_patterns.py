@@ -8,8 +8,8 @@ import importlib
 import inspect
 import os
 import warnings
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
@@ -73,7 +73,7 @@ def read_node_field(path, name: str | None = None) -> np.ndarray:
         else:
             try:
                 with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")   # numpy warns about an empty file; reported below
+                    warnings.simplefilter("ignore")  # numpy warns about an empty file; reported below
                     arr = np.loadtxt(file, dtype=float, delimiter=_TEXT_DELIMITERS[suffix], ndmin=2)
             except (OSError, ValueError, UnicodeDecodeError) as exc:
                 raise SceneError(f"cannot read {label} as one number per line: {exc}") from None
@@ -91,7 +91,8 @@ def read_node_field(path, name: str | None = None) -> np.ndarray:
             if len(data) != 1:
                 raise SceneError(
                     f"{label} has {len(data)} point-data arrays ({names}): give 'name' to choose one"
-                    if data else f"{label} has no point data (one value per node is needed)"
+                    if data
+                    else f"{label} has no point data (one value per node is needed)"
                 )
             name = next(iter(data))
         elif name not in data:
@@ -101,36 +102,41 @@ def read_node_field(path, name: str | None = None) -> np.ndarray:
             arr = arr[:, 0]
         if arr.ndim != 1 or arr.dtype.kind not in "biuf":
             raise SceneError(
-                f"point-data array {name!r} of {label} has shape {arr.shape} ({arr.dtype}); "
-                "need one number per node"
+                f"point-data array {name!r} of {label} has shape {arr.shape} ({arr.dtype}); need one number per node"
             )
     if arr.size == 0:
         raise SceneError(f"{label} holds no values")
     return arr.astype(np.float64)
 
 
-_FIELD_SCHEMA = {'description': "A user-supplied per-node field: one value per node of the scene's mesh, in mesh order, "
-                                'read from a file and multiplied by scale. It exists only at the nodes, so the analytic '
-                                'sphere solutions (which integrate a pattern by quadrature) cannot use it.',
-                 'type': 'object',
-                 'additionalProperties': False,
-                 'required': ['type', 'file'],
-                 'properties': {'type': {'const': 'field'},
-                                'file': {'description': 'The values: .npy (a 1-D array), .txt or .csv (one number per '
-                                                        'line), or any mesh file meshio reads (its point data). Relative '
-                                                        "paths resolve against the scene file's folder (against the "
-                                                        'working directory for a scene without a file or in a --set '
-                                                        'override).',
-                                         'type': 'string',
-                                         'minLength': 1},
-                                'name': {'description': 'Mesh files only: the point-data array to use; may be omitted when '
-                                                        'the file has exactly one.',
-                                         'type': ['string', 'null'],
-                                         'minLength': 1,
-                                         'default': None},
-                                'scale': {'description': 'Factor applied to the values.',
-                                          'type': 'number',
-                                          'default': 1.0}}}
+_FIELD_SCHEMA = {
+    "description": "A user-supplied per-node field: one value per node of the scene's mesh, in mesh order, "
+    "read from a file and multiplied by scale. It exists only at the nodes, so the analytic "
+    "sphere solutions (which integrate a pattern by quadrature) cannot use it.",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["type", "file"],
+    "properties": {
+        "type": {"const": "field"},
+        "file": {
+            "description": "The values: .npy (a 1-D array), .txt or .csv (one number per "
+            "line), or any mesh file meshio reads (its point data). Relative "
+            "paths resolve against the scene file's folder (against the "
+            "working directory for a scene without a file or in a --set "
+            "override).",
+            "type": "string",
+            "minLength": 1,
+        },
+        "name": {
+            "description": "Mesh files only: the point-data array to use; may be omitted when "
+            "the file has exactly one.",
+            "type": ["string", "null"],
+            "minLength": 1,
+            "default": None,
+        },
+        "scale": {"description": "Factor applied to the values.", "type": "number", "default": 1.0},
+    },
+}
 
 
 @register_pattern("field", per_node=True, schema=_FIELD_SCHEMA)
@@ -189,28 +195,38 @@ def resolve_function(function) -> tuple[Callable, str]:
         try:
             obj = getattr(obj, part)
         except AttributeError:
-            raise SceneError(f"python pattern function '{function}': module '{module}' has no attribute '{attr}'") from None
+            raise SceneError(
+                f"python pattern function '{function}': module '{module}' has no attribute '{attr}'"
+            ) from None
     if not callable(obj):
         raise SceneError(f"python pattern function '{function}' is a {type(obj).__name__}, not a callable")
     return obj, function
 
 
-_PYTHON_SCHEMA = {'description': "A user's Python function zeta = func(points, **params), points the (N, 3) node positions "
-                                 'of the initial shape, returning N finite numbers. The module is imported with importlib: '
-                                 "a scene with this pattern runs the user's code (on run and on check). The module must be "
-                                 'importable (installed, or on PYTHONPATH).',
-                  'type': 'object',
-                  'additionalProperties': False,
-                  'required': ['type', 'function'],
-                  'properties': {'type': {'const': 'python'},
-                                 'function': {'description': "Import target 'package.module:function' (the function may be "
-                                                             "dotted, 'module:Class.method').",
-                                              'type': 'string',
-                                              'pattern': '^\\s*[A-Za-z_][A-Za-z0-9_]*(\\.[A-Za-z_][A-Za-z0-9_]*)*\\s*:\\s*[A-Za-z_][A-Za-z0-9_]*(\\.[A-Za-z_][A-Za-z0-9_]*)*\\s*$',
-                                              'examples': ['mypackage.patterns:blob']},
-                                 'params': {'description': 'Keyword arguments passed to the function (any YAML values).',
-                                            'type': 'object',
-                                            'default': {}}}}
+_PYTHON_SCHEMA = {
+    "description": "A user's Python function zeta = func(points, **params), points the (N, 3) node positions "
+    "of the initial shape, returning N finite numbers. The module is imported with importlib: "
+    "a scene with this pattern runs the user's code (on run and on check). The module must be "
+    "importable (installed, or on PYTHONPATH).",
+    "type": "object",
+    "additionalProperties": False,
+    "required": ["type", "function"],
+    "properties": {
+        "type": {"const": "python"},
+        "function": {
+            "description": "Import target 'package.module:function' (the function may be "
+            "dotted, 'module:Class.method').",
+            "type": "string",
+            "pattern": "^\\s*[A-Za-z_][A-Za-z0-9_]*(\\.[A-Za-z_][A-Za-z0-9_]*)*\\s*:\\s*[A-Za-z_][A-Za-z0-9_]*(\\.[A-Za-z_][A-Za-z0-9_]*)*\\s*$",  # noqa: E501 (one regular expression)
+            "examples": ["mypackage.patterns:blob"],
+        },
+        "params": {
+            "description": "Keyword arguments passed to the function (any YAML values).",
+            "type": "object",
+            "default": {},
+        },
+    },
+}
 
 
 @register_pattern("python", schema=_PYTHON_SCHEMA)
@@ -233,10 +249,10 @@ def python_pattern(points, function, params=None) -> np.ndarray:
     params = {} if params is None else params
     if not isinstance(params, dict):
         raise SceneError(f"python pattern '{target}': params must be a mapping of keyword arguments, got {params!r}")
-    pts = np.array(points, dtype=np.float64)   # a copy
+    pts = np.array(points, dtype=np.float64)  # a copy
     try:
         sig = inspect.signature(func)
-    except (TypeError, ValueError):   # no signature available (some builtins): just call it
+    except (TypeError, ValueError):  # no signature available (some builtins): just call it
         sig = None
     if sig is not None:
         try:
@@ -256,8 +272,7 @@ def python_pattern(points, function, params=None) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(val))
     if bad.size:
         raise SceneError(
-            f"python pattern '{target}' returned {bad.size} non-finite value(s) (NaN or inf), the first at point {bad[0]}"
+            f"python pattern '{target}' returned {bad.size} non-finite value(s) (NaN or inf), the first "
+            f"at point {bad[0]}"
         )
     return val
-
-

@@ -15,5 +15,16 @@ from .rules import VALID_NODE_COUNTS
 from .schema import current_schema, full_schema
 from .settings import RunSettings
 
-__all__ = ["Scene", "RunSettings", "load_scene", "scene_from_dict", "scene_from_yaml", "apply_override",
-           "builtin_scene_names", "builtin_scene_path", "current_schema", "full_schema", "VALID_NODE_COUNTS"]
+__all__ = [
+    "Scene",
+    "RunSettings",
+    "load_scene",
+    "scene_from_dict",
+    "scene_from_yaml",
+    "apply_override",
+    "builtin_scene_names",
+    "builtin_scene_path",
+    "current_schema",
+    "full_schema",
+    "VALID_NODE_COUNTS",
+]

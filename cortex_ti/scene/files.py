@@ -65,5 +65,3 @@ def resolve_files(data: dict, base: Path) -> None:
             hint = f" (the relative path '{file}' resolves against '{base}')" if relative else ""
             raise SceneError(f"{key}: '{path}' {what}{hint}")
         node[name] = str(path)
-
-

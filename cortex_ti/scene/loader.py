@@ -145,10 +145,7 @@ def _build(data: Any, overrides: Sequence[str], source: str | None, label: str) 
     if isinstance(overrides, str):
         overrides = [overrides]
     if not isinstance(data, dict):
-        raise SceneError(
-            f"{label} must be a mapping of keys (name, mesh, effects, ...), "
-            f"got {type(data).__name__}"
-        )
+        raise SceneError(f"{label} must be a mapping of keys (name, mesh, effects, ...), got {type(data).__name__}")
     raw = copy.deepcopy(data)
     base = Path(source).parent if source else Path.cwd()
     try:
@@ -222,8 +219,7 @@ def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
         except SceneError:
             names = ", ".join(builtin_scene_names()) or "(none)"
             raise SceneError(
-                f"scene file '{given}' not found, and it is not a built-in scene "
-                f"(available: {names})"
+                f"scene file '{given}' not found, and it is not a built-in scene (available: {names})"
             ) from None
     label = f"scene '{given}'"
     if not file.exists():
@@ -241,12 +237,8 @@ def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
         raise SceneError(f"{label} is empty")
     if not isinstance(data, dict):
         kind = {list: "a list", str: "a string"}.get(type(data), type(data).__name__)
-        raise SceneError(
-            f"{label} must be a YAML mapping of keys (name, mesh, effects, ...), got {kind}"
-        )
+        raise SceneError(f"{label} must be a YAML mapping of keys (name, mesh, effects, ...), got {kind}")
     return _build(data, overrides, os.path.abspath(file), label)
-
-
 
 
 def scene_from_yaml(text: str) -> Scene:

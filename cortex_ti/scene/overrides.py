@@ -64,9 +64,7 @@ def apply_override(data: dict, assignment: str) -> None:
         (with the nearest valid key suggested).
     """
     if not isinstance(assignment, str) or "=" not in assignment:
-        raise SceneError(
-            f"override {assignment!r} must look like key=value, e.g. viscosity.bulk=0"
-        )
+        raise SceneError(f"override {assignment!r} must look like key=value, e.g. viscosity.bulk=0")
     key, _, text = assignment.partition("=")
     key = key.strip()
     parts = key.split(".")
@@ -99,8 +97,7 @@ def _assign(data: dict, parts: list[str], value: Any, assignment: str) -> None:
         if isinstance(node, list):
             if not node:
                 raise SceneError(
-                    f"override {assignment!r}: {here} is empty; set the whole list "
-                    f"instead, e.g. {here}=[...]"
+                    f"override {assignment!r}: {here} is empty; set the whole list instead, e.g. {here}=[...]"
                 )
             if not (part.lstrip("-").isdigit() and 0 <= int(part) < len(node)):
                 raise SceneError(
@@ -116,15 +113,11 @@ def _assign(data: dict, parts: list[str], value: Any, assignment: str) -> None:
             continue
         if not isinstance(node, dict):
             raise SceneError(
-                f"override {assignment!r}: cannot set {key} because {here} is "
-                f"{fmt_value(node)}, not a mapping"
+                f"override {assignment!r}: cannot set {key} because {here} is {fmt_value(node)}, not a mapping"
             )
         props = properties(schema, node)
         if part not in props:
-            raise SceneError(
-                f"override {assignment!r}: "
-                + unknown_key(dotted, [join_key(here, p) for p in props])
-            )
+            raise SceneError(f"override {assignment!r}: " + unknown_key(dotted, [join_key(here, p) for p in props]))
         if last:
             node[part] = value
             other = _EXCLUSIVE.get(tuple(parts))
@@ -136,5 +129,3 @@ def _assign(data: dict, parts: list[str], value: Any, assignment: str) -> None:
             child = [] if keyword(props[part], "type") == "array" else {}
             node[part] = child
         schema, node = props[part], child
-
-

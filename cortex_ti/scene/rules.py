@@ -50,15 +50,18 @@ def _check_formulation_keys(numerics: dict) -> None:
             if value not in (None, defaults[key]["default"]):
                 raise SceneError(
                     f"numerics.{key} = {fmt_value(value)} applies to numerics.formulation = {name} only, not "
-                    f"{chosen}: remove it or set numerics.formulation: {name}")
+                    f"{chosen}: remove it or set numerics.formulation: {name}"
+                )
 
 
 def _check_translation(translation: str, seen: set[str]) -> None:
     """Holding the centroid needs the normal velocity: with it fixed (a tangential flow) the
     centroid cannot move and its rows would be empty."""
     if translation == "centroid" and "normal_balance" not in seen:
-        raise SceneError("translation = centroid needs the normal force balance (effect 'normal_balance'): a "
-                         "tangential flow cannot move the centroid; use translation: mean_velocity")
+        raise SceneError(
+            "translation = centroid needs the normal force balance (effect 'normal_balance'): a "
+            "tangential flow cannot move the centroid; use translation: mean_velocity"
+        )
 
 
 def _check_motion(data: dict) -> None:
@@ -66,32 +69,31 @@ def _check_motion(data: dict) -> None:
     any physics: such a tension must be carried by the material."""
     motion = data["mesh"]["motion"]
     if data["fields"] and "active_stress" not in data["effects"]:
-        raise SceneError(f"fields.{next(iter(data['fields']))} makes an active tension, which needs the effect "
-                         "'active_stress' (add it to effects; active_stress: [] adds no prescribed pattern)")
+        raise SceneError(
+            f"fields.{next(iter(data['fields']))} makes an active tension, which needs the effect "
+            "'active_stress' (add it to effects; active_stress: [] adds no prescribed pattern)"
+        )
     if data["fields"] and data["model"] == "axisymmetric":
-        raise SceneError(f"model = axisymmetric does not carry fields yet (fields.{next(iter(data['fields']))}): "
-                         "use model: 3d")
+        raise SceneError(
+            f"model = axisymmetric does not carry fields yet (fields.{next(iter(data['fields']))}): use model: 3d"
+        )
     if motion == "ale" and data["tension_transport"] == "nodes" and data["active_stress"]:
-        raise SceneError("mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
-                         "(tension_transport = nodes) would move by that rule: set tension_transport: material")
+        raise SceneError(
+            "mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
+            "(tension_transport = nodes) would move by that rule: set tension_transport: material"
+        )
 
 
 def _check_mesh_source(mesh: dict) -> None:
     """Exactly one mesh source, and a valid icosphere size."""
     nodes, file = mesh.get("nodes"), mesh.get("file")
     if nodes is not None and file is not None:
-        raise SceneError(
-            f"mesh.nodes = {nodes} and mesh.file = '{file}' are both set: give exactly one of them"
-        )
+        raise SceneError(f"mesh.nodes = {nodes} and mesh.file = '{file}' are both set: give exactly one of them")
     if nodes is None and file is None:
-        raise SceneError(
-            "mesh needs exactly one of mesh.nodes (icosphere node count) or mesh.file (a mesh file)"
-        )
+        raise SceneError("mesh needs exactly one of mesh.nodes (icosphere node count) or mesh.file (a mesh file)")
     if nodes is not None and nodes not in VALID_NODE_COUNTS:
         valid = ", ".join(str(n) for n in VALID_NODE_COUNTS)
-        raise SceneError(
-            f"mesh.nodes = {nodes} is not an icosphere node count 10*4^k+2; valid values: {valid}"
-        )
+        raise SceneError(f"mesh.nodes = {nodes} is not an icosphere node count 10*4^k+2; valid values: {valid}")
 
 
 def _check_effect_names(effects: list) -> set[str]:
@@ -114,10 +116,7 @@ def _check_effect_combinations(seen: set[str]) -> None:
     balance has it; shear viscosity is there."""
     if ("normal_balance" in seen) == ("fixed_normal_velocity" in seen):
         got = "both" if "normal_balance" in seen else "neither"
-        raise SceneError(
-            "effects must contain exactly one of 'normal_balance' and "
-            f"'fixed_normal_velocity', got {got}"
-        )
+        raise SceneError(f"effects must contain exactly one of 'normal_balance' and 'fixed_normal_velocity', got {got}")
     for name in _NEED_NORMAL_BALANCE:
         if name in seen and "normal_balance" not in seen:
             raise SceneError(
@@ -149,9 +148,7 @@ def _check_coefficients(visc: dict, seen: set[str]) -> None:
     if any(v > 0 for v in bending.values()) and "bending_viscosity" not in seen:
         named = " and ".join(f"viscosity.{k} = {fmt_value(v)}" for k, v in bending.items() if v > 0)
         zero = ", ".join(f"viscosity.{k}: 0" for k, v in bending.items() if v > 0)
-        raise SceneError(
-            f"{named} but the effect 'bending_viscosity' is off: add it to effects or set {zero}"
-        )
+        raise SceneError(f"{named} but the effect 'bending_viscosity' is off: add it to effects or set {zero}")
     if all(v == 0 for v in bending.values()) and "bending_viscosity" in seen:
         raise SceneError(
             "the effect 'bending_viscosity' is on but viscosity.bending = 0 and "
@@ -186,9 +183,7 @@ def _check_patterns(patterns: list, seen: set[str], has_fields: bool = False) ->
         if pattern["type"] == "harmonics":
             for j, term in enumerate(pattern["terms"]):
                 if abs(term["m"]) > term["l"]:
-                    raise SceneError(
-                        f"active_stress.{i}.terms.{j}.m = {term['m']} but |m| must be <= l = {term['l']}"
-                    )
+                    raise SceneError(f"active_stress.{i}.terms.{j}.m = {term['m']} but |m| must be <= l = {term['l']}")
         elif pattern["type"] == "ring":
             if not any(pattern["axis"]):
                 raise SceneError(f"active_stress.{i}.axis must not be all zero, got {pattern['axis']}")
@@ -202,29 +197,43 @@ def _check_axisymmetric(data: dict) -> None:
     mesh = data["mesh"]
     stop = data["axisymmetric"]["stop_neck"]
     if stop >= mesh["radius"]:
-        raise SceneError(f"axisymmetric.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
-                         f"{fmt_value(mesh['radius'])}: the run would stop at its first step")
+        raise SceneError(
+            f"axisymmetric.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
+            f"{fmt_value(mesh['radius'])}: the run would stop at its first step"
+        )
     if mesh["file"] is not None:
-        raise SceneError(f"{why}: mesh.file = '{mesh['file']}' is a user's mesh; the axisymmetric model starts from "
-                         "the sphere of radius mesh.radius (set mesh.nodes instead, it is not used)")
+        raise SceneError(
+            f"{why}: mesh.file = '{mesh['file']}' is a user's mesh; the axisymmetric model starts from "
+            "the sphere of radius mesh.radius (set mesh.nodes instead, it is not used)"
+        )
     if mesh["shear"]:
-        raise SceneError(f"{why}: mesh.shear = {fmt_value(mesh['shear'])} tilts the shape (set it to 0 or use model: 3d)")
+        raise SceneError(
+            f"{why}: mesh.shear = {fmt_value(mesh['shear'])} tilts the shape (set it to 0 or use model: 3d)"
+        )
     if mesh["transform"] is not None:
         raise SceneError(f"{why}: mesh.transform deforms the initial sphere (remove it or use model: 3d)")
     for i, pattern in enumerate(data["active_stress"]):
         kind = pattern["type"]
         if kind == "field":
-            raise SceneError(f"{why}: active_stress.{i} is a field pattern, whose values exist only at the nodes of a "
-                             "3D mesh (write the tension as a python pattern of the polar angle, or use model: 3d)")
+            raise SceneError(
+                f"{why}: active_stress.{i} is a field pattern, whose values exist only at the nodes of a "
+                "3D mesh (write the tension as a python pattern of the polar angle, or use model: 3d)"
+            )
         if kind == "fold" and pattern["sigma_phi"] != 0:
-            raise SceneError(f"{why}: active_stress.{i} is a fold pattern, which varies about its axis "
-                             f"(sigma_phi = {fmt_value(pattern['sigma_phi'])})")
+            raise SceneError(
+                f"{why}: active_stress.{i} is a fold pattern, which varies about its axis "
+                f"(sigma_phi = {fmt_value(pattern['sigma_phi'])})"
+            )
         if kind == "harmonics":
             for j, term in enumerate(pattern["terms"]):
                 if term["m"] != 0 and term["coeff"] != 0:
-                    raise SceneError(f"{why}: active_stress.{i}.terms.{j} has m = {term['m']}, which varies about z "
-                                     "(only m = 0 harmonics are axisymmetric)")
+                    raise SceneError(
+                        f"{why}: active_stress.{i}.terms.{j} has m = {term['m']}, which varies about z "
+                        "(only m = 0 harmonics are axisymmetric)"
+                    )
         axis = pattern.get("axis")
         if axis is not None and (axis[0] != 0 or axis[1] != 0):
-            raise SceneError(f"{why}: active_stress.{i}.axis = {axis} is not the z axis (rotate the scene so that "
-                             "the pattern's axis is [0, 0, 1], or use model: 3d)")
+            raise SceneError(
+                f"{why}: active_stress.{i}.axis = {axis} is not the z axis (rotate the scene so that "
+                "the pattern's axis is [0, 0, 1], or use model: 3d)"
+            )

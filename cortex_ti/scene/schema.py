@@ -22,7 +22,8 @@ import difflib
 import importlib.resources
 import json
 import math
-from typing import Any, Iterable, Iterator
+from collections.abc import Iterable, Iterator
+from typing import Any
 
 import jsonschema
 
@@ -35,18 +36,31 @@ from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES
 
-__all__ = ["current_schema", "full_schema", "validate_schema", "fill_defaults", "deref", "properties", "keyword", "join_key",
-           "dotted_key", "fmt_value", "unknown_key"]
+__all__ = [
+    "current_schema",
+    "full_schema",
+    "validate_schema",
+    "fill_defaults",
+    "deref",
+    "properties",
+    "keyword",
+    "join_key",
+    "dotted_key",
+    "fmt_value",
+    "unknown_key",
+]
 
 
 # --------------------------------------------------------------------------------------
 # The schema
 # --------------------------------------------------------------------------------------
 
+
 def full_schema() -> dict:
     """The scene schema with the registries' vocabularies filled in (a new copy)."""
-    schema = json.loads(importlib.resources.files("cortex_ti.scene").joinpath("scene.schema.json")
-                        .read_text(encoding="utf-8"))
+    schema = json.loads(
+        importlib.resources.files("cortex_ti.scene").joinpath("scene.schema.json").read_text(encoding="utf-8")
+    )
     props = schema["properties"]
     props["numerics"]["properties"]["fit"]["enum"] = list(FIT_SCHEMES)
     props["numerics"]["properties"]["formulation"]["enum"] = list(FORMULATIONS)
@@ -68,12 +82,14 @@ def _pattern_schema(names: list[str]) -> dict:
     checked by that pattern's own fragment (``$defs/<type>``)."""
     return {
         "description": "One active-stress pattern; the keys allowed depend on its type "
-                       "(cortex_ti.physics.patterns.pattern_schemas).",
+        "(cortex_ti.physics.patterns.pattern_schemas).",
         "type": "object",
         "required": ["type"],
         "properties": {"type": {"enum": names}},
-        "allOf": [{"if": {"properties": {"type": {"const": name}}, "required": ["type"]},
-                   "then": {"$ref": f"#/$defs/{name}"}} for name in names],
+        "allOf": [
+            {"if": {"properties": {"type": {"const": name}}, "required": ["type"]}, "then": {"$ref": f"#/$defs/{name}"}}
+            for name in names
+        ],
     }
 
 
@@ -82,8 +98,15 @@ _BUILT: dict = {}
 
 def current_schema() -> dict:
     """The schema for the registries as they are now (built again after a registration)."""
-    key = (tuple(FIT_SCHEMES), tuple(FORMULATIONS), tuple(SCHEMES), tuple(MESH_MOTIONS), tuple(FIELDS), tuple(backend_names()),
-           tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()))
+    key = (
+        tuple(FIT_SCHEMES),
+        tuple(FORMULATIONS),
+        tuple(SCHEMES),
+        tuple(MESH_MOTIONS),
+        tuple(FIELDS),
+        tuple(backend_names()),
+        tuple((name, id(fragment)) for name, fragment in pattern_schemas().items()),
+    )
     if _BUILT.get("key") != key:
         schema = full_schema()
         _BUILT.update(key=key, schema=schema, validator=jsonschema.Draft202012Validator(schema))
@@ -155,6 +178,7 @@ def keyword(schema: dict, keyword: str, instance: Any = _UNKNOWN) -> Any:
 # Messages
 # --------------------------------------------------------------------------------------
 
+
 def join_key(path: str, key: Any) -> str:
     return f"{path}.{key}" if path else str(key)
 
@@ -188,8 +212,7 @@ def unknown_key(dotted: str, siblings: Iterable[str]) -> str:
 def _bound_text(schema: dict) -> str:
     """' >= 0' / ' > 0' from a schema fragment's bounds ('' when unbounded)."""
     parts = []
-    for keyword, op in (("minimum", ">="), ("exclusiveMinimum", ">"),
-                        ("maximum", "<="), ("exclusiveMaximum", "<")):
+    for keyword, op in (("minimum", ">="), ("exclusiveMinimum", ">"), ("maximum", "<="), ("exclusiveMaximum", "<")):
         if keyword in schema:
             parts.append(f"{op} {fmt_value(schema[keyword])}")
     return (" " + " and ".join(parts)) if parts else ""
@@ -249,6 +272,7 @@ def _pattern_types() -> list[str]:
 # Validation steps
 # --------------------------------------------------------------------------------------
 
+
 def validate_schema(data: dict) -> None:
     errors = list(_validator().iter_errors(data))
     if not errors:
@@ -292,13 +316,9 @@ def fill_defaults(schema: dict, value: Any, path: str) -> Any:
     if isinstance(value, bool) or value is None or isinstance(value, str):
         return value
     if isinstance(value, (int, float)):
-        frag = next(
-            (b for b in _branches(schema, value) if "type" in b), deref(schema)
-        )
+        frag = next((b for b in _branches(schema, value) if "type" in b), deref(schema))
         if isinstance(value, float) and not math.isfinite(value):
-            raise SceneError(
-                f"{path} must be {_kind(frag)}{_bound_text(frag)}, got {fmt_value(value)}"
-            )
+            raise SceneError(f"{path} must be {_kind(frag)}{_bound_text(frag)}, got {fmt_value(value)}")
         types = frag.get("type", [])
         types = [types] if isinstance(types, str) else list(types)
         if "integer" in types and isinstance(value, float) and value.is_integer():
@@ -307,5 +327,3 @@ def fill_defaults(schema: dict, value: Any, path: str) -> Any:
             return float(value)
         return value
     return copy.deepcopy(value)
-
-

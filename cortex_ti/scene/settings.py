@@ -24,8 +24,15 @@ from ..physics.model import Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
 
-__all__ = ["RunSettings", "MeshSettings", "ViscositySettings", "NumericsSettings", "SolverSettings",
-           "TimeSettings", "AxisymmetricSettings"]
+__all__ = [
+    "RunSettings",
+    "MeshSettings",
+    "ViscositySettings",
+    "NumericsSettings",
+    "SolverSettings",
+    "TimeSettings",
+    "AxisymmetricSettings",
+]
 
 
 @dataclass(frozen=True)
@@ -38,8 +45,8 @@ class MeshSettings:
     radius: float
     shear: float
     transform: tuple[tuple[float, float, float], ...] | None
-    motion: str = "normal"     # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
-    ale_time: float = 0.05     # relaxation time of the ALE mesh velocity (motion: ale)
+    motion: str = "normal"  # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
+    ale_time: float = 0.05  # relaxation time of the ALE mesh velocity (motion: ale)
 
     def initial_map(self) -> np.ndarray | None:
         """The 3x3 matrix of ``transform`` followed by ``shear`` (None for the identity)."""
@@ -101,11 +108,11 @@ class TimeSettings:
     t_end: float
     scheme: str
     save_every: float
-    save_times: tuple[float, ...]   # extra frame times
+    save_times: tuple[float, ...]  # extra frame times
     steady_tol: float
     tol: float
     dt_max: float
-    implicit_tension: bool   # the semi-implicit tension, resolved for the scheme (False for a static scene)
+    implicit_tension: bool  # the semi-implicit tension, resolved for the scheme (False for a static scene)
 
     @property
     def scheme_class(self):
@@ -114,20 +121,22 @@ class TimeSettings:
 
     def describe(self) -> str:
         """One line: how the run steps (for ``cortex-ti check`` and logs)."""
-        return (f"{self.scheme} from dt = {self.dt:g} to t = {self.t_end:g}, "
-                f"{'semi-implicit' if self.implicit_tension else 'explicit'} tension")
+        return (
+            f"{self.scheme} from dt = {self.dt:g} to t = {self.t_end:g}, "
+            f"{'semi-implicit' if self.implicit_tension else 'explicit'} tension"
+        )
 
 
 @dataclass(frozen=True)
 class AxisymmetricSettings:
     """The spectral meridian solver of ``model: axisymmetric`` (:mod:`cortex_ti.axisymmetric`)."""
 
-    n: int                  # collocation points on the half meridian (whole meridian without symmetry)
-    rtol: float             # Radau tolerance on the node positions
-    surface_points: int     # meridian points of the written surface of revolution
-    azimuthal_points: int   # points around the axis
+    n: int  # collocation points on the half meridian (whole meridian without symmetry)
+    rtol: float  # Radau tolerance on the node positions
+    surface_points: int  # meridian points of the written surface of revolution
+    azimuthal_points: int  # points around the axis
     neck_resolution: float = 0.0  # > 0: points placed by arc length and curvature (R0), 0: normal motion
-    stop_neck: float = 0.05       # the run stops when the neck radius falls to this (R0)
+    stop_neck: float = 0.05  # the run stops when the neck radius falls to this (R0)
 
 
 @dataclass(frozen=True)
@@ -135,21 +144,21 @@ class RunSettings:
     """Everything a run needs from its scene, resolved once (see the module docstring)."""
 
     name: str
-    model: str                 # "3d" or "axisymmetric"
-    translation: str           # how the free rigid translation is fixed: "mean_velocity" or "centroid"
-    tension_transport: str     # "nodes" (glued to the mesh nodes, the paper's) or "material" (carried by v)
-    fields: tuple              # (name, settings mapping) of each field the scene names (treat as read-only)
+    model: str  # "3d" or "axisymmetric"
+    translation: str  # how the free rigid translation is fixed: "mean_velocity" or "centroid"
+    tension_transport: str  # "nodes" (glued to the mesh nodes, the paper's) or "material" (carried by v)
+    fields: tuple  # (name, settings mapping) of each field the scene names (treat as read-only)
     effects: frozenset
     mesh: MeshSettings
     viscosity: ViscositySettings
-    patterns: tuple            # the active_stress patterns (mappings; treat as read-only)
+    patterns: tuple  # the active_stress patterns (mappings; treat as read-only)
     numerics: NumericsSettings
     solver: SolverSettings
     time: TimeSettings
     axisymmetric: AxisymmetricSettings
 
     @classmethod
-    def from_data(cls, data: dict) -> "RunSettings":
+    def from_data(cls, data: dict) -> RunSettings:
         """The settings of a validated scene's data (:attr:`cortex_ti.scene.Scene.data`)."""
         effects = frozenset(data["effects"])
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
@@ -165,26 +174,48 @@ class RunSettings:
             tension_transport=data["tension_transport"],
             fields=tuple((k, copy.deepcopy(v)) for k, v in data["fields"].items()),
             effects=effects,
-            mesh=MeshSettings(nodes=mesh["nodes"], file=mesh["file"], radius=float(mesh["radius"]),
-                              shear=float(mesh["shear"]), motion=mesh["motion"], ale_time=float(mesh["ale_time"]),
-                              transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform)),
+            mesh=MeshSettings(
+                nodes=mesh["nodes"],
+                file=mesh["file"],
+                radius=float(mesh["radius"]),
+                shear=float(mesh["shear"]),
+                motion=mesh["motion"],
+                ale_time=float(mesh["ale_time"]),
+                transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform),
+            ),
             viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),
             patterns=tuple(copy.deepcopy(data["active_stress"])) if "active_stress" in effects else (),
-            numerics=NumericsSettings(formulation=num["formulation"], fit=num["fit"],
-                                      fit_residual_weight=float(num["fit_residual_weight"] or 0.0),
-                                      pressure_weights=num["pressure_weights"]),
-            solver=SolverSettings(backend=choose_factorization(sol["backend"]).name, reuse=bool(sol["reuse"]),
-                                  rtol=float(sol["rtol"]), refine=bool(sol["refine"])),
-            time=TimeSettings(dt=float(tim["dt"]), t_end=float(tim["t_end"]), scheme=tim["scheme"],
-                              save_every=float(tim["save_every"]),
-                              save_times=tuple(sorted(float(x) for x in tim["save_times"])),
-                              steady_tol=float(tim["steady_tol"]),
-                              tol=float(tim["tol"]), dt_max=float(tim["dt_max"]), implicit_tension=bool(implicit)),
-            axisymmetric=AxisymmetricSettings(n=int(ax["n"]), rtol=float(ax["rtol"]),
-                                              surface_points=int(ax["surface_points"]),
-                                              azimuthal_points=int(ax["azimuthal_points"]),
-                                              neck_resolution=float(ax["neck_resolution"]),
-                                              stop_neck=float(ax["stop_neck"])),
+            numerics=NumericsSettings(
+                formulation=num["formulation"],
+                fit=num["fit"],
+                fit_residual_weight=float(num["fit_residual_weight"] or 0.0),
+                pressure_weights=num["pressure_weights"],
+            ),
+            solver=SolverSettings(
+                backend=choose_factorization(sol["backend"]).name,
+                reuse=bool(sol["reuse"]),
+                rtol=float(sol["rtol"]),
+                refine=bool(sol["refine"]),
+            ),
+            time=TimeSettings(
+                dt=float(tim["dt"]),
+                t_end=float(tim["t_end"]),
+                scheme=tim["scheme"],
+                save_every=float(tim["save_every"]),
+                save_times=tuple(sorted(float(x) for x in tim["save_times"])),
+                steady_tol=float(tim["steady_tol"]),
+                tol=float(tim["tol"]),
+                dt_max=float(tim["dt_max"]),
+                implicit_tension=bool(implicit),
+            ),
+            axisymmetric=AxisymmetricSettings(
+                n=int(ax["n"]),
+                rtol=float(ax["rtol"]),
+                surface_points=int(ax["surface_points"]),
+                azimuthal_points=int(ax["azimuthal_points"]),
+                neck_resolution=float(ax["neck_resolution"]),
+                stop_neck=float(ax["stop_neck"]),
+            ),
         )
 
     def has(self, effect: str) -> bool:
@@ -211,8 +242,15 @@ class RunSettings:
     def physics(self) -> Physics:
         """What the force-balance terms read: the effects and the viscous coefficients."""
         v = self.viscosity
-        return Physics(effects=self.effects, eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk,
-                       translation=self.translation, material_nodes=self.mesh.motion == "lagrangian")
+        return Physics(
+            effects=self.effects,
+            eta_s=v.shear,
+            eta_b=v.bulk,
+            eta_bar=v.bending,
+            eta_bar_b=v.bending_bulk,
+            translation=self.translation,
+            material_nodes=self.mesh.motion == "lagrangian",
+        )
 
     @property
     def pattern_axis(self) -> np.ndarray:
@@ -229,5 +267,6 @@ class RunSettings:
         if num.formulation == "paper":
             w = num.fit_residual_weight
             return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}{held}"
-        return (f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure "
-                f"{num.pressure_weights}{held}")
+        return (
+            f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}{held}"
+        )

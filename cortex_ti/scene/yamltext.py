@@ -15,6 +15,7 @@ __all__ = ["load_yaml", "dump_yaml", "yaml_problem"]
 # YAML
 # --------------------------------------------------------------------------------------
 
+
 class _Loader(yaml.SafeLoader):
     """Safe YAML loader that reads ``1e-3`` as a float and rejects duplicate keys.
 
@@ -79,8 +80,6 @@ def yaml_problem(exc: yaml.YAMLError) -> str:
     if mark is not None:
         return f"{problem} (line {mark.line + 1}, column {mark.column + 1})"
     return problem
-
-
 
 
 def dump_yaml(data) -> str:

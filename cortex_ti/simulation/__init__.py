@@ -6,7 +6,7 @@ solve on any shape of the scene's mesh (geometry -> assembly -> constrained solv
 and the static and dynamic runs that write, flush and resume trajectories and report what they
 cost (``run``). Imports every layer below it (scene, surface, physics, solve, dynamics,
 analysis, io); ``setup`` needs no Taichi, so ``cortex-ti check`` does not start it
-(``tests/test_layers.py``).
+(``tests/repository/test_layers.py``).
 
 ``Simulation`` is ``core.Simulation``, loaded on first use: importing this package (which
 importing ``setup`` does) must not load the Taichi kernels of ``core``, about 1 s that every

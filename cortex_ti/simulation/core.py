@@ -3,7 +3,8 @@ any shape of that mesh.
 
 The flow of one solve: shape -> geometry (:mod:`cortex_ti.surface.geometry`) -> the system of
 the scene's formulation (:data:`cortex_ti.physics.formulations.FORMULATIONS`: the terms of the
-enabled effects) -> constrained solve (:mod:`cortex_ti.solve.constrained`) -> velocity. :meth:`Simulation.run` writes the scene's
+enabled effects) -> constrained solve (:mod:`cortex_ti.solve.constrained`) -> velocity. :meth:`Simulation.run` writes
+the scene's
 trajectory (:mod:`cortex_ti.simulation.run`): a static scene (no ``shape_evolution``) solves once
 and writes one frame; it never enters a time loop.
 """
@@ -41,8 +42,8 @@ class Solution:
     velocity: np.ndarray
     pressure: float
     info: SolveInfo
-    normal: np.ndarray                # (N, 3) the solver's normals (fitted surface)
-    edge_length: np.ndarray           # (N,) mean edge length at each node (the local mesh size)
+    normal: np.ndarray  # (N, 3) the solver's normals (fitted surface)
+    edge_length: np.ndarray  # (N,) mean edge length at each node (the local mesh size)
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -76,19 +77,26 @@ class Simulation:
         self.mesh = initial_shape(undeformed, self.settings)
         self.state0 = State(self.mesh.points, fields, self.mesh.faces)
         self.fields = scene_fields(self.settings)
-        self.transport = {spec.name: FieldTransport(spec.kind, spec.diffusion(self.settings), *spec.turnover(self.settings))
-                          for spec in self.fields if self._moves(spec)}
+        self.transport = {
+            spec.name: FieldTransport(spec.kind, spec.diffusion(self.settings), *spec.turnover(self.settings))
+            for spec in self.fields
+            if self._moves(spec)
+        }
         self.motion = MESH_MOTIONS[self.settings.mesh.motion]
         self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, self.settings.mesh.ale_time)
         s = self.settings.solver
         self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
-        self.seconds: dict[str, float] = {}   # time per stage, summed over the solves of evaluate()
-        self.report = None                     # what the last run() did (cortex_ti.simulation.run.RunReport)
+        self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
+        self.report = None  # what the last run() did (cortex_ti.simulation.run.RunReport)
 
     def _moves(self, spec) -> bool:
         """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""
-        return (spec.carried(self.settings) or spec.kind == "density" or spec.diffusion(self.settings) > 0
-                or spec.turnover(self.settings)[0] > 0)
+        return (
+            spec.carried(self.settings)
+            or spec.kind == "density"
+            or spec.diffusion(self.settings) > 0
+            or spec.turnover(self.settings)[0] > 0
+        )
 
     @property
     def zeta(self) -> np.ndarray:
@@ -141,9 +149,15 @@ class Simulation:
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()
-        return Solution(points=x, velocity=system.velocity(unknowns), pressure=pressure, info=info,
-                        normal=geometry.normal.copy(), edge_length=geometry.edge_length.copy(),
-                        seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2})
+        return Solution(
+            points=x,
+            velocity=system.velocity(unknowns),
+            pressure=pressure,
+            info=info,
+            normal=geometry.normal.copy(),
+            edge_length=geometry.edge_length.copy(),
+            seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2},
+        )
 
     def evaluate(self, state: State | np.ndarray, dt: float = 0.0) -> Evaluation:
         """The dynamics on a state (positions: the initial state's fields on them): the solve with
@@ -160,8 +174,11 @@ class Simulation:
             mesh_velocity = self.motion.velocity(sol.velocity, sol.normal, points, self.motion_context)
         carried = [spec for spec in self.fields if spec.name in self.transport and spec.carried(self.settings)]
         if carried:
-            w = mesh_velocity if mesh_velocity is not None else (
-                np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal)
+            w = (
+                mesh_velocity
+                if mesh_velocity is not None
+                else (np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal)
+            )
             u = sol.velocity - w
             tri = triangle_gradients(points, self.mesh.faces)
             for spec in carried:
@@ -170,9 +187,18 @@ class Simulation:
             sol.seconds["transport"] = time.perf_counter() - t0
         for k, v in sol.seconds.items():
             self.seconds[k] = self.seconds.get(k, 0.0) + v
-        return Evaluation(points=points, velocity=sol.velocity, normal=sol.normal, pressure=sol.pressure,
-                          solution=sol, edge_length=sol.edge_length, state=state, mesh_velocity=mesh_velocity,
-                          field_rates=rates, transport=self.transport)
+        return Evaluation(
+            points=points,
+            velocity=sol.velocity,
+            normal=sol.normal,
+            pressure=sol.pressure,
+            solution=sol,
+            edge_length=sol.edge_length,
+            state=state,
+            mesh_velocity=mesh_velocity,
+            field_rates=rates,
+            transport=self.transport,
+        )
 
     def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).

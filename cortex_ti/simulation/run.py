@@ -43,8 +43,19 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SOLVE_DIAGNOSTICS", "FRAME_EXTRAS", "STOP_REASONS", "EXIT_CODES", "Interrupted", "RunReport",
-           "check_interrupted", "interruptible", "run_scene", "run_summary", "stop_reason"]
+__all__ = [
+    "SOLVE_DIAGNOSTICS",
+    "FRAME_EXTRAS",
+    "STOP_REASONS",
+    "EXIT_CODES",
+    "Interrupted",
+    "RunReport",
+    "check_interrupted",
+    "interruptible",
+    "run_scene",
+    "run_summary",
+    "stop_reason",
+]
 
 #: Why a run ended (the summary's ``stopped``): the value, and what it means.
 STOP_REASONS = {
@@ -61,10 +72,10 @@ STOP_REASONS = {
 #: Exit status of ``cortex-ti`` by how it ended.
 EXIT_CODES = {
     "ok": 0,
-    "error": 2,           # bad input, a failed solve, the guard, a file that cannot be written: one line
-    "internal": 1,        # a bug: the traceback is kept
-    "SIGINT": 130,        # 128 + 2, as a shell reports Ctrl-C
-    "SIGTERM": 143,       # 128 + 15
+    "error": 2,  # bad input, a failed solve, the guard, a file that cannot be written: one line
+    "internal": 1,  # a bug: the traceback is kept
+    "SIGINT": 130,  # 128 + 2, as a shell reports Ctrl-C
+    "SIGTERM": 143,  # 128 + 15
 }
 
 
@@ -80,21 +91,36 @@ def stop_reason(exc: BaseException | None) -> str:
         return "io"
     return "error"
 
+
 #: Per-frame diagnostics of the solve written with every frame
 SOLVE_DIAGNOSTICS = {
-    "force_residual": (("time",), {"units": "zeta_0/R0", "long_name": "force the solve leaves unbalanced: "
-                                   "|K x + F^T lambda - f| (rayleigh_p1), |M x + p P - r| (paper); "
-                                   "lsq_residual in older files"}),
+    "force_residual": (
+        ("time",),
+        {
+            "units": "zeta_0/R0",
+            "long_name": "force the solve leaves unbalanced: "
+            "|K x + F^T lambda - f| (rayleigh_p1), |M x + p P - r| (paper); "
+            "lsq_residual in older files",
+        },
+    ),
     "relative_residual": (("time",), {"units": "1", "long_name": "force_residual relative to |f| (or |r|)"}),
-    "constraint_violation": (("time",), {"units": "1", "long_name": "largest relative violation of the constraints (Eqs. 35-37)"}),
+    "constraint_violation": (
+        ("time",),
+        {"units": "1", "long_name": "largest relative violation of the constraints (Eqs. 35-37)"},
+    ),
     "kkt_residual": (("time",), {"units": "1", "long_name": "relative residual of the bordered normal equations"}),
 }
 
 #: Everything a frame holds beyond the standard variables: the solver's normals, the solve's and
 #: the shape's diagnostics, and (dynamic runs) the step the integrator takes next.
 FRAME_EXTRAS = {
-    "normal": (("time", "node", "xyz"), {"units": "1", "long_name": "unit normal of the fitted surface at the nodes "
-                                                                  "(the direction the nodes move along)"}),
+    "normal": (
+        ("time", "node", "xyz"),
+        {
+            "units": "1",
+            "long_name": "unit normal of the fitted surface at the nodes (the direction the nodes move along)",
+        },
+    ),
     **SOLVE_DIAGNOSTICS,
 }
 _DYNAMIC_EXTRAS = {
@@ -109,16 +135,16 @@ class RunReport:
     steps and solves; ``stopped`` one of :data:`STOP_REASONS`."""
 
     path: Path
-    stats: RunStats | None = None      # None for a static run
+    stats: RunStats | None = None  # None for a static run
     stopped: str = "static"
-    solved: int = 1                    # solves of a static run (0 if it failed before its solve)
+    solved: int = 1  # solves of a static run (0 if it failed before its solve)
 
     @property
     def solves(self) -> int:
         return self.solved if self.stats is None else self.stats.solves
 
 
-def output_attrs(sim: "Simulation") -> dict:
+def output_attrs(sim: Simulation) -> dict:
     """The global attributes of the scene's trajectory (with :func:`cortex_ti.provenance`)."""
     s = sim.settings
     return {
@@ -131,7 +157,7 @@ def output_attrs(sim: "Simulation") -> dict:
     }
 
 
-def field_values(sim: "Simulation") -> dict:
+def field_values(sim: Simulation) -> dict:
     """The node values of each ``field`` pattern of the scene (``field_values_<i>``, pattern i), written
     once into the trajectory so that it answers for itself after the field's file moved
     (:attr:`cortex_ti.io.trajectory.Trajectory.scene`)."""
@@ -140,12 +166,16 @@ def field_values(sim: "Simulation") -> dict:
         if pattern.get("type") == "field":
             out[f"{FIELD_PREFIX}{i}"] = (
                 evaluate_active_stress(sim.mesh.points, [pattern]),
-                {"units": "zeta_0", "long_name": f"values of the field pattern active_stress.{i} at the nodes "
-                                                 f"(read from {pattern.get('file')}, times its scale)"})
+                {
+                    "units": "zeta_0",
+                    "long_name": f"values of the field pattern active_stress.{i} at the nodes "
+                    f"(read from {pattern.get('file')}, times its scale)",
+                },
+            )
     return out
 
 
-def run_scene(sim: "Simulation", output: Path, resume: bool = False, progress: bool = True) -> RunReport:
+def run_scene(sim: Simulation, output: Path, resume: bool = False, progress: bool = True) -> RunReport:
     """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring)."""
     sim.seconds = {}
     sim.report = None
@@ -155,18 +185,17 @@ def run_scene(sim: "Simulation", output: Path, resume: bool = False, progress: b
         return _run_static(sim, output)
 
 
-def _failed(sim: "Simulation", output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
+def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
     """Leave what a run that raised ``exc`` did on ``sim.report``: why it stopped, its real counts."""
     reason = stop_reason(exc)
     partial = partial_path(output)
     if stats is not None:
         stats.stopped = reason
         stats.wall = time.perf_counter() - t0
-    sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason,
-                           solved=0)
+    sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason, solved=0)
 
 
-def _run_static(sim: "Simulation", output: Path) -> RunReport:
+def _run_static(sim: Simulation, output: Path) -> RunReport:
     t0 = time.perf_counter()
     try:
         return _write_static(sim, output)
@@ -175,15 +204,25 @@ def _run_static(sim: "Simulation", output: Path) -> RunReport:
         raise
 
 
-def _write_static(sim: "Simulation", output: Path) -> RunReport:
-    with TrajectoryWriter(output, sim.mesh.faces, sim.mesh.n_nodes, output_attrs(sim),
-                          extra_vars=FRAME_EXTRAS, node_vars=field_values(sim)) as writer:
+def _write_static(sim: Simulation, output: Path) -> RunReport:
+    with TrajectoryWriter(
+        output,
+        sim.mesh.faces,
+        sim.mesh.n_nodes,
+        output_attrs(sim),
+        extra_vars=FRAME_EXTRAS,
+        node_vars=field_values(sim),
+    ) as writer:
         check_interrupted()
         ev = sim.evaluate(sim.mesh.points)
         sol = ev.solution
-        log.info("solved %d nodes: residual %.2e, constraints %.1e, %s",
-                 sim.mesh.n_nodes, sol.info.relative_residual, sol.info.constraint_violation,
-                 ", ".join(f"{k} {v:.3f} s" for k, v in sol.seconds.items()))
+        log.info(
+            "solved %d nodes: residual %.2e, constraints %.1e, %s",
+            sim.mesh.n_nodes,
+            sol.info.relative_residual,
+            sol.info.constraint_violation,
+            ", ".join(f"{k} {v:.3f} s" for k, v in sol.seconds.items()),
+        )
         if not np.all(np.isfinite(sol.velocity)):
             raise CortexError("the solve produced non-finite velocities")
         pressure = sol.pressure if sim.settings.has("incompressibility") else float("nan")
@@ -204,13 +243,14 @@ def extend_finished(output: Path) -> bool:
         os.replace(tmp, partial)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        raise OutputError(f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); "
-                          f"'{output}' is unchanged") from None
+        raise OutputError(
+            f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); '{output}' is unchanged"
+        ) from None
     log.info("extending the finished run %s from its last frame", output)
     return True
 
 
-def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) -> RunReport:
+def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool) -> RunReport:
     start = time.perf_counter()
     seen: dict = {}
     try:
@@ -220,7 +260,7 @@ def _run_dynamic(sim: "Simulation", output: Path, resume: bool, progress: bool) 
         raise
 
 
-def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
+def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
     st = sim.settings.time
     scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max)
     start, t0, dt = sim.state0, 0.0, st.dt
@@ -239,22 +279,41 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
     physical = extensile_tension(sim.zeta)
     if physical is not None:
-        log.warning("scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name,
-                    physical)
+        log.warning(
+            "scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name, physical
+        )
     faces, axis = sim.mesh.faces, sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
     stored = stored_fields(sim)
-    writer = TrajectoryWriter(output, faces, sim.mesh.n_nodes, output_attrs(sim),
-                              extra_vars={**FRAME_EXTRAS, **_DYNAMIC_EXTRAS,
-                                          **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored}},
-                              resume=state is not None, node_vars=field_values(sim))
+    writer = TrajectoryWriter(
+        output,
+        faces,
+        sim.mesh.n_nodes,
+        output_attrs(sim),
+        extra_vars={
+            **FRAME_EXTRAS,
+            **_DYNAMIC_EXTRAS,
+            **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
+        },
+        resume=state is not None,
+        node_vars=field_values(sim),
+    )
 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
         fields = ev.state.fields
-        writer.append(t, ev.points, ev.velocity, tension_of(fields, sim.mesh.n_nodes, sim.settings),
-                      ev.pressure if has_p else float("nan"), normal=ev.normal, dt=dt_next,
-                      **ev.solution.diagnostics, **diag, **{spec.var: fields[spec.name] for spec in stored})
+        writer.append(
+            t,
+            ev.points,
+            ev.velocity,
+            tension_of(fields, sim.mesh.n_nodes, sim.settings),
+            ev.pressure if has_p else float("nan"),
+            normal=ev.normal,
+            dt=dt_next,
+            **ev.solution.diagnostics,
+            **diag,
+            **{spec.var: fields[spec.name] for spec in stored},
+        )
 
     if state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12):
         log.info("%s reaches t = %.6g already (time.t_end = %.6g): nothing to compute", output, state.time, st.t_end)
@@ -264,15 +323,27 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
 
     def watch(t, ev, dt, stats):
         check_interrupted()
-        seen["stats"] = stats     # the counts so far, for the summary of a run that does not finish
+        seen["stats"] = stats  # the counts so far, for the summary of a run that does not finish
         if bar is not None:
             bar(t, ev, dt, stats)
 
     try:
-        stats = integrate(sim.evaluate, start, t0, st.t_end, dt, scheme, st.save_every, on_frame,
-                          steady_tol=st.steady_tol, progress=watch, write_first=state is None,
-                          implicit=st.implicit_tension, guard=StabilityGuard(faces=faces, zeta=sim.zeta),
-                          save_times=st.save_times)
+        stats = integrate(
+            sim.evaluate,
+            start,
+            t0,
+            st.t_end,
+            dt,
+            scheme,
+            st.save_every,
+            on_frame,
+            steady_tol=st.steady_tol,
+            progress=watch,
+            write_first=state is None,
+            implicit=st.implicit_tension,
+            guard=StabilityGuard(faces=faces, zeta=sim.zeta),
+            save_times=st.save_times,
+        )
     except BaseException:
         writer.close_partial()
         if seen.get("stats") is not None and writer.n_frames:
@@ -284,13 +355,21 @@ def _integrate_to_file(sim: "Simulation", output: Path, resume: bool, progress: 
     seen["stats"] = stats
     path = writer.finish()
     per = {k: v / max(stats.solves, 1) * 1e3 for k, v in sim.seconds.items()}
-    log.info("%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
-             sim.settings.name, stats.t, stats.stopped, stats.wall, stats.steps, stats.rejected, stats.solves,
-             ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()))
+    log.info(
+        "%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
+        sim.settings.name,
+        stats.t,
+        stats.stopped,
+        stats.wall,
+        stats.steps,
+        stats.rejected,
+        stats.solves,
+        ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()),
+    )
     return RunReport(path=path, stats=stats, stopped=stats.stopped)
 
 
-def stored_fields(sim: "Simulation") -> list:
+def stored_fields(sim: Simulation) -> list:
     """The fields a trajectory stores as variables of their own: all but a prescribed tension that is
     the whole active tension (the ``active_stress`` variable already holds it)."""
     specs = sim.fields
@@ -298,7 +377,7 @@ def stored_fields(sim: "Simulation") -> list:
     return [spec for spec in specs if not (alone and spec.name == "prescribed_tension")]
 
 
-def resumed_state(sim: "Simulation", resume: ResumeState) -> State:
+def resumed_state(sim: Simulation, resume: ResumeState) -> State:
     """The state of the last complete frame of an interrupted run: its points and every field (a
     prescribed tension that is the whole tension from ``active_stress``; files written before the
     fields existed hold only that)."""
@@ -313,21 +392,29 @@ def resumed_state(sim: "Simulation", resume: ResumeState) -> State:
     return State(np.asarray(resume.points, dtype=float), fields, sim.mesh.faces)
 
 
-def run_summary(sim: "Simulation") -> dict:
+def run_summary(sim: Simulation) -> dict:
     """What ``sim``'s last run took (steps, solves, time per stage), and how it was set up."""
     s = sim.settings
     report = sim.report
     st = sim.stats
     solves = report.solves if report is not None else 0
     stopped = report.stopped if report is not None else "static"
-    out = {"scene": s.name, "model": s.model, "n_nodes": sim.mesh.n_nodes, "fit": s.numerics.fit,
-           "solver_backend": s.solver.backend, "effects": sorted(s.effects),
-           "steps": st.steps if st is not None else 0, "rejected": st.rejected if st is not None else 0,
-           "solves": solves, "t_reached": st.t if st is not None else 0.0,
-           "stopped": stopped,
-           "implicit_tension": s.time.implicit_tension,
-           "formulation": s.numerics.formulation,
-           "fit_residual_weight": s.numerics.fit_residual_weight}
+    out = {
+        "scene": s.name,
+        "model": s.model,
+        "n_nodes": sim.mesh.n_nodes,
+        "fit": s.numerics.fit,
+        "solver_backend": s.solver.backend,
+        "effects": sorted(s.effects),
+        "steps": st.steps if st is not None else 0,
+        "rejected": st.rejected if st is not None else 0,
+        "solves": solves,
+        "t_reached": st.t if st is not None else 0.0,
+        "stopped": stopped,
+        "implicit_tension": s.time.implicit_tension,
+        "formulation": s.numerics.formulation,
+        "fit_residual_weight": s.numerics.fit_residual_weight,
+    }
     out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
     out.update(factorizations=sim.solver.n_factorizations, krylov_iterations=sim.solver.n_iterations)
     return out
@@ -339,8 +426,13 @@ class _ProgressBar:
     def __init__(self, t0: float, t_end: float):
         from tqdm import tqdm
 
-        self._bar = tqdm(total=round(t_end, 6), initial=round(t0, 6), unit="t_a", disable=None,
-                         bar_format="{l_bar}{bar}| t={n:.3f}/{total:.3f} [{elapsed}<{remaining}{postfix}]")
+        self._bar = tqdm(
+            total=round(t_end, 6),
+            initial=round(t0, 6),
+            unit="t_a",
+            disable=None,
+            bar_format="{l_bar}{bar}| t={n:.3f}/{total:.3f} [{elapsed}<{remaining}{postfix}]",
+        )
         self._t = t0
         self._start = time.perf_counter()
 

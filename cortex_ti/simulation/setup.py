@@ -39,8 +39,7 @@ def initial_fields(mesh: Mesh, settings: RunSettings) -> dict[str, np.ndarray]:
     """The scene's nodal fields (:data:`cortex_ti.physics.fields.FIELDS`) on the undeformed ``mesh``.
 
     Reads field files and runs python patterns, so ``cortex-ti check`` calls it too."""
-    return {spec.name: np.asarray(spec.initial(settings, mesh.points), dtype=float)
-            for spec in scene_fields(settings)}
+    return {spec.name: np.asarray(spec.initial(settings, mesh.points), dtype=float) for spec in scene_fields(settings)}
 
 
 def initial_shape(mesh: Mesh, settings: RunSettings) -> Mesh:

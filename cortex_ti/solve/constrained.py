@@ -79,12 +79,12 @@ class SolveInfo:
     """What the solve achieved; all values are measured, none assumed."""
 
     backend: str
-    force_residual: float         # the unbalanced force: |M x + p P - r| (least squares) or
-                                  # |K x + F^T lambda - f| (energy system)
-    rhs_norm: float               # |r| or |f|
-    constraint_violation: float   # max_j |G_j x| / (|G_j| |x|)
-    kkt_residual: float           # relative residual of the bordered normal equations
-    iterations: int = 0           # GMRES iterations (0: direct solve)
+    force_residual: float  # the unbalanced force: |M x + p P - r| (least squares) or
+    # |K x + F^T lambda - f| (energy system)
+    rhs_norm: float  # |r| or |f|
+    constraint_violation: float  # max_j |G_j x| / (|G_j| |x|)
+    kkt_residual: float  # relative residual of the bordered normal equations
+    iterations: int = 0  # GMRES iterations (0: direct solve)
     refactored: bool = True
     seconds: dict = field(default_factory=dict)
 
@@ -127,8 +127,8 @@ class RefactorRule:
     solves: int = 0
     cost: float = 0.0
     last: float = 0.0
-    backoff: int = 0    # solves to factorise without trying GMRES
-    skip: int = 0       # of which still to come
+    backoff: int = 0  # solves to factorise without trying GMRES
+    skip: int = 0  # of which still to come
 
     def factorized(self, failed_attempt: bool = False) -> None:
         """A fresh factorisation; ``failed_attempt``: after GMRES failed on this system."""
@@ -169,14 +169,15 @@ PIN_NODES = 12
 def pin_rows(points: np.ndarray, basis: np.ndarray, nodes: np.ndarray) -> sp.csr_matrix:
     """Sparse rows (6, unknowns) fixing the rigid/conformal kernel of ``K`` (step 1 above),
     acting on the pinned ``nodes`` only."""
-    rows = rigid_motion_rows(points[nodes], np.ones(len(nodes)))    # (6, k, 3)
-    local = np.einsum("mkc,kbc->mkb", rows, basis[nodes])            # (6, k, nb)
+    rows = rigid_motion_rows(points[nodes], np.ones(len(nodes)))  # (6, k, 3)
+    local = np.einsum("mkc,kbc->mkb", rows, basis[nodes])  # (6, k, nb)
     nb = basis.shape[1]
     cols = (nodes[:, None] * nb + np.arange(nb)[None, :]).ravel()
     data = local.reshape(6, -1)
     data /= np.linalg.norm(data, axis=1, keepdims=True)
-    return sp.csr_matrix((data.ravel(), (np.repeat(np.arange(6), cols.size), np.tile(cols, 6))),
-                         shape=(6, basis.shape[0] * nb))
+    return sp.csr_matrix(
+        (data.ravel(), (np.repeat(np.arange(6), cols.size), np.tile(cols, 6))), shape=(6, basis.shape[0] * nb)
+    )
 
 
 @dataclass
@@ -189,16 +190,16 @@ class _BorderedSystem:
     constraints)."""
 
     stiffness: sp.csr_matrix  # K
-    pin: sp.csr_matrix     # Q (scaled), so that K_s = K + Q^T Q
-    border: np.ndarray     # U = [k, F^T (scaled), Q^T]
-    rows: np.ndarray       # V = [k, G^T (scaled), Q^T]
-    dblock: np.ndarray     # D = diag(kappa, 0, I)
-    rhs: np.ndarray        # [f, g, 0, 0]
-    n: int                 # number of velocity unknowns
+    pin: sp.csr_matrix  # Q (scaled), so that K_s = K + Q^T Q
+    border: np.ndarray  # U = [k, F^T (scaled), Q^T]
+    rows: np.ndarray  # V = [k, G^T (scaled), Q^T]
+    dblock: np.ndarray  # D = diag(kappa, 0, I)
+    rhs: np.ndarray  # [f, g, 0, 0]
+    n: int  # number of velocity unknowns
     has_pressure: bool
-    gscale: np.ndarray     # norms of the constraint rows (to measure their violation)
-    fscale: np.ndarray     # norms of the force rows (to unscale the multipliers)
-    scale: float           # mean diagonal of K (the border is scaled to it)
+    gscale: np.ndarray  # norms of the constraint rows (to measure their violation)
+    fscale: np.ndarray  # norms of the force rows (to unscale the multipliers)
+    scale: float  # mean diagonal of K (the border is scaled to it)
     npin: int
 
     @cached_property
@@ -207,7 +208,7 @@ class _BorderedSystem:
         return (self.stiffness + self.pin.T @ self.pin).tocsr()
 
     def matvec(self, z: np.ndarray) -> np.ndarray:
-        x, y = z[: self.n], z[self.n:]
+        x, y = z[: self.n], z[self.n :]
         kx = self.stiffness @ x + self.pin.T @ (self.pin @ x)
         return np.concatenate([kx + self.border @ y, self.rows.T @ x + self.dblock @ y])
 
@@ -215,7 +216,7 @@ class _BorderedSystem:
         """``(x, P, lambda)`` of a solution, the multipliers those of the unscaled rows."""
         k = 1 if self.has_pressure else 0
         x = sol[: self.n]
-        y = sol[self.n + k: self.n + k + self.gscale.size]
+        y = sol[self.n + k : self.n + k + self.gscale.size]
         return x, (float(sol[self.n]) if self.has_pressure else 0.0), np.sqrt(self.scale) / self.fscale * y
 
 
@@ -225,8 +226,9 @@ class _BorderedInverse:
     ``first_rhs`` (optional) is solved together with the border columns, in one call.
     """
 
-    def __init__(self, factor, border: np.ndarray, rows: np.ndarray, dblock: np.ndarray,
-                 first_rhs: np.ndarray | None = None):
+    def __init__(
+        self, factor, border: np.ndarray, rows: np.ndarray, dblock: np.ndarray, first_rhs: np.ndarray | None = None
+    ):
         self.factor = factor
         self.border = border
         self.rows = rows
@@ -246,7 +248,7 @@ class _BorderedInverse:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """The solution for ``rhs`` (one column, or several as a 2-D array)."""
-        f, g = rhs[: self.n], rhs[self.n:]
+        f, g = rhs[: self.n], rhs[self.n :]
         zf = self.factor.solve(f).reshape(f.shape)
         y = sla.lu_solve(self.schur, g - self.rows.T @ zf)
         return np.concatenate([zf - self.z_border @ y, y])
@@ -268,8 +270,9 @@ class ConstrainedSolver:
         squares): it removes the rounding floor of ``M^T M`` at fine meshes.
     """
 
-    def __init__(self, backend: str = "auto", reuse: bool = False, rtol: float = 1e-10, max_iter: int = 30,
-                 refine: bool = True):
+    def __init__(
+        self, backend: str = "auto", reuse: bool = False, rtol: float = 1e-10, max_iter: int = 30, refine: bool = True
+    ):
         self.factor_cls = choose_factorization(backend)
         self._factor = self.factor_cls()
         self.reuse = reuse
@@ -279,10 +282,10 @@ class ConstrainedSolver:
         self._pre: _BorderedInverse | None = None
         self._pin_nodes = None  # (N, node indices) of the sparse pin, chosen once per mesh
         self._last: tuple[_BorderedSystem, np.ndarray] | None = None  # the last exact solve (for kkt_solve)
-        self._previous: list[np.ndarray] = []   # the last three solutions (initial guesses of the reuse)
+        self._previous: list[np.ndarray] = []  # the last three solutions (initial guesses of the reuse)
         self.rule = RefactorRule(self.factor_cls.refactor_cost)
         self.n_factorizations = 0
-        self.n_iterations = 0                    # GMRES iterations over all solves
+        self.n_iterations = 0  # GMRES iterations over all solves
 
     @property
     def backend(self) -> str:
@@ -308,14 +311,25 @@ class ConstrainedSolver:
         self._previous = [*self._previous[-2:], sol]
         t3 = time.perf_counter()
         if not np.all(np.isfinite(sol)):
-            raise SolverError("the linear solve produced non-finite values (singular or badly scaled system): "
-                              "check the viscosities, the time step and the mesh")
+            raise SolverError(
+                "the linear solve produced non-finite values (singular or badly scaled system): "
+                "check the viscosities, the time step and the mesh"
+            )
         x, pressure, multipliers = bordered.split(sol)
         if isinstance(system, EnergySystem):
             pressure = system.pressure(multipliers)
         self._last = (bordered, multipliers) if refactored else None
-        info = self._info(system, bordered, sol, x, pressure, multipliers, iterations, refactored,
-                          {"normal_equations": t1 - t0, "iterate": t2 - t1, "factor_solve": t3 - t2})
+        info = self._info(
+            system,
+            bordered,
+            sol,
+            x,
+            pressure,
+            multipliers,
+            iterations,
+            refactored,
+            {"normal_equations": t1 - t0, "iterate": t2 - t1, "factor_solve": t3 - t2},
+        )
         return x, pressure, info
 
     def _bordered_system(self, system: System, points: np.ndarray) -> _BorderedSystem:
@@ -330,8 +344,10 @@ class ConstrainedSolver:
             self._pin_nodes = (points.shape[0], _farthest_points(points, min(PIN_NODES, points.shape[0])))
         scale = float(np.mean(kmat.diagonal()))
         if not (np.isfinite(scale) and scale > 0.0):
-            raise SolverError(f"the force-balance matrix is not usable (mean diagonal {scale:.3g}): check that the "
-                              "viscosities are positive and finite and that the mesh is well shaped")
+            raise SolverError(
+                f"the force-balance matrix is not usable (mean diagonal {scale:.3g}): check that the "
+                "viscosities are positive and finite and that the mesh is well shaped"
+            )
         pin = pin_rows(points, system.basis, nodes=self._pin_nodes[1]) * np.sqrt(scale)
         gscale = _row_norms(gmat)
         pin_cols = pin.T.toarray()
@@ -347,12 +363,23 @@ class ConstrainedSolver:
         if has_p:
             dblock[0, 0] = ne.pressure_diagonal
         npin = pin.shape[0]
-        dblock[q - npin:, q - npin:] = np.eye(npin)
+        dblock[q - npin :, q - npin :] = np.eye(npin)
         rhs = np.concatenate([ne.rhs, [ne.pressure_rhs] if has_p else [], np.zeros(gmat.shape[0] + npin)])
         # the last block row is Q x + w = 0, so K_s x + Q^T w = K x
-        return _BorderedSystem(stiffness=kmat.tocsr(), pin=pin.tocsr(), border=border, rows=rows, dblock=dblock,
-                               rhs=rhs, n=ne.rhs.size, has_pressure=has_p, gscale=gscale, fscale=fscale, scale=scale,
-                               npin=npin)
+        return _BorderedSystem(
+            stiffness=kmat.tocsr(),
+            pin=pin.tocsr(),
+            border=border,
+            rows=rows,
+            dblock=dblock,
+            rhs=rhs,
+            n=ne.rhs.size,
+            has_pressure=has_p,
+            gscale=gscale,
+            fscale=fscale,
+            scale=scale,
+            npin=npin,
+        )
 
     def _reuse(self, b: _BorderedSystem) -> tuple[np.ndarray | None, int]:
         """GMRES on the new bordered system, preconditioned on the right by the last exact
@@ -361,8 +388,9 @@ class ConstrainedSolver:
         pre = self._pre
         if pre is None or pre.n != b.n or pre.border.shape != b.border.shape or pre.rows.shape != b.rows.shape:
             return None, 0
-        z, iterations, converged = gmres_right(b.matvec, pre.solve, b.rhs, self._initial_guess(b, pre),
-                                               self.rtol, self.max_iter)
+        z, iterations, converged = gmres_right(
+            b.matvec, pre.solve, b.rhs, self._initial_guess(b, pre), self.rtol, self.max_iter
+        )
         return (z if converged else None), iterations
 
     def _initial_guess(self, b: _BorderedSystem, pre: _BorderedInverse) -> np.ndarray:
@@ -397,17 +425,17 @@ class ConstrainedSolver:
         f = b.rhs[: b.n]
         self._pre = _BorderedInverse(self._factor, b.border, b.rows, b.dblock, first_rhs=f)
         self.n_factorizations += 1
-        return self._pre.solve_first(b.rhs[b.n:])
+        return self._pre.solve_first(b.rhs[b.n :])
 
     def _refinement_rhs(self, system: System, b: _BorderedSystem, sol: np.ndarray) -> np.ndarray:
         """The residual of the bordered system at ``sol``, its first block formed from the
         unsquared system (``M^T (r - M x - p P)``, not ``M^T r - (M^T M) x``)."""
-        x, y = sol[: b.n], sol[b.n:]
+        x, y = sol[: b.n], sol[b.n :]
         k = 1 if b.has_pressure else 0
         pressure = float(sol[b.n]) if b.has_pressure else 0.0
         first, prow = system.unsquared_residual(x, pressure)
-        pin = b.border[:, -b.npin:]
-        qxw = pin.T @ x + y[-b.npin:]                      # Q x + w
+        pin = b.border[:, -b.npin :]
+        qxw = pin.T @ x + y[-b.npin :]  # Q x + w
         mid = slice(k, y.size - b.npin)
         out = [first - b.border[:, mid] @ y[mid] - pin @ qxw]
         if b.has_pressure:
@@ -439,8 +467,9 @@ class ConstrainedSolver:
         """The multipliers of the last solve that factorised (None otherwise)."""
         return None if self._last is None else self._last[1]
 
-    def _info(self, system, b: _BorderedSystem, sol, x, pressure, multipliers, iterations, refactored,
-              seconds) -> SolveInfo:
+    def _info(
+        self, system, b: _BorderedSystem, sol, x, pressure, multipliers, iterations, refactored, seconds
+    ) -> SolveInfo:
         """What the solve achieved, measured on the solution."""
         res, rhs_norm = system.measure(x, pressure, multipliers)
         kkt = b.matvec(sol) - b.rhs

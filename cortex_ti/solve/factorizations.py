@@ -34,8 +34,15 @@ import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
 
-__all__ = ["FACTORIZATIONS", "AUTO_ORDER", "Factorization", "register_factorization", "choose_factorization",
-           "backend_names", "same_pattern"]
+__all__ = [
+    "FACTORIZATIONS",
+    "AUTO_ORDER",
+    "Factorization",
+    "register_factorization",
+    "choose_factorization",
+    "backend_names",
+    "same_pattern",
+]
 
 FACTORIZATIONS: dict[str, type] = {}
 
@@ -83,8 +90,9 @@ class SuperLUFactor(Factorization):
     refactor_cost = 25.0
 
     def factorize(self, a):
-        self._lu = spla.splu(a.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                             diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        self._lu = spla.splu(
+            a.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+        )
 
     def solve(self, b):
         return self._lu.solve(b)
@@ -121,7 +129,7 @@ class PardisoFactor(Factorization):
     def __init__(self):
         self._solver = _pypardiso().PyPardisoSolver(mtype=2)
         threads = int(os.environ.get("CORTEX_TI_THREADS", "0") or 0)
-        if threads > 0:   # the run's thread count (cortex_ti.runtime); MKL's default is every core
+        if threads > 0:  # the run's thread count (cortex_ti.runtime); MKL's default is every core
             self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None
@@ -133,7 +141,7 @@ class PardisoFactor(Factorization):
         if not same_pattern(self._pattern, upper):
             self._solver.set_phase(11)
             self._solver._call_pardiso(upper, dummy)
-            self._solver.set_iparm(8, 0)     # after phase 11, which fills in the defaults (2 steps)
+            self._solver.set_iparm(8, 0)  # after phase 11, which fills in the defaults (2 steps)
             self._pattern = upper
         self._solver.set_phase(22)
         self._solver._call_pardiso(upper, dummy)
@@ -210,8 +218,11 @@ def _mkl_runtime() -> str | None:
     if os.environ.get("PYPARDISO_MKL_RT"):
         return os.environ["PYPARDISO_MKL_RT"]
     for base in (sys.prefix, site.USER_BASE or ""):
-        hits = [h for pat in ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
-                for h in glob.glob(os.path.join(base, pat))]
+        hits = [
+            h
+            for pat in ("lib/libmkl_rt.so*", "lib/libmkl_rt*.dylib", "Library/bin/mkl_rt*.dll")
+            for h in glob.glob(os.path.join(base, pat))
+        ]
         if hits:
             return min(hits, key=len)
     return None
@@ -219,8 +230,12 @@ def _mkl_runtime() -> str | None:
 
 def same_pattern(old: sp.spmatrix | None, new: sp.spmatrix) -> bool:
     """Whether two compressed sparse matrices (indices sorted) have the same sparsity pattern."""
-    return (old is not None and old.shape == new.shape and np.array_equal(old.indptr, new.indptr)
-            and np.array_equal(old.indices, new.indices))
+    return (
+        old is not None
+        and old.shape == new.shape
+        and np.array_equal(old.indptr, new.indptr)
+        and np.array_equal(old.indices, new.indices)
+    )
 
 
 #: The order in which ``auto`` takes the installed backends (fastest first, docs/validation/speed.md)
@@ -238,8 +253,9 @@ def choose_factorization(name: str = "auto") -> type:
     cls = FACTORIZATIONS[name]
     if not cls.available():
         here = [k for k, c in FACTORIZATIONS.items() if c.available()]
-        raise SolverError(f"solver backend {name!r} is not installed here ({cls.install}); use auto or one of "
-                          f"{', '.join(here)}")
+        raise SolverError(
+            f"solver backend {name!r} is not installed here ({cls.install}); use auto or one of {', '.join(here)}"
+        )
     return cls
 
 

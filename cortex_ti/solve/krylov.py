@@ -23,8 +23,14 @@ import numpy as np
 __all__ = ["gmres_right"]
 
 
-def gmres_right(matvec: Callable[[np.ndarray], np.ndarray], psolve: Callable[[np.ndarray], np.ndarray],
-                b: np.ndarray, x0: np.ndarray, rtol: float, maxiter: int) -> tuple[np.ndarray, int, bool]:
+def gmres_right(
+    matvec: Callable[[np.ndarray], np.ndarray],
+    psolve: Callable[[np.ndarray], np.ndarray],
+    b: np.ndarray,
+    x0: np.ndarray,
+    rtol: float,
+    maxiter: int,
+) -> tuple[np.ndarray, int, bool]:
     """Solve ``A x = b`` by GMRES on ``A P^{-1} (P x) = b`` from ``x0``.
 
     Returns ``(x, iterations, converged)``, converged meaning ``|b - A x| <= rtol |b|`` (the
@@ -56,18 +62,18 @@ def gmres_right(matvec: Callable[[np.ndarray], np.ndarray], psolve: Callable[[np
     for j in range(maxiter):
         z[j] = psolve(v[j])
         w = matvec(z[j])
-        for i in range(j + 1):            # modified Gram-Schmidt
+        for i in range(j + 1):  # modified Gram-Schmidt
             h[i, j] = v[i] @ w
             w -= h[i, j] * v[i]
         h[j + 1, j] = np.linalg.norm(w)
         if h[j + 1, j] > 0.0:
             v[j + 1] = w / h[j + 1, j]
-        for i in range(j):                # earlier rotations on the new column
+        for i in range(j):  # earlier rotations on the new column
             t = cs[i] * h[i, j] + sn[i] * h[i + 1, j]
             h[i + 1, j] = -sn[i] * h[i, j] + cs[i] * h[i + 1, j]
             h[i, j] = t
         d = np.hypot(h[j, j], h[j + 1, j])
-        if d == 0.0:                      # breakdown with nothing gained: stop, not converged
+        if d == 0.0:  # breakdown with nothing gained: stop, not converged
             break
         cs[j], sn[j] = h[j, j] / d, h[j + 1, j] / d
         h[j, j], h[j + 1, j] = d, 0.0

@@ -32,11 +32,11 @@ class NormalEquations:
     """The symmetric part of a system as the solver borders it: ``[[K, k], [k^T, kappa]]
     [x; P] = [f; g]`` (``k``, ``kappa``, ``g`` only with a separate pressure unknown)."""
 
-    stiffness: sp.csr_matrix          # K (unknowns, unknowns)
-    rhs: np.ndarray                   # f
+    stiffness: sp.csr_matrix  # K (unknowns, unknowns)
+    rhs: np.ndarray  # f
     pressure_column: np.ndarray | None = None  # k = M^T p
-    pressure_diagonal: float = 0.0    # kappa = p^T p
-    pressure_rhs: float = 0.0         # g = p^T r
+    pressure_diagonal: float = 0.0  # kappa = p^T p
+    pressure_rhs: float = 0.0  # g = p^T r
 
 
 class _Unknowns:
@@ -63,15 +63,15 @@ class _Unknowns:
 class LinearSystem(_Unknowns):
     """``min |M x + p P - r|^2`` subject to ``G x = 0`` (see module docstring)."""
 
-    matrix: sp.csr_matrix             # M, (rows, unknowns)
-    rhs: np.ndarray                   # r
+    matrix: sp.csr_matrix  # M, (rows, unknowns)
+    rhs: np.ndarray  # r
     pressure_column: np.ndarray | None  # p, or None without the pressure unknown
-    constraints: np.ndarray           # G, (m, unknowns), dense
+    constraints: np.ndarray  # G, (m, unknowns), dense
     constraint_names: list[str]
-    basis: np.ndarray                 # (N, nb, 3): v_i = sum_b x[nb i + b] basis[i, b]
+    basis: np.ndarray  # (N, nb, 3): v_i = sum_b x[nb i + b] basis[i, b]
     terms: list[str] = field(default_factory=list)
     row_node: np.ndarray | None = None  # (rows,) the node each row of M belongs to
-    force_rows = None                 # the multipliers act on the constraint rows themselves
+    force_rows = None  # the multipliers act on the constraint rows themselves
 
     @property
     def n_unknowns(self) -> int:
@@ -128,16 +128,16 @@ class EnergySystem(_Unknowns):
     multipliers push along ``F`` (``G`` if ``force_rows`` is None). The pressure is
     ``pressure_sign * lambda[pressure_index]``."""
 
-    stiffness: sp.csr_matrix          # K, symmetric positive semidefinite
-    rhs: np.ndarray                   # f
-    constraints: np.ndarray           # G, (m, unknowns), dense
+    stiffness: sp.csr_matrix  # K, symmetric positive semidefinite
+    rhs: np.ndarray  # f
+    constraints: np.ndarray  # G, (m, unknowns), dense
     constraint_names: list[str]
-    basis: np.ndarray                 # (N, nb, 3)
+    basis: np.ndarray  # (N, nb, 3)
     pressure_index: int | None = None
     pressure_sign: float = -1.0
     terms: list[str] = field(default_factory=list)
-    force_rows: np.ndarray | None = None   # F, if not G (Petrov-Galerkin)
-    pressure_column = None            # the pressure is a multiplier, not a separate unknown
+    force_rows: np.ndarray | None = None  # F, if not G (Petrov-Galerkin)
+    pressure_column = None  # the pressure is a multiplier, not a separate unknown
 
     @property
     def n_unknowns(self) -> int:

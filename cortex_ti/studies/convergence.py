@@ -19,8 +19,14 @@ def run_errors(path) -> dict:
         points = tr.ds["points"].isel(time=0).values
         velocity = tr.ds["velocity"].isel(time=0).values
     eps, eps_rel = error_measures(velocity, scene_solution(settings, points))
-    return {"scene": settings.name, "nodes": points.shape[0], "formulation": settings.numerics.formulation,
-            "fit": settings.numerics.fit, "eps": eps, "eps_rel": eps_rel}
+    return {
+        "scene": settings.name,
+        "nodes": points.shape[0],
+        "formulation": settings.numerics.formulation,
+        "fit": settings.numerics.fit,
+        "eps": eps,
+        "eps_rel": eps_rel,
+    }
 
 
 def convergence_dataset(paths: Iterable) -> xr.Dataset:
@@ -37,15 +43,34 @@ def convergence_dataset(paths: Iterable) -> xr.Dataset:
         eps[idx], eps_rel[idx] = r["eps"], r["eps_rel"]
     return xr.Dataset(
         {
-            "eps": (dims, eps, {
-                "units": "R0/t_a", "long_name": "mean velocity error",
-                "description": "paper Eq. 57: (1/N) sum over nodes of |v - v_an|"}),
-            "eps_rel": (dims, eps_rel, {
-                "units": "1", "long_name": "relative rms velocity error",
-                "description": "paper Eq. 58: sqrt(mean over nodes of |v - v_an|^2) / max over nodes of |v_an|"}),
+            "eps": (
+                dims,
+                eps,
+                {
+                    "units": "R0/t_a",
+                    "long_name": "mean velocity error",
+                    "description": "paper Eq. 57: (1/N) sum over nodes of |v - v_an|",
+                },
+            ),
+            "eps_rel": (
+                dims,
+                eps_rel,
+                {
+                    "units": "1",
+                    "long_name": "relative rms velocity error",
+                    "description": "paper Eq. 58: sqrt(mean over nodes of |v - v_an|^2) / max over nodes of |v_an|",
+                },
+            ),
         },
-        coords={"scene": values["scene"], "formulation": values["formulation"], "fit": values["fit"],
-                "nodes": ("nodes", values["nodes"], {"long_name": "number of mesh nodes N"})},
-        attrs={"description": "Static sphere scenes (paper Figs. 2F,G and 3F,G) against the analytic solutions of "
-                              "docs/method/conventions.md", **provenance()},
+        coords={
+            "scene": values["scene"],
+            "formulation": values["formulation"],
+            "fit": values["fit"],
+            "nodes": ("nodes", values["nodes"], {"long_name": "number of mesh nodes N"}),
+        },
+        attrs={
+            "description": "Static sphere scenes (paper Figs. 2F,G and 3F,G) against the analytic solutions of "
+            "docs/method/conventions.md",
+            **provenance(),
+        },
     )

@@ -22,8 +22,18 @@ from ..physics.formulations import FORMULATIONS
 from ..surface.fits import FIT_SCHEMES
 from .registry import FIGURES
 
-__all__ = ["convergence_figure", "radii_figure", "profiles_figure", "orientation_figure", "fold_figure",
-           "accuracy_cost_figure", "pareto_front", "snapshots_figure", "cost_table_html", "draw_figure"]
+__all__ = [
+    "convergence_figure",
+    "radii_figure",
+    "profiles_figure",
+    "orientation_figure",
+    "fold_figure",
+    "accuracy_cost_figure",
+    "pareto_front",
+    "snapshots_figure",
+    "cost_table_html",
+    "draw_figure",
+]
 
 
 _MARKERS = "os^Dvp<>h*"
@@ -52,9 +62,15 @@ def convergence_figure(ds: xr.Dataset) -> Figure:
                 if not ok.any():
                     continue
                 colour = colours.setdefault(harmonic, f"C{len(colours)}")
-                ax.loglog(ds["nodes"].values[ok], e.values[ok], styles.get(str(form), "-"), color=colour,
-                          marker=markers.get(str(fit), "^"), mfc=colour if form == "paper" else "none",
-                          label=f"{harmonic} {form} {fit}")
+                ax.loglog(
+                    ds["nodes"].values[ok],
+                    e.values[ok],
+                    styles.get(str(form), "-"),
+                    color=colour,
+                    marker=markers.get(str(fit), "^"),
+                    mfc=colour if form == "paper" else "none",
+                    label=f"{harmonic} {form} {fit}",
+                )
     n = ds["nodes"].values.astype(float)
     for ax, title in zip(axes, ("(i) full force balance", "(ii) tangential only"), strict=True):
         for power, style in ((1, ":"), (2, "--")):
@@ -80,8 +96,10 @@ def _twin_index(axisym: xr.Dataset | None) -> dict[tuple, int]:
     """Run index of each axisymmetric twin in its store, by (scene, zeta_hat, p)."""
     if axisym is None:
         return {}
-    return {(str(axisym["scene"].values[i]), float(axisym["zeta_hat"].values[i]), float(axisym["p"].values[i])): i
-            for i in range(axisym.sizes["run"])}
+    return {
+        (str(axisym["scene"].values[i]), float(axisym["zeta_hat"].values[i]), float(axisym["p"].values[i])): i
+        for i in range(axisym.sizes["run"])
+    }
 
 
 def radii_figure(ds: xr.Dataset, axisym: xr.Dataset | None = None) -> Figure:
@@ -129,8 +147,12 @@ def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
             k = tr.frame_at(t)
             if meridian:
                 f = tr.ds.isel(time=k)
-                out[t] = (f["meridian_z"].values, np.abs(f["meridian_v_s"].values), f["meridian_v_n"].values,
-                          float(tt[k]))
+                out[t] = (
+                    f["meridian_z"].values,
+                    np.abs(f["meridian_v_s"].values),
+                    f["meridian_v_n"].values,
+                    float(tt[k]),
+                )
                 continue
             pts = tr.ds["points"].isel(time=k).values
             vel = tr.ds["velocity"].isel(time=k).values
@@ -141,8 +163,9 @@ def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
     return float(tt[-1]), out
 
 
-def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
-                    twins: Sequence[tuple[Mapping, str]] = ()) -> Figure:
+def profiles_figure(
+    runs: Sequence[tuple[Mapping, str]], times: Sequence[float], twins: Sequence[tuple[Mapping, str]] = ()
+) -> Figure:
     """``|v_t|`` and v_n against z at the given times (paper Figs. 5B-G, 7B-G, 8B-G), one column
     pair per 3D run; the axisymmetric solution of the same scene (its twin) as a black line.
     Times beyond a run's end are left empty."""
@@ -160,8 +183,16 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
             ax_t, ax_n = axes[i, 2 * j], axes[i, 2 * j + 1]
             if t not in profiles:
                 for ax in (ax_t, ax_n):
-                    ax.text(0.5, 0.5, f"run ends at t = {t_last:g}", ha="center", va="center", transform=ax.transAxes,
-                            fontsize=8, color="0.4")
+                    ax.text(
+                        0.5,
+                        0.5,
+                        f"run ends at t = {t_last:g}",
+                        ha="center",
+                        va="center",
+                        transform=ax.transAxes,
+                        fontsize=8,
+                        color="0.4",
+                    )
                     ax.set_xticks([])
                     ax.set_yticks([])
                 continue
@@ -185,9 +216,13 @@ def profiles_figure(runs: Sequence[tuple[Mapping, str]], times: Sequence[float],
 
 
 #: The overrides that take the furrow_p8_a1 scene to the external reference's problem (no bending viscosity).
-REFERENCE_PROBLEM = ["model=axisymmetric", "viscosity.bending=0", "viscosity.bending_bulk=0", "time.t_end=3",
-                     "effects=[active_stress, shear_viscosity, bulk_viscosity, normal_balance, incompressibility, "
-                     "shape_evolution]"]
+REFERENCE_PROBLEM = [
+    "model=axisymmetric",
+    "viscosity.bending=0",
+    "viscosity.bending_bulk=0",
+    "time.t_end=3",
+    "effects=[active_stress, shear_viscosity, bulk_viscosity, normal_balance, incompressibility, shape_evolution]",
+]
 
 
 def reference_check_figure(axisym: xr.Dataset | None = None) -> Figure:
@@ -209,14 +244,22 @@ def reference_check_figure(axisym: xr.Dataset | None = None) -> Figure:
     a0.plot(res.t, res.pole_radius, "C0-", lw=1, label="axisymmetric solver, no bending viscosity")
     a0.plot(res.t, res.furrow_radius, "C0-", lw=1)
     for name, mark in (("pole_radius", "-"), ("furrow_radius", "--")):
-        a1.semilogy(tr, np.abs(np.interp(tr, res.t, getattr(res, name)) - ref[name][keep]) + 1e-12, "C0" + mark,
-                    label=f"{name.split('_')[0]}: no bending (the reference's problem)")
+        a1.semilogy(
+            tr,
+            np.abs(np.interp(tr, res.t, getattr(res, name)) - ref[name][keep]) + 1e-12,
+            "C0" + mark,
+            label=f"{name.split('_')[0]}: no bending (the reference's problem)",
+        )
         twin = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
         if twin is not None:
             ta = axisym["time"].values
             ok = np.isfinite(axisym[name].values[twin])
-            a1.semilogy(tr, np.abs(np.interp(tr, ta[ok], axisym[name].values[twin][ok]) - ref[name][keep]) + 1e-12,
-                        "C1" + mark, label=f"{name.split('_')[0]}: with the scene's bending viscosity")
+            a1.semilogy(
+                tr,
+                np.abs(np.interp(tr, ta[ok], axisym[name].values[twin][ok]) - ref[name][keep]) + 1e-12,
+                "C1" + mark,
+                label=f"{name.split('_')[0]}: with the scene's bending viscosity",
+            )
     a1.axhline(1e-4, color="0.5", lw=0.8, ls=":", label="1e-4 (the reference's own time error ~8e-5)")
     a0.set_xlabel(r"$t / t_a$")
     a0.set_ylabel(r"radius / $R_0$")
@@ -235,7 +278,7 @@ def orientation_figure(ds: xr.Dataset) -> Figure:
     t = ds["time"].values
     for i in range(ds.sizes["run"]):
         lab = f"$\\gamma$ = {ds['gamma'].values[i]}, tilt {ds['tilt'].values[i]}°, N={ds['nodes'].values[i]}"
-        line, = a0.plot(t, ds["orientation_angle"].values[i], label=lab)
+        (line,) = a0.plot(t, ds["orientation_angle"].values[i], label=lab)
         a1.plot(t, ds["pole_radius_long_axis"].values[i], "-", color=line.get_color(), label=f"pole, {lab}")
         a1.plot(t, ds["furrow_radius_long_axis"].values[i], "--", color=line.get_color(), label="furrow")
     a0.set_xlabel(r"$t / t_a$")
@@ -255,7 +298,7 @@ def fold_figure(ds: xr.Dataset) -> Figure:
     t = ds["time"].values
     for i in range(ds.sizes["run"]):
         lab = f"{ds['scene'].values[i]} ($\\hat\\zeta$ = {ds['zeta_hat'].values[i]}, N={ds['nodes'].values[i]})"
-        line, = a0.plot(t, ds["radius_stripe"].values[i], "-", label=f"across stripe, {lab}")
+        (line,) = a0.plot(t, ds["radius_stripe"].values[i], "-", label=f"across stripe, {lab}")
         a0.plot(t, ds["radius_off_stripe"].values[i], "--", color=line.get_color(), label="beside stripe")
         a1.plot(t, ds["fold_depth"].values[i], color=line.get_color(), label=lab)
     a0.set_xlabel(r"$t / t_a$")
@@ -310,16 +353,28 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
         mine = form_of == form
         for i in np.flatnonzero(ok & mine):
             c = colours[nodes[i]]
-            ax.loglog(wall[i], err[i], markers.get(str(sel["scheme"].values[i]), "x"), ms=7, color=c,
-                      mfc=c if implicit[i] else "none", zorder=3)
+            ax.loglog(
+                wall[i],
+                err[i],
+                markers.get(str(sel["scheme"].values[i]), "x"),
+                ms=7,
+                color=c,
+                mfc=c if implicit[i] else "none",
+                zorder=3,
+            )
         if front.size:
             (h,) = ax.loglog(wall[front], err[front], "k--", lw=1.2, zorder=2, label="Pareto front (all runs)")
         failed = np.flatnonzero(~ok & mine)
         if failed.size:
             ax.loglog(wall[failed], np.full(failed.size, top), "rx", ms=8, label=f"failed ({failed.size})")
         if len(twin_wall):
-            v = ax.axvline(float(np.nanmax(twin_wall)), color="0.3", lw=1, ls=":",
-                           label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s")
+            v = ax.axvline(
+                float(np.nanmax(twin_wall)),
+                color="0.3",
+                lw=1,
+                ls=":",
+                label=f"axisymmetric solution (the truth): {np.nanmax(twin_wall):.1f} s",
+            )
         ax.set_title(f"formulation {form}", fontsize=9)
         ax.set_xlabel("wall time of the run (s, one job, start-up included)")
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
@@ -330,12 +385,16 @@ def accuracy_cost_figure(ds: xr.Dataset) -> Figure:
     if (~ok).any():
         handles.append(panels[0].plot([], [], "rx", ms=8, label="failed (see the cost table)")[0])
     handles += [panels[0].plot([], [], "s", color=c, label=f"N = {n}")[0] for n, c in colours.items()]
-    handles += [panels[0].plot([], [], m, color="0.4", mfc="none", label=name)[0]
-                for name, m in markers.items() if name in set(sel["scheme"].values)]
+    handles += [
+        panels[0].plot([], [], m, color="0.4", mfc="none", label=name)[0]
+        for name, m in markers.items()
+        if name in set(sel["scheme"].values)
+    ]
     handles.append(panels[0].plot([], [], "o", color="0.4", label="filled: semi-implicit tension")[0])
     panels[0].set_ylabel(r"max |radius - axisymmetric| / $R_0$")
-    _common_limits(panels, np.r_[wall[np.isfinite(wall)], list(twin_wall)],
-                   np.r_[err[ok], [top] if (~ok).any() else []])
+    _common_limits(
+        panels, np.r_[wall[np.isfinite(wall)], list(twin_wall)], np.r_[err[ok], [top] if (~ok).any() else []]
+    )
     found = map(re.compile(r"scene~([^/]+)").search, sel["run"].values.astype(str))
     scenes = ", ".join(sorted({m.group(1) for m in found if m}))
     fig.suptitle(f"accuracy study ({scenes}) against the axisymmetric solution", fontsize=10)
@@ -356,14 +415,27 @@ def _common_limits(panels, xs: np.ndarray, ys: np.ndarray) -> None:
 def _pareto_table(ax, sel: xr.Dataset, front: np.ndarray) -> None:
     """The runs on the Pareto front as a table: what each costs and what it gets."""
     ax.axis("off")
-    rows = [[str(sel["formulation"].values[i]), str(int(sel["nodes"].values[i])), str(sel["scheme"].values[i]),
-             "semi-impl." if bool(sel["implicit_tension"].values[i]) else "explicit", f"{sel['dt'].values[i]:g}",
-             f"{sel['wall_s'].values[i]:.0f}", f"{sel['error'].values[i]:.1e}"] for i in front]
+    rows = [
+        [
+            str(sel["formulation"].values[i]),
+            str(int(sel["nodes"].values[i])),
+            str(sel["scheme"].values[i]),
+            "semi-impl." if bool(sel["implicit_tension"].values[i]) else "explicit",
+            f"{sel['dt'].values[i]:g}",
+            f"{sel['wall_s'].values[i]:.0f}",
+            f"{sel['error'].values[i]:.1e}",
+        ]
+        for i in front
+    ]
     if not rows:
         ax.text(0.5, 0.5, "no run finished", ha="center", va="center")
         return
-    table = ax.table(cellText=rows, colLabels=["formulation", "N", "scheme", "tension", "dt", "wall (s)", "error (R0)"],
-                     loc="upper center", cellLoc="center")
+    table = ax.table(
+        cellText=rows,
+        colLabels=["formulation", "N", "scheme", "tension", "dt", "wall (s)", "error (R0)"],
+        loc="upper center",
+        cellLoc="center",
+    )
     table.auto_set_font_size(False)
     table.set_fontsize(7)
     table.auto_set_column_width(list(range(len(rows[0]))))
@@ -393,12 +465,29 @@ def snapshots_figure(runs: Sequence[tuple[str, str]], times: Sequence[float], vi
     fig = Figure(figsize=(2.6 * ncol, 2.7 * len(rows)), layout="constrained")
     for r, (label, path, pick) in enumerate(rows):
         with open_trajectory(path) as ds:
-            ax, _ = frame_panel(fig, (len(rows), ncol, r * ncol + 1), ds, 0, "active_stress", arrows=False,
-                                view=view, renderer=renderer, label=r"$\zeta / \zeta_0$")
+            ax, _ = frame_panel(
+                fig,
+                (len(rows), ncol, r * ncol + 1),
+                ds,
+                0,
+                "active_stress",
+                arrows=False,
+                view=view,
+                renderer=renderer,
+                label=r"$\zeta / \zeta_0$",
+            )
             ax.set_title(f"{label}\nactive stress", fontsize=7)
             for c, k in enumerate(pick):
-                ax, _ = frame_panel(fig, (len(rows), ncol, r * ncol + 2 + c), ds, int(k), "speed", view=view,
-                                    renderer=renderer, label=r"$|v| / v_a$")
+                ax, _ = frame_panel(
+                    fig,
+                    (len(rows), ncol, r * ncol + 2 + c),
+                    ds,
+                    int(k),
+                    "speed",
+                    view=view,
+                    renderer=renderer,
+                    label=r"$|v| / v_a$",
+                )
                 ax.set_title(f"t = {float(ds['time'].values[k]):.4g} $t_a$", fontsize=8)
     for ax in fig.axes:
         ax.tick_params(labelsize=6)
@@ -429,7 +518,7 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
         phi = np.arctan2(x[:, 1], x[:, 0])
         tangential = settings.has("fixed_normal_velocity")
         axisym = all(t["m"] == 0 for p in settings.patterns for t in p.get("terms", []))
-        near = np.ones(len(x), bool) if axisym else np.abs(phi) < 0.2      # the meridian phi = 0
+        near = np.ones(len(x), bool) if axisym else np.abs(phi) < 0.2  # the meridian phi = 0
         radius = float(np.mean(np.linalg.norm(x, axis=1)))
         line = np.linspace(0.0, np.pi, 181)
         meridian = radius * np.stack([np.sin(line), np.zeros_like(line), np.cos(line)], -1)
@@ -449,14 +538,31 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
 
 def cost_table_html(ds: xr.Dataset) -> str:
     """The cost store as an HTML table (for the report), through pandas."""
-    cols = ["study", "status", "nodes", "fit", "scheme", "dt", "wall_s", "max_rss_mb", "steps", "solves", "ms_per_step",
-            "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve", "error"]
+    cols = [
+        "study",
+        "status",
+        "nodes",
+        "fit",
+        "scheme",
+        "dt",
+        "wall_s",
+        "max_rss_mb",
+        "steps",
+        "solves",
+        "ms_per_step",
+        "ms_geometry_per_solve",
+        "ms_assembly_per_solve",
+        "ms_solve_per_solve",
+        "error",
+    ]
     table = ds.reset_coords()[cols].to_dataframe()
     table.columns = [f"{c} [{ds[c].attrs['units']}]" if ds[c].attrs.get("units") else c for c in cols]
     body = table.to_html(float_format=lambda x: f"{x:.3g}", na_rep="", border=0)
-    return ("<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
-            f"border-bottom:1px solid #ddd}}</style></head><body><p>{ds.attrs.get('description', '')}</p>"
-            f"{body}</body></html>")
+    return (
+        "<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
+        f"border-bottom:1px solid #ddd}}</style></head><body><p>{ds.attrs.get('description', '')}</p>"
+        f"{body}</body></html>"
+    )
 
 
 def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str, Sequence[Mapping]] = {}) -> Figure:
@@ -474,7 +580,7 @@ def draw_figure(name: str, inputs: Sequence, options: Mapping, rows: Mapping[str
         return draw(list(inputs), *extra)
     runs, start = {}, 0
     for study in spec.data:
-        runs[study] = list(zip(rows[study], inputs[start:start + len(rows[study])], strict=True))
+        runs[study] = list(zip(rows[study], inputs[start : start + len(rows[study])], strict=True))
         start += len(rows[study])
     if spec.draw == "profiles_figure":
         return draw(runs[spec.data[0]], *extra, *(runs[s] for s in spec.data[1:]))

@@ -33,10 +33,16 @@ def _convergence(stores) -> pd.DataFrame:
                 if not ok.any():
                     continue
                 order = np.polyfit(np.log(n[ok]), np.log(e[ok]), 1)[0] if ok.sum() > 1 else np.nan
-                rows.append({"scene": scene, "formulation": form, "fit": fit,
-                             **{f"eps_rel N={int(k)}": f"{v:.2e}" for k, v in zip(n, e, strict=True)},
-                             "slope d log eps / d log N": f"{order:.2f}",
-                             "paper": "quadratic: eps ~ 1/N (slope -1)"})
+                rows.append(
+                    {
+                        "scene": scene,
+                        "formulation": form,
+                        "fit": fit,
+                        **{f"eps_rel N={int(k)}": f"{v:.2e}" for k, v in zip(n, e, strict=True)},
+                        "slope d log eps / d log N": f"{order:.2f}",
+                        "paper": "quadratic: eps ~ 1/N (slope -1)",
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -48,9 +54,16 @@ def _sphere_flows(paths) -> pd.DataFrame:
         with Trajectory(path, lazy=True) as tr:
             x, v = tr.ds["points"].isel(time=0).values, tr.ds["velocity"].isel(time=0).values
             eps, eps_rel = error_measures(v, scene_solution(tr.settings, x))
-            rows.append({"scene": tr.settings.name, "nodes": x.shape[0], "fit": tr.settings.numerics.fit,
-                         "eps (Eq. 57)": f"{eps:.2e}", "eps_rel (Eq. 58)": f"{eps_rel:.2e}",
-                         "max |v| analytic": f"{np.linalg.norm(scene_solution(tr.settings, x), axis=1).max():.4f}"})
+            rows.append(
+                {
+                    "scene": tr.settings.name,
+                    "nodes": x.shape[0],
+                    "fit": tr.settings.numerics.fit,
+                    "eps (Eq. 57)": f"{eps:.2e}",
+                    "eps_rel (Eq. 58)": f"{eps_rel:.2e}",
+                    "max |v| analytic": f"{np.linalg.norm(scene_solution(tr.settings, x), axis=1).max():.4f}",
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -70,13 +83,27 @@ def _furrow_pictures(runs) -> pd.DataFrame:
                 return ring["zeta0"] + ring["amplitude"] * np.exp(-ring["sigma"] * np.abs(th - np.pi / 2) ** ring["p"])
 
             poles = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
-            exact, _, _ = sphere_flow(zeta, poles, eta_s=vis.shear, eta_b=vis.bulk, eta_bar=vis.bending,
-                                      eta_bar_b=vis.bending_bulk, axis=(0, 0, 1), lmax=240)
+            exact, _, _ = sphere_flow(
+                zeta,
+                poles,
+                eta_s=vis.shear,
+                eta_b=vis.bulk,
+                eta_bar=vis.bending,
+                eta_bar_b=vis.bending_bulk,
+                axis=(0, 0, 1),
+                lmax=240,
+            )
             top = int(np.argmax(x0[:, 2]))
-            rows.append({"run": label, "v_n at the north pole, t = 0": f"{float(v0[top] @ n0[top]):.4f}",
-                         "exact (sphere_exact, with the scene's bending viscosity)": f"{exact[0, 2]:.4f}",
-                         "t_end": f"{tr.times[-1]:g}", "final pole radius": f"{tr.ds['pole_radius'].values[-1]:.5f}",
-                         "final furrow radius": f"{tr.ds['furrow_radius'].values[-1]:.5f}"})
+            rows.append(
+                {
+                    "run": label,
+                    "v_n at the north pole, t = 0": f"{float(v0[top] @ n0[top]):.4f}",
+                    "exact (sphere_exact, with the scene's bending viscosity)": f"{exact[0, 2]:.4f}",
+                    "t_end": f"{tr.times[-1]:g}",
+                    "final pole radius": f"{tr.ds['pole_radius'].values[-1]:.5f}",
+                    "final furrow radius": f"{tr.ds['furrow_radius'].values[-1]:.5f}",
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -111,9 +138,16 @@ def _velocity_profiles(runs, times, twins=()) -> pd.DataFrame:
         for t in times:
             if f"profile_{t:g}" in r:
                 a, b, c, d, sn, st = r[f"profile_{t:g}"]
-                rows.append({"scene": row.get("scene"), "nodes": row.get("nodes"), "t": t,
-                             "max / rms |dv_n|": f"{a:.1e} / {b:.1e}", "max / rms |d|v_t||": f"{c:.1e} / {d:.1e}",
-                             "scale v_n, |v_t|": f"{sn:.3f}, {st:.3f}"})
+                rows.append(
+                    {
+                        "scene": row.get("scene"),
+                        "nodes": row.get("nodes"),
+                        "t": t,
+                        "max / rms |dv_n|": f"{a:.1e} / {b:.1e}",
+                        "max / rms |d|v_t||": f"{c:.1e} / {d:.1e}",
+                        "scale v_n, |v_t|": f"{sn:.3f}, {st:.3f}",
+                    }
+                )
     return pd.DataFrame(rows)
 
 
@@ -128,8 +162,9 @@ def _fold(stores) -> pd.DataFrame:
         for tq in (0.1, 0.5, 1.0, 3.5):
             if tq <= t[ok][-1] + 1e-9:
                 row[f"fold depth t = {tq:g}"] = f"{depth[np.argmin(np.abs(t - tq))]:.3f}"
-        row["radius across / beside the stripe at the end"] = (f"{ds['radius_stripe'].values[i][ok][-1]:.3f} / "
-                                                               f"{ds['radius_off_stripe'].values[i][ok][-1]:.3f}")
+        row["radius across / beside the stripe at the end"] = (
+            f"{ds['radius_stripe'].values[i][ok][-1]:.3f} / {ds['radius_off_stripe'].values[i][ok][-1]:.3f}"
+        )
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -158,17 +193,31 @@ def _reference_check(stores) -> pd.DataFrame:
     ref = reference.load_radii()
     res = AxisymmetricRun(load_scene("furrow_p8_a1", REFERENCE_PROBLEM)).simulate()
     dev = reference.radii_deviation(res.t, res.pole_radius, res.furrow_radius)
-    rows = [{"axisymmetric run": "no bending viscosity (the reference's problem)",
-             **{f"max |dev| {k} (t <= 3)": f"{dev[k]:.2e}" for k in ("pole", "furrow")}}]
+    rows = [
+        {
+            "axisymmetric run": "no bending viscosity (the reference's problem)",
+            **{f"max |dev| {k} (t <= 3)": f"{dev[k]:.2e}" for k in ("pole", "furrow")},
+        }
+    ]
     axisym = stores[0]
     j = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
     if j is not None:
-        d = reference.radii_deviation(axisym["time"].values, axisym["pole_radius"].values[j],
-                                      axisym["furrow_radius"].values[j])
-        rows.append({"axisymmetric run": "with the scene's bending viscosity",
-                     **{f"max |dev| {k} (t <= 3)": f"{d[k]:.2e}" for k in ("pole", "furrow")}})
-    rows.append({"axisymmetric run": "the reference's own time error (its README)",
-                 "max |dev| pole (t <= 3)": "~8e-5", "max |dev| furrow (t <= 3)": "~8e-5"})
+        d = reference.radii_deviation(
+            axisym["time"].values, axisym["pole_radius"].values[j], axisym["furrow_radius"].values[j]
+        )
+        rows.append(
+            {
+                "axisymmetric run": "with the scene's bending viscosity",
+                **{f"max |dev| {k} (t <= 3)": f"{d[k]:.2e}" for k in ("pole", "furrow")},
+            }
+        )
+    rows.append(
+        {
+            "axisymmetric run": "the reference's own time error (its README)",
+            "max |dev| pole (t <= 3)": "~8e-5",
+            "max |dev| furrow (t <= 3)": "~8e-5",
+        }
+    )
     del ref
     return pd.DataFrame(rows)
 
@@ -183,15 +232,22 @@ def _accuracy(stores) -> pd.DataFrame:
     return out
 
 
-_NUMBERS = {"convergence_figure": _convergence, "sphere_flows_figure": _sphere_flows, "radii_figure": _furrow_radii,
-            "profiles_figure": _velocity_profiles, "fold_figure": _fold, "orientation_figure": _orientation,
-            "reference_check_figure": _reference_check, "accuracy_cost_figure": _accuracy}
+_NUMBERS = {
+    "convergence_figure": _convergence,
+    "sphere_flows_figure": _sphere_flows,
+    "radii_figure": _furrow_radii,
+    "profiles_figure": _velocity_profiles,
+    "fold_figure": _fold,
+    "orientation_figure": _orientation,
+    "reference_check_figure": _reference_check,
+    "accuracy_cost_figure": _accuracy,
+}
 
 
 def _cost(name: str, cost: xr.Dataset) -> pd.DataFrame:
     """Runs, wall time, steps and peak memory of the studies a figure is drawn from."""
     spec = FIGURES[name]
-    behind = {"convergence": "static", "cost": "accuracy"}     # the runs behind a store that is not a study's
+    behind = {"convergence": "static", "cost": "accuracy"}  # the runs behind a store that is not a study's
     studies = ("static",) if spec.source == "static" else tuple(behind.get(d, d) for d in spec.data)
     rows = []
     for study in studies:
@@ -199,11 +255,17 @@ def _cost(name: str, cost: xr.Dataset) -> pd.DataFrame:
         if not sel.size:
             continue
         c = cost.isel(run=sel)
-        rows.append({"study": study, "runs": int(sel.size), "failed": int((c["status"].values != "ok").sum()),
-                     "wall time, sum (s)": f"{np.nansum(c['wall_s'].values):.0f}",
-                     "wall time, largest (s)": f"{np.nanmax(c['wall_s'].values):.0f}",
-                     "steps, sum": int(np.nansum(c["steps"].values)),
-                     "peak memory, largest (MB)": f"{np.nanmax(c['max_rss_mb'].values):.0f}"})
+        rows.append(
+            {
+                "study": study,
+                "runs": int(sel.size),
+                "failed": int((c["status"].values != "ok").sum()),
+                "wall time, sum (s)": f"{np.nansum(c['wall_s'].values):.0f}",
+                "wall time, largest (s)": f"{np.nanmax(c['wall_s'].values):.0f}",
+                "steps, sum": int(np.nansum(c["steps"].values)),
+                "peak memory, largest (MB)": f"{np.nanmax(c['max_rss_mb'].values):.0f}",
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -225,17 +287,23 @@ def figure_numbers(name: str, inputs: Sequence, options: Mapping, rows: Mapping,
             numbers = func(list(inputs))
         else:
             first = spec.data[0]
-            numbers = func(list(zip(rows[first], inputs[: len(rows[first])], strict=True)),
-                           [options[k] for k in spec.options][0])
+            numbers = func(
+                list(zip(rows[first], inputs[: len(rows[first])], strict=True)), [options[k] for k in spec.options][0]
+            )
     return numbers, (_cost(name, cost) if cost is not None else None)
 
 
 def numbers_html(name: str, numbers: pd.DataFrame | None, cost: pd.DataFrame | None) -> str:
     """The numbers and the cost of a figure as one small HTML page (for the report)."""
     parts = [f"<h3>{name}: the numbers to compare</h3>"]
-    parts.append(numbers.to_html(index=False, border=0) if numbers is not None and len(numbers)
-                 else "<p>(the figure itself is the result: see its caption)</p>")
+    parts.append(
+        numbers.to_html(index=False, border=0)
+        if numbers is not None and len(numbers)
+        else "<p>(the figure itself is the result: see its caption)</p>"
+    )
     if cost is not None and len(cost):
         parts += ["<h3>what the runs behind it cost</h3>", cost.to_html(index=False, border=0)]
-    return ("<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
-            "border-bottom:1px solid #ddd}</style></head><body>" + "".join(parts) + "</body></html>")
+    return (
+        "<html><head><meta charset='utf-8'><style>td,th{padding:2px 6px;font:12px sans-serif;"
+        "border-bottom:1px solid #ddd}</style></head><body>" + "".join(parts) + "</body></html>"
+    )

@@ -10,8 +10,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Study", "FigureSpec", "STUDIES", "FIGURES", "STORES", "TABLES", "TABLE_CATEGORY", "figure_names",
-           "study_store_names", "configured_studies"]
+__all__ = [
+    "Study",
+    "FigureSpec",
+    "STUDIES",
+    "FIGURES",
+    "STORES",
+    "TABLES",
+    "TABLE_CATEGORY",
+    "figure_names",
+    "study_store_names",
+    "configured_studies",
+]
 
 
 @dataclass(frozen=True)
@@ -19,11 +29,11 @@ class Study:
     """A parameter study: the columns of its sweep table and what its store keeps."""
 
     name: str
-    columns: tuple[str, ...]          # the sweep table's columns, in folder order
+    columns: tuple[str, ...]  # the sweep table's columns, in folder order
     description: str
-    variables: tuple[str, ...] = ()   # per-frame variables of its (run, time) store; () for none
-    failures_are_data: bool = False   # a run that goes unstable is a result (a failed point), not an error
-    twin_of: tuple[str, ...] = ()     # derived, not configured: the axisymmetric twins of these studies' runs
+    variables: tuple[str, ...] = ()  # per-frame variables of its (run, time) store; () for none
+    failures_are_data: bool = False  # a run that goes unstable is a result (a failed point), not an error
+    twin_of: tuple[str, ...] = ()  # derived, not configured: the axisymmetric twins of these studies' runs
 
     @property
     def has_store(self) -> bool:
@@ -35,41 +45,63 @@ class FigureSpec:
     """A figure of the workflow: what it is drawn from and how it appears in the report."""
 
     name: str
-    source: str            # "store": from results/aggregate/<data>.nc; "runs": from the trajectories of studies <data>;
-                           # "static": from the static runs at nodes data[0], fit data[1], formulation data[2]
+    source: str  # "store": from results/aggregate/<data>.nc; "runs": from the trajectories of studies <data>;
+    # "static": from the static runs at nodes data[0], fit data[1], formulation data[2]
     data: tuple[str, ...]
-    draw: str              # the function of cortex_ti.studies.figures that draws it
-    category: str          # the report's section
-    caption: str           # reStructuredText shown under it in the report
-    options: tuple[str, ...] = ()   # keys of the config's ``figures`` section passed to ``draw``
+    draw: str  # the function of cortex_ti.studies.figures that draws it
+    category: str  # the report's section
+    caption: str  # reStructuredText shown under it in the report
+    options: tuple[str, ...] = ()  # keys of the config's ``figures`` section passed to ``draw``
 
 
 _STUDIES = (
-    Study("furrow", ("scene", "zeta_hat", "p", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
-          "Furrow formation under a contractile ring (paper Eq. 59, Figs. 4-8): pole radius (half the "
-          "pole-to-pole distance along the pattern axis) and furrow radius (mean radius of the section in the "
-          "ring's plane) against time, one run per parameter set.",
-          variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed")),
-    Study("fold", ("scene", "zeta_hat", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
-          "Fold formation under a stripe of higher tension (paper Sec. 4.3, Fig. 9): equatorial radii across "
-          "and beside the stripe and the fold depth against time.",
-          variables=("pole_radius", "volume", "area", "max_normal_speed")),
-    Study("reorientation", ("scene", "gamma", "tilt", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
-          "A cortex sheared at the start (x -> x + gamma z) under the ring of Eq. 59 (paper Figs. 10-12): angle "
-          "between the long axis of the surface and the pattern axis, and the radii along the current long "
-          "axis, against time.",
-          variables=("orientation_angle", "pole_radius_long_axis", "furrow_radius_long_axis", "pole_radius",
-                     "furrow_radius", "volume", "max_normal_speed")),
-    Study("accuracy", ("scene", "nodes", "formulation", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
-          "What accuracy costs: one furrow scene over resolutions, fits, time schemes and steps; each run's "
-          "error against the reference and its wall time go into the cost store.",
-          failures_are_data=True),
-    Study("axisymmetric", ("scene", "model", "zeta_hat", "p", "t_end"),
-          "The axisymmetric twin of every axisymmetric run of the furrow and accuracy studies: the same scene "
-          "solved by the spectral meridian solver (model: axisymmetric), to the latest end time of its 3D runs. "
-          "It is the truth the 3D radii and velocity profiles are measured against.",
-          variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed"),
-          twin_of=("furrow", "accuracy")),
+    Study(
+        "furrow",
+        ("scene", "zeta_hat", "p", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
+        "Furrow formation under a contractile ring (paper Eq. 59, Figs. 4-8): pole radius (half the "
+        "pole-to-pole distance along the pattern axis) and furrow radius (mean radius of the section in the "
+        "ring's plane) against time, one run per parameter set.",
+        variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed"),
+    ),
+    Study(
+        "fold",
+        ("scene", "zeta_hat", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
+        "Fold formation under a stripe of higher tension (paper Sec. 4.3, Fig. 9): equatorial radii across "
+        "and beside the stripe and the fold depth against time.",
+        variables=("pole_radius", "volume", "area", "max_normal_speed"),
+    ),
+    Study(
+        "reorientation",
+        ("scene", "gamma", "tilt", "nodes", "formulation", "fit", "scheme", "dt", "t_end"),
+        "A cortex sheared at the start (x -> x + gamma z) under the ring of Eq. 59 (paper Figs. 10-12): angle "
+        "between the long axis of the surface and the pattern axis, and the radii along the current long "
+        "axis, against time.",
+        variables=(
+            "orientation_angle",
+            "pole_radius_long_axis",
+            "furrow_radius_long_axis",
+            "pole_radius",
+            "furrow_radius",
+            "volume",
+            "max_normal_speed",
+        ),
+    ),
+    Study(
+        "accuracy",
+        ("scene", "nodes", "formulation", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
+        "What accuracy costs: one furrow scene over resolutions, fits, time schemes and steps; each run's "
+        "error against the reference and its wall time go into the cost store.",
+        failures_are_data=True,
+    ),
+    Study(
+        "axisymmetric",
+        ("scene", "model", "zeta_hat", "p", "t_end"),
+        "The axisymmetric twin of every axisymmetric run of the furrow and accuracy studies: the same scene "
+        "solved by the spectral meridian solver (model: axisymmetric), to the latest end time of its 3D runs. "
+        "It is the truth the 3D radii and velocity profiles are measured against.",
+        variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed"),
+        twin_of=("furrow", "accuracy"),
+    ),
 )
 
 #: The studies by name (the config's sections of run records).
@@ -91,76 +123,131 @@ _COST = "6. What accuracy costs"
 #: of the cost of the runs behind it.
 _FIGURES = (
     FigureSpec(
-        "sphere_flows", "static", ("2562", "quadratic", "paper"), "sphere_flows_figure", _SPHERE,
+        "sphere_flows",
+        "static",
+        ("2562", "quadratic", "paper"),
+        "sphere_flows_figure",
+        _SPHERE,
         "Paper Figs. 2B-E (zeta = Y20) and 3B-E (zeta = Y21, plus a uniform part): the instantaneous flow on a static "
         "sphere of 2562 nodes with the paper's quadratic fit, for the full force balance (i: normal flow, inward at "
         "the poles and outward at the equator for Y20) and the tangential one (ii: v_n = 0, flow from the equator to "
         "the poles). Right: the velocity at the nodes against the polar angle with the analytic solution "
-        "(docs/method/conventions.md), which the paper reports as 'very good agreement'."),
+        "(docs/method/conventions.md), which the paper reports as 'very good agreement'.",
+    ),
     FigureSpec(
-        "convergence", "store", ("convergence",), "convergence_figure", _SPHERE,
+        "convergence",
+        "store",
+        ("convergence",),
+        "convergence_figure",
+        _SPHERE,
         "Paper Figs. 2F,G and 3F,G: the relative velocity error eps_rel (Eq. 58) against the number of nodes N, "
         "for the paper's one-ring quadratic fit and the two-ring quartic fit. The paper reports both systems "
         "converging inversely to N; dotted and dashed lines are N^-1 and N^-2 guides. Store: "
-        "``results/aggregate/convergence.nc``."),
+        "``results/aggregate/convergence.nc``.",
+    ),
     FigureSpec(
-        "furrow_pictures", "runs", ("furrow",), "snapshots_figure", _SHAPES,
+        "furrow_pictures",
+        "runs",
+        ("furrow",),
+        "snapshots_figure",
+        _SHAPES,
         "Paper Figs. 4A-C (p = 8, zeta_hat = 1) and 6A-E (p = 4, zeta_hat = 1 and 3): the contractile ring of Eq. 59 "
         "on the initial sphere, the initial flow (inward at the ring, outward at the poles) and the final shape, "
         "where no normal flow remains and a tangential flow runs toward the ring.",
-        options=("picture_times",)),
+        options=("picture_times",),
+    ),
     FigureSpec(
-        "furrow_radii", "store", ("furrow", "axisymmetric"), "radii_figure", _FURROW,
+        "furrow_radii",
+        "store",
+        ("furrow", "axisymmetric"),
+        "radii_figure",
+        _FURROW,
         "Paper Figs. 5A, 7A, 8A: pole radius (half the pole-to-pole distance) and furrow radius (at the equator) "
         "against time. Dots: the 3D runs; black lines: the axisymmetric solution of the same scene (model: "
         "axisymmetric, with the scene's own bending viscosity; converged to ~1e-12 R0). The paper shows 'excellent "
         "agreement' with its axisymmetric code; the table gives the deviations. Stores: "
-        "``results/aggregate/furrow.nc``, ``results/aggregate/axisymmetric.nc``."),
+        "``results/aggregate/furrow.nc``, ``results/aggregate/axisymmetric.nc``.",
+    ),
     FigureSpec(
-        "velocity_profiles", "runs", ("furrow", "axisymmetric"), "profiles_figure", _FURROW,
+        "velocity_profiles",
+        "runs",
+        ("furrow", "axisymmetric"),
+        "profiles_figure",
+        _FURROW,
         "Paper Figs. 5B-G, 7B-G, 8B-G: tangential speed ``|v_t|`` (left of each pair) and normal velocity v_n (right, "
         "positive outward) at the nodes against their height z, at t = 0.1, 1.5 and 3, one column pair per furrow "
         "run; black lines: the axisymmetric solution of the same scene. The tangential flow grows while the "
         "normal flow decays as the shape settles, as in the paper.",
-        options=("profile_times",)),
+        options=("profile_times",),
+    ),
     FigureSpec(
-        "reference_check", "store", ("axisymmetric",), "reference_check_figure", _FURROW,
+        "reference_check",
+        "store",
+        ("axisymmetric",),
+        "reference_check_figure",
+        _FURROW,
         "Cross-check of the axisymmetric solver with an independent code: the external reference run shipped in "
         "``cortex_ti/data/axisym`` (the authors' axisymmetric code, p = 8, zeta_hat = 1, a tiny bending moment "
         "instead of the bending viscosity). Left: pole and furrow radius; right: their deviation from it, for the "
         "reference's problem (no bending viscosity; within its own time error, ~1e-4) and for the scene with its "
-        "bending viscosity (what the 3D runs are compared with: up to ~6e-4 early on)."),
+        "bending viscosity (what the 3D runs are compared with: up to ~6e-4 early on).",
+    ),
     FigureSpec(
-        "fold_depth", "store", ("fold",), "fold_figure", _FOLD,
+        "fold_depth",
+        "store",
+        ("fold",),
+        "fold_figure",
+        _FOLD,
         "Paper Fig. 9: a stripe of higher tension through both poles (zeta_hat = 3.5, sigma_phi = 200, narrow; "
         "zeta_hat = 4.5, sigma_phi = 12, broad) pulls in a fold. The equatorial radius across the stripe (solid) "
         "and beside it (dashed), and the fold depth (their difference) against time; the paper shows the fold "
-        "forming with an in-plane flow from the poles toward it. Store: ``results/aggregate/fold.nc``."),
+        "forming with an in-plane flow from the poles toward it. Store: ``results/aggregate/fold.nc``.",
+    ),
     FigureSpec(
-        "snapshots_fold", "runs", ("fold",), "snapshots_figure", _FOLD,
+        "snapshots_fold",
+        "runs",
+        ("fold",),
+        "snapshots_figure",
+        _FOLD,
         "Paper Fig. 9A-F in 3D: the active stress on the initial sphere, then the shape coloured by the speed "
         "``|v|`` with velocity arrows at the configured times and at the end of the run.",
-        options=("snapshot_times",)),
+        options=("snapshot_times",),
+    ),
     FigureSpec(
-        "orientation", "store", ("reorientation",), "orientation_figure", _SHEAR,
+        "orientation",
+        "store",
+        ("reorientation",),
+        "orientation_figure",
+        _SHEAR,
         "Paper Figs. 10-12: a cortex sheared at the start (x -> x + gamma z) turns its long axis back toward the "
         "pattern's axis before the furrow closes (Figs. 10, 12); with the pattern tilted toward the shear it keeps "
         "its orientation (Fig. 11). Left: the angle between the long axis (second-moment tensor) and the pattern "
         "axis; right: pole and furrow radius along the current long axis. Store: "
-        "``results/aggregate/reorientation.nc``."),
+        "``results/aggregate/reorientation.nc``.",
+    ),
     FigureSpec(
-        "snapshots_reorientation", "runs", ("reorientation",), "snapshots_figure", _SHEAR,
+        "snapshots_reorientation",
+        "runs",
+        ("reorientation",),
+        "snapshots_figure",
+        _SHEAR,
         "Paper Figs. 10-12 B-E in 3D: per run the active stress on the sheared start, then ``|v|`` with velocity "
         "arrows at t = 3.5e-3, 3.5e-2, 8.7e-2 and 3.5 t_a (the paper's times).",
-        options=("snapshot_times",)),
+        options=("snapshot_times",),
+    ),
     FigureSpec(
-        "accuracy_cost", "store", ("cost",), "accuracy_cost_figure", _COST,
+        "accuracy_cost",
+        "store",
+        ("cost",),
+        "accuracy_cost_figure",
+        _COST,
         "Not in the paper: what accuracy costs in time. The largest deviation of pole and furrow radius from the "
         "axisymmetric solution of the same scene over the run, against the run's wall time, one point per (N, fit, "
         "time scheme, tension treatment, dt): colour = N, marker = scheme, filled = semi-implicit tension. The "
         "dashed line joins the Pareto front (no other run is both cheaper and more accurate), tabulated beside "
         "it; red crosses: runs that went unstable (the reason is in their summary). Times are wall-clock seconds "
-        "of one job on the machine that ran the workflow, start-up included."),
+        "of one job on the machine that ran the workflow, start-up included.",
+    ),
 )
 
 #: The figures by name (results/figures/<name>.<format>).
@@ -168,10 +255,13 @@ FIGURES: dict[str, FigureSpec] = {f.name: f for f in _FIGURES}
 
 #: Tables of the report (results/figures/<name>.html), drawn from a store: name -> (store, caption).
 TABLES: dict[str, tuple[str, str]] = {
-    "cost_table": ("cost", "Cost of every run of the workflow: wall time and peak memory (Snakemake benchmark "
-                           "files), steps and solves, time per step and per stage of a solve (cortex-ti run "
-                           "summaries), and the error against the axisymmetric reference where one exists. "
-                           "Store: ``results/aggregate/cost.nc``."),
+    "cost_table": (
+        "cost",
+        "Cost of every run of the workflow: wall time and peak memory (Snakemake benchmark "
+        "files), steps and solves, time per step and per stage of a solve (cortex-ti run "
+        "summaries), and the error against the axisymmetric reference where one exists. "
+        "Store: ``results/aggregate/cost.nc``.",
+    ),
 }
 TABLE_CATEGORY = _COST
 

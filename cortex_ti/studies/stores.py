@@ -68,13 +68,21 @@ def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
 
 
 _FOLD_ATTRS = {
-    "radius_stripe": {"units": "R0", "long_name": "equatorial radius across the stripe",
-                      "description": "half the width of the surface along the stripe's direction e2 "
-                                     "(diagnostics.fold_radii)"},
-    "radius_off_stripe": {"units": "R0", "long_name": "equatorial radius beside the stripe",
-                          "description": "half the width of the surface along e1, 90 degrees from the stripe"},
-    "fold_depth": {"units": "R0", "long_name": "fold depth",
-                   "description": "radius beside the stripe minus radius across it"},
+    "radius_stripe": {
+        "units": "R0",
+        "long_name": "equatorial radius across the stripe",
+        "description": "half the width of the surface along the stripe's direction e2 (diagnostics.fold_radii)",
+    },
+    "radius_off_stripe": {
+        "units": "R0",
+        "long_name": "equatorial radius beside the stripe",
+        "description": "half the width of the surface along e1, 90 degrees from the stripe",
+    },
+    "fold_depth": {
+        "units": "R0",
+        "long_name": "fold depth",
+        "description": "radius beside the stripe minus radius across it",
+    },
 }
 
 
@@ -94,8 +102,9 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             for name in STUDIES[study].variables:
                 if name in ds:
                     data[name] = ds[name].values.astype(float)
-                    attrs[name] = {k: v for k, v in ds[name].attrs.items()
-                                   if k in ("units", "long_name", "description")}
+                    attrs[name] = {
+                        k: v for k, v in ds[name].attrs.items() if k in ("units", "long_name", "description")
+                    }
             if study == "fold":
                 data.update(fold_series(tr))
                 attrs.update(_FOLD_ATTRS)
@@ -103,8 +112,11 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
                 data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
         times.append(t)
         series.append((t, data))
-    attrs["volume_change"] = {"units": "1", "long_name": "relative change of the enclosed volume",
-                              "description": "V(t)/V(0) - 1"}
+    attrs["volume_change"] = {
+        "units": "1",
+        "long_name": "relative change of the enclosed volume",
+        "description": "V(t)/V(0) - 1",
+    }
     grid = np.unique(np.concatenate(times)) if times else np.zeros(0)
     names = sorted({k for _, d in series for k in d})
     out = {}
@@ -114,9 +126,11 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             if name in d:
                 arr[i, np.searchsorted(grid, t)] = d[name]
         out[name] = (("run", "time"), arr, attrs.get(name, DIAGNOSTIC_ATTRS.get(name, {})))
-    coords = {"time": ("time", grid, {"units": "t_a", "long_name": "time"}),
-              "run": ("run", np.arange(len(rows)), {"long_name": "run index (parameters are coordinates along run)"})}
-    for col in (rows[0].keys() if rows else []):
+    coords = {
+        "time": ("time", grid, {"units": "t_a", "long_name": "time"}),
+        "run": ("run", np.arange(len(rows)), {"long_name": "run index (parameters are coordinates along run)"}),
+    }
+    for col in rows[0].keys() if rows else []:
         values = [_number(r[col]) for r in rows]
         if all(isinstance(v, (int, float)) for v in values):
             values = np.asarray(values)
@@ -124,9 +138,16 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             values = np.asarray([str(v) for v in values], dtype=object)
         coords[col] = ("run", values, {"long_name": f"sweep parameter {col}"})
     coords["label"] = ("run", np.asarray([run_label(r) for r in rows], dtype=object), {"long_name": "run label"})
-    return xr.Dataset(out, coords=coords, attrs={"description": STUDIES[study].description, "study": study,
-                                                 "units": "lengths R0, times t_a = eta_s / zeta_0",
-                                                 **provenance()})
+    return xr.Dataset(
+        out,
+        coords=coords,
+        attrs={
+            "description": STUDIES[study].description,
+            "study": study,
+            "units": "lengths R0, times t_a = eta_s / zeta_0",
+            **provenance(),
+        },
+    )
 
 
 _COST_ATTRS = {
@@ -140,12 +161,18 @@ _COST_ATTRS = {
     "ms_assembly_per_solve": ("ms", "assembly per solve", "building the formulation's sparse system"),
     "ms_solve_per_solve": ("ms", "sparse solve per solve", "factorisation and solve of the constrained system"),
     "t_reached": ("t_a", "time reached", "end time of the run (earlier than t_end if it failed or became steady)"),
-    "error": ("R0", "error of the radii against the axisymmetric solution of the same scene",
-              "largest |3D - axisymmetric| of pole and furrow radius over the run's frames, against its axisymmetric "
-              "twin (model: axisymmetric, the scene's own bending viscosity; NaN without one or if the run failed)"),
-    "error_external": ("R0", "deviation of the radii from the external reference run",
-                       "largest |run - reference| of pole and furrow radius on the reference's 0.01 t_a grid, for runs "
-                       "of the reference's problem (p = 8, zeta_hat = 1; the reference has no bending viscosity)"),
+    "error": (
+        "R0",
+        "error of the radii against the axisymmetric solution of the same scene",
+        "largest |3D - axisymmetric| of pole and furrow radius over the run's frames, against its axisymmetric "
+        "twin (model: axisymmetric, the scene's own bending viscosity; NaN without one or if the run failed)",
+    ),
+    "error_external": (
+        "R0",
+        "deviation of the radii from the external reference run",
+        "largest |run - reference| of pole and furrow radius on the reference's 0.01 t_a grid, for runs "
+        "of the reference's problem (p = 8, zeta_hat = 1; the reference has no bending viscosity)",
+    ),
 }
 
 
@@ -161,8 +188,14 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         data["max_rss_mb"][i] = b.get("max_rss", np.nan)
         data["cpu_time_s"][i] = b.get("cpu_time", np.nan)
         s = json.loads(Path(e["summary"]).read_text()) if e.get("summary") else {}
-        for k in ("steps", "solves", "ms_geometry_per_solve", "ms_assembly_per_solve", "ms_solve_per_solve",
-                  "t_reached"):
+        for k in (
+            "steps",
+            "solves",
+            "ms_geometry_per_solve",
+            "ms_assembly_per_solve",
+            "ms_solve_per_solve",
+            "t_reached",
+        ):
             if s.get(k) is not None:
                 data[k][i] = float(s[k])
         if s.get("steps"):
@@ -172,8 +205,11 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         status.append(s.get("status", "ok") if s else "ok")
         model.append(str(s.get("model", "3d")))
         # a summary written before numerics.formulation existed is the paper's formulation's
-        formulation.append("-" if s.get("model") == "axisymmetric"
-                           else str(s.get("formulation", e.get("params", {}).get("formulation", "paper"))))
+        formulation.append(
+            "-"
+            if s.get("model") == "axisymmetric"
+            else str(s.get("formulation", e.get("params", {}).get("formulation", "paper")))
+        )
         studies.append(e["study"])
         labels.append(e["run"])
         p = e.get("params", {})
@@ -183,27 +219,50 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         dt.append(float(p.get("dt", np.nan)))
         implicit.append(bool(s.get("implicit_tension", str(p.get("implicit", "false")) == "true")))
         residual.append(float(s.get("fit_residual_weight", p.get("residual", 0.0)) or 0.0))
-    variables = {k: (("run",), v, {"units": u, "long_name": ln, "description": d})
-                 for k, v in data.items() for u, ln, d in [_COST_ATTRS[k]]}
+    variables = {
+        k: (("run",), v, {"units": u, "long_name": ln, "description": d})
+        for k, v in data.items()
+        for u, ln, d in [_COST_ATTRS[k]]
+    }
     obj = lambda xs: np.asarray(xs, dtype=object)  # noqa: E731
-    coords = {"run": ("run", obj(labels), {"long_name": "study and parameters of the run"}),
-              "study": ("run", obj(studies)),
-              "status": ("run", obj(status), {"long_name": "ok or failed (with why in the summary)"}),
-              "nodes": ("run", np.asarray(nodes)), "scheme": ("run", obj(scheme)), "fit": ("run", obj(fit)),
-              "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
-              "implicit_tension": ("run", np.asarray(implicit, dtype=bool),
-                                   {"long_name": "semi-implicit active tension (time.implicit_tension)"}),
-              "model": ("run", obj(model), {"long_name": "3d or axisymmetric"}),
-              "formulation": ("run", obj(formulation),
-                              {"long_name": "discretisation of the 3D force balance (numerics.formulation; - for "
-                                            "the axisymmetric model)"}),
-              "fit_residual_weight": ("run", np.asarray(residual),
-                                      {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"})}
-    return xr.Dataset(variables, coords=coords,
-                      attrs={"description": "What every run of the workflow cost: wall time and peak memory from "
-                                            "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
-                                            "run summaries; error against the axisymmetric reference where one exists.",
-                             **provenance()})
+    coords = {
+        "run": ("run", obj(labels), {"long_name": "study and parameters of the run"}),
+        "study": ("run", obj(studies)),
+        "status": ("run", obj(status), {"long_name": "ok or failed (with why in the summary)"}),
+        "nodes": ("run", np.asarray(nodes)),
+        "scheme": ("run", obj(scheme)),
+        "fit": ("run", obj(fit)),
+        "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
+        "implicit_tension": (
+            "run",
+            np.asarray(implicit, dtype=bool),
+            {"long_name": "semi-implicit active tension (time.implicit_tension)"},
+        ),
+        "model": ("run", obj(model), {"long_name": "3d or axisymmetric"}),
+        "formulation": (
+            "run",
+            obj(formulation),
+            {
+                "long_name": "discretisation of the 3D force balance (numerics.formulation; - for "
+                "the axisymmetric model)"
+            },
+        ),
+        "fit_residual_weight": (
+            "run",
+            np.asarray(residual),
+            {"long_name": "weight of the fit-residual rows (numerics.fit_residual_weight)"},
+        ),
+    }
+    return xr.Dataset(
+        variables,
+        coords=coords,
+        attrs={
+            "description": "What every run of the workflow cost: wall time and peak memory from "
+            "Snakemake's benchmark files, steps and time per stage from cortex-ti's "
+            "run summaries; error against the axisymmetric reference where one exists.",
+            **provenance(),
+        },
+    )
 
 
 def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
@@ -212,8 +271,9 @@ def trajectory_deviation(path, ref_path=None) -> dict[str, float] | None:
         if not reference.matches_reference(tr.settings):
             return None
         ds = tr.ds
-        return reference.radii_deviation(ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values,
-                                         ref_path)
+        return reference.radii_deviation(
+            ds["time"].values, ds["pole_radius"].values, ds["furrow_radius"].values, ref_path
+        )
 
 
 def twin_deviation(path, twin_path) -> dict[str, float]:

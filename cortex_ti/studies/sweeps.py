@@ -44,8 +44,16 @@ from ..errors import SceneError
 from ..scene import load_scene
 from .registry import STUDIES
 
-__all__ = ["PARAMETERS", "expand_runs", "twin_rows", "twin_key", "scene_overrides", "tilt_axis", "format_value",
-           "job_resources"]
+__all__ = [
+    "PARAMETERS",
+    "expand_runs",
+    "twin_rows",
+    "twin_key",
+    "scene_overrides",
+    "tilt_axis",
+    "format_value",
+    "job_resources",
+]
 
 #: Column -> scene key it sets (``tilt`` is special: it sets the pattern axis).
 PARAMETERS: dict[str, str] = {
@@ -63,6 +71,7 @@ PARAMETERS: dict[str, str] = {
     "tilt": "active_stress.0.axis",
     "model": "model",
 }
+
 
 def format_value(value) -> str:
     """A parameter value as it appears in folder names and overrides: the shortest text that
@@ -107,10 +116,17 @@ def _settings_value(settings, column: str):
         return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
     if column == "model":
         return settings.model
-    section, key = {"nodes": ("mesh", "nodes"), "formulation": ("numerics", "formulation"), "fit": ("numerics", "fit"),
-                    "scheme": ("time", "scheme"),
-                    "implicit": ("time", "implicit_tension"), "residual": ("numerics", "fit_residual_weight"),
-                    "dt": ("time", "dt"), "t_end": ("time", "t_end"), "gamma": ("mesh", "shear")}[column]
+    section, key = {
+        "nodes": ("mesh", "nodes"),
+        "formulation": ("numerics", "formulation"),
+        "fit": ("numerics", "fit"),
+        "scheme": ("time", "scheme"),
+        "implicit": ("time", "implicit_tension"),
+        "residual": ("numerics", "fit_residual_weight"),
+        "dt": ("time", "dt"),
+        "t_end": ("time", "t_end"),
+        "gamma": ("mesh", "shear"),
+    }[column]
     return getattr(getattr(settings, section), key)
 
 
@@ -139,8 +155,10 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
                 settings = load_scene(str(given["scene"]), overrides).settings
             except SceneError as exc:
                 raise SceneError(f"{study} runs[{i}] {given}: {exc}") from None
-            row = {col: format_value(given["scene"] if col == "scene" else _settings_value(settings, col))
-                   for col in columns}
+            row = {
+                col: format_value(given["scene"] if col == "scene" else _settings_value(settings, col))
+                for col in columns
+            }
             if row not in rows:
                 rows.append(row)
     return rows
@@ -150,8 +168,11 @@ def twin_key(row: Mapping) -> tuple[str, str, str]:
     """What identifies a run's axisymmetric twin: its scene, ring amplitude and exponent."""
     settings = load_scene(str(row["scene"])).settings
     ring = settings.patterns[0] if settings.patterns else {}
-    return (str(row["scene"]), format_value(row.get("zeta_hat", ring.get("amplitude", 0.0))),
-            format_value(row.get("p", ring.get("p", 0.0))))
+    return (
+        str(row["scene"]),
+        format_value(row.get("zeta_hat", ring.get("amplitude", 0.0))),
+        format_value(row.get("p", ring.get("p", 0.0))),
+    )
 
 
 def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str, str]]:
@@ -163,15 +184,21 @@ def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str,
         key = twin_key(row)
         if key not in latest:
             try:
-                load_scene(key[0], [f"active_stress.0.amplitude={key[1]}", f"active_stress.0.p={key[2]}",
-                                    "model=axisymmetric"])
+                load_scene(
+                    key[0], [f"active_stress.0.amplitude={key[1]}", f"active_stress.0.p={key[2]}", "model=axisymmetric"]
+                )
             except SceneError:
                 continue
             latest[key] = float(row["t_end"])
         latest[key] = max(latest[key], float(row["t_end"]))
     values = {"model": "axisymmetric"}
-    return [{col: {"scene": k[0], "zeta_hat": k[1], "p": k[2], "t_end": format_value(t)}.get(col, values.get(col))
-             for col in columns} for k, t in latest.items()]
+    return [
+        {
+            col: {"scene": k[0], "zeta_hat": k[1], "p": k[2], "t_end": format_value(t)}.get(col, values.get(col))
+            for col in columns
+        }
+        for k, t in latest.items()
+    ]
 
 
 def _combinations(study: str, i: int, rec, columns) -> Iterable[dict]:
@@ -180,8 +207,9 @@ def _combinations(study: str, i: int, rec, columns) -> Iterable[dict]:
         raise SceneError(f"{study} runs[{i}] must be a mapping of parameters, got {rec!r}")
     unknown = sorted(set(rec) - set(columns))
     if unknown:
-        raise SceneError(f"{study} runs[{i}]: unknown parameter(s) {', '.join(unknown)}; "
-                         f"accepted: {', '.join(columns)}")
+        raise SceneError(
+            f"{study} runs[{i}]: unknown parameter(s) {', '.join(unknown)}; accepted: {', '.join(columns)}"
+        )
     if "scene" not in rec:
         raise SceneError(f"{study} runs[{i}] names no scene")
     lists = {k: (list(v) if isinstance(v, (list, tuple)) else [v]) for k, v in rec.items()}
@@ -231,6 +259,8 @@ def job_resources(benchmarks: Iterable, nodes: int, margin: float = 1.5) -> dict
             rss.append(bench["max_rss"])
             wall.append(bench["s"])
     if rss:
-        return {"mem_mb": int(math.ceil(margin * max(rss))),
-                "runtime": max(5, int(math.ceil(margin * max(wall) / 60.0)))}
+        return {
+            "mem_mb": int(math.ceil(margin * max(rss))),
+            "runtime": max(5, int(math.ceil(margin * max(wall) / 60.0))),
+        }
     return {"mem_mb": int(1000 + 0.5 * nodes), "runtime": int(60 + nodes // 20)}

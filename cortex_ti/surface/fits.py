@@ -47,8 +47,6 @@ class FitScheme:
         return len(self.powers)
 
 
-
-
 #: The fit schemes by name (the scene key ``numerics.fit``).
 FIT_SCHEMES: dict[str, FitScheme] = {}
 
@@ -83,7 +81,7 @@ def _k_ring_lists(topo: Topology, k: int) -> list[np.ndarray]:
         hop = new
     out = []
     for i in range(n):
-        parts = [levels[lv].indices[levels[lv].indptr[i]:levels[lv].indptr[i + 1]] for lv in range(1, k + 1)]
+        parts = [levels[lv].indices[levels[lv].indptr[i] : levels[lv].indptr[i + 1]] for lv in range(1, k + 1)]
         out.append(np.concatenate(parts).astype(np.int32))
     return out
 
@@ -140,5 +138,3 @@ class StencilChooser:
         self.level[can] += 1
         self._cache = None
         return can.size > 0
-
-

@@ -52,16 +52,13 @@ FIT_TERMS = ("A", "B", "C", "D", "E")
 FIT_QUALITY_MIN = 1e-8
 
 
-
 @ti.func
 def _vec(x: ti.template(), i):
     return ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
 
 
 @kernel
-def _frames_kernel(
-    x: f64_2, ring: i32_2, valence: i32_1, frame: f64_3, area: f64_1, volgrad: f64_2
-):
+def _frames_kernel(x: f64_2, ring: i32_2, valence: i32_1, frame: f64_3, area: f64_1, volgrad: f64_2):
     for i in range(x.shape[0]):
         xi = _vec(x, i)
         nsum = ti.Vector([0.0, 0.0, 0.0])
@@ -101,8 +98,9 @@ def _frames_kernel(
 
 
 @kernel
-def _design_kernel(x: f64_2, stencil: i32_2, ssize: i32_1, frame: f64_3, powers: i32_2,
-                   inv_fact: f64_1, design: f64_3, scale: f64_1):
+def _design_kernel(
+    x: f64_2, stencil: i32_2, ssize: i32_1, frame: f64_3, powers: i32_2, inv_fact: f64_1, design: f64_3, scale: f64_1
+):
     """design[i, j, t] = u^a w^b / (a! b!) for stencil node j, monomial t = (a, b), in
     coordinates (u, w) = (xi, eta) / scale_i; rows beyond the stencil stay zero."""
     for i in range(x.shape[0]):
@@ -160,12 +158,12 @@ def _fit_kernel(design: f64_3, ssize: i32_1, chol: f64_3, fit: f64_3, quality: f
         quality[i] = pmin / dmax
         if quality[i] > qmin:
             for j in range(s):
-                for a in range(p):              # L y = D[j]^T
+                for a in range(p):  # L y = D[j]^T
                     acc = design[i, j, a]
                     for k in range(a):
                         acc -= chol[i, a, k] * fit[i, k, j]
                     fit[i, a, j] = acc / chol[i, a, a]
-                for q in range(p):              # L^T f = y
+                for q in range(p):  # L^T f = y
                     a = p - 1 - q
                     acc = fit[i, a, j]
                     for k in range(a + 1, p):
@@ -174,9 +172,20 @@ def _fit_kernel(design: f64_3, ssize: i32_1, chol: f64_3, fit: f64_3, quality: f
 
 
 @kernel
-def _patch_kernel(x: f64_2, stencil: i32_2, ssize: i32_1, frame: f64_3, fit: f64_3,
-                  tangents: f64_3, nfit: f64_2, metric: f64_3, metric_inv: f64_3, curv: f64_3,
-                  gamma: f64_4, hfit: f64_2):
+def _patch_kernel(
+    x: f64_2,
+    stencil: i32_2,
+    ssize: i32_1,
+    frame: f64_3,
+    fit: f64_3,
+    tangents: f64_3,
+    nfit: f64_2,
+    metric: f64_3,
+    metric_inv: f64_3,
+    curv: f64_3,
+    gamma: f64_4,
+    hfit: f64_2,
+):
     """The fitted Monge patch X = x_i + xi e_xi + eta e_eta + h(xi, eta) n of every node."""
     for i in range(x.shape[0]):
         xi = _vec(x, i)
@@ -223,8 +232,6 @@ def _fit_scalar_kernel(f: f64_1, stencil: i32_2, ssize: i32_1, fit: f64_3, out: 
             for j in range(ssize[i]):
                 acc += fit[i, k, j] * (f[stencil[i, j]] - f[i])
             out[i, k] = acc
-        
-
 
 
 @dataclass
@@ -235,21 +242,21 @@ class Geometry:
     surface coordinates ``(xi, eta)`` of the node's local frame.
     """
 
-    points: np.ndarray        # (N, 3)
-    frame: np.ndarray         # (N, 3, 3) rows e_xi, e_eta, and the angle-weighted normal (fit coordinates)
-    area: np.ndarray          # (N,) Meyer mixed area
+    points: np.ndarray  # (N, 3)
+    frame: np.ndarray  # (N, 3, 3) rows e_xi, e_eta, and the angle-weighted normal (fit coordinates)
+    area: np.ndarray  # (N,) Meyer mixed area
     volume_gradient: np.ndarray  # (N, 3) dV/dx_i of the enclosed volume
-    stencil: np.ndarray       # (N, S) int32 fit stencil, padded with -1
+    stencil: np.ndarray  # (N, S) int32 fit stencil, padded with -1
     stencil_size: np.ndarray  # (N,) int32
-    fit: np.ndarray           # (N, 5, S) fit operator F
-    fit_quality: np.ndarray   # (N,) smallest scaled Cholesky pivot of the fit
-    tangents: np.ndarray      # (N, 2, 3) e_1, e_2 of the fitted patch
-    normal_fit: np.ndarray    # (N, 3) unit normal of the fitted patch
-    metric: np.ndarray        # (N, 2, 2) g_ab
-    metric_inv: np.ndarray    # (N, 2, 2) g^ab
-    curvature: np.ndarray     # (N, 2, 2) C_ab (covariant)
-    christoffel: np.ndarray   # (N, 2, 2, 2) Gamma^c_ab stored as [c, a, b]
-    height_fit: np.ndarray    # (N, 5) fitted derivatives of the height over the tangent plane
+    fit: np.ndarray  # (N, 5, S) fit operator F
+    fit_quality: np.ndarray  # (N,) smallest scaled Cholesky pivot of the fit
+    tangents: np.ndarray  # (N, 2, 3) e_1, e_2 of the fitted patch
+    normal_fit: np.ndarray  # (N, 3) unit normal of the fitted patch
+    metric: np.ndarray  # (N, 2, 2) g_ab
+    metric_inv: np.ndarray  # (N, 2, 2) g^ab
+    curvature: np.ndarray  # (N, 2, 2) C_ab (covariant)
+    christoffel: np.ndarray  # (N, 2, 2, 2) Gamma^c_ab stored as [c, a, b]
+    height_fit: np.ndarray  # (N, 5) fitted derivatives of the height over the tangent plane
     fit_residual: np.ndarray | None = None  # (N, S, S) I - D F: what the local fit leaves unexplained
     ring: np.ndarray | None = None  # (N, max valence) one-ring, padded with -1
     _edge: np.ndarray | None = None
@@ -303,8 +310,9 @@ class Geometry:
     def fit_scalar(self, values: np.ndarray) -> np.ndarray:
         """Fitted derivatives ``(N, 5)`` of a nodal scalar field (order :data:`FIT_TERMS`)."""
         out = np.zeros((self.n_nodes, 5))
-        _fit_scalar_kernel(np.ascontiguousarray(values, dtype=np.float64), self.stencil,
-                           self.stencil_size, self.fit, out)
+        _fit_scalar_kernel(
+            np.ascontiguousarray(values, dtype=np.float64), self.stencil, self.stencil_size, self.fit, out
+        )
         return out
 
     def fit_vector(self, values: np.ndarray) -> np.ndarray:
@@ -329,8 +337,9 @@ def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.n
     return fit, quality
 
 
-def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChooser | None = None,
-                     residual: bool = False) -> Geometry:
+def compute_geometry(
+    points: np.ndarray, topo: Topology, stencils: StencilChooser | None = None, residual: bool = False
+) -> Geometry:
     """Frames, areas, fit operators and the fitted surface patch of every node
     (and, with ``residual``, the fit-residual operators ``I - D F``)."""
     x = np.ascontiguousarray(points, dtype=np.float64)
@@ -363,14 +372,28 @@ def compute_geometry(points: np.ndarray, topo: Topology, stencils: StencilChoose
     degree = powers[:5].sum(axis=1)
     fit = np.ascontiguousarray(fit_full[:, :5, :] / scale[:, None, None] ** degree[None, :, None])
     arrays = dict(
-        tangents=np.zeros((n, 2, 3)), normal_fit=np.zeros((n, 3)), metric=np.zeros((n, 2, 2)),
-        metric_inv=np.zeros((n, 2, 2)), curvature=np.zeros((n, 2, 2)), christoffel=np.zeros((n, 2, 2, 2)),
+        tangents=np.zeros((n, 2, 3)),
+        normal_fit=np.zeros((n, 3)),
+        metric=np.zeros((n, 2, 2)),
+        metric_inv=np.zeros((n, 2, 2)),
+        curvature=np.zeros((n, 2, 2)),
+        christoffel=np.zeros((n, 2, 2, 2)),
         height_fit=np.zeros((n, 5)),
     )
     _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
-    return Geometry(points=x, frame=frame, area=area, volume_gradient=volgrad, stencil=stencil,
-                    stencil_size=ssize, fit=fit, fit_quality=quality, ring=topo.ring,
-                    fit_residual=_fit_residual(design, fit_full, ssize) if residual else None, **arrays)
+    return Geometry(
+        points=x,
+        frame=frame,
+        area=area,
+        volume_gradient=volgrad,
+        stencil=stencil,
+        stencil_size=ssize,
+        fit=fit,
+        fit_quality=quality,
+        ring=topo.ring,
+        fit_residual=_fit_residual(design, fit_full, ssize) if residual else None,
+        **arrays,
+    )
 
 
 def _fit_residual(design: np.ndarray, fit_full: np.ndarray, ssize: np.ndarray) -> np.ndarray:
@@ -383,4 +406,3 @@ def _fit_residual(design: np.ndarray, fit_full: np.ndarray, ssize: np.ndarray) -
     res[pad] = 0.0
     res.transpose(0, 2, 1)[pad] = 0.0
     return res
-

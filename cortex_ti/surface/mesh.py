@@ -70,7 +70,6 @@ class Mesh:
         return int(self.faces.shape[0])
 
 
-
 # ---------------------------------------------------------------------------
 # icosphere
 # ---------------------------------------------------------------------------
@@ -103,19 +102,44 @@ def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
     phi = (1.0 + np.sqrt(5.0)) / 2.0
     pts = np.array(
         [
-            [-1, phi, 0], [1, phi, 0], [-1, -phi, 0], [1, -phi, 0],
-            [0, -1, phi], [0, 1, phi], [0, -1, -phi], [0, 1, -phi],
-            [phi, 0, -1], [phi, 0, 1], [-phi, 0, -1], [-phi, 0, 1],
+            [-1, phi, 0],
+            [1, phi, 0],
+            [-1, -phi, 0],
+            [1, -phi, 0],
+            [0, -1, phi],
+            [0, 1, phi],
+            [0, -1, -phi],
+            [0, 1, -phi],
+            [phi, 0, -1],
+            [phi, 0, 1],
+            [-phi, 0, -1],
+            [-phi, 0, 1],
         ],
         dtype=np.float64,
     )
     pts /= np.linalg.norm(pts, axis=1, keepdims=True)
     faces = np.array(
         [
-            [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
-            [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-            [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-            [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
         ],
         dtype=np.int64,
     )
@@ -137,7 +161,7 @@ def _subdivide(pts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarr
     ukeys, inv = np.unique(keys, return_inverse=True)
     mid = pts[ukeys // n] + pts[ukeys % n]
     mid /= np.linalg.norm(mid, axis=1, keepdims=True)
-    m = (inv.reshape(-1, 3) + n)  # midpoints of edges ab, bc, ca
+    m = inv.reshape(-1, 3) + n  # midpoints of edges ab, bc, ca
     ab, bc, ca = m[:, 0], m[:, 1], m[:, 2]
     new_faces = np.stack(
         [
@@ -205,7 +229,6 @@ def icosphere(n_nodes: int, radius: float = 1.0) -> Mesh:
     return Mesh(points=pts, faces=faces)
 
 
-
 def vertex_normals(points, faces) -> np.ndarray:
     """Unit normals at the nodes: the sum of the (area-weighted) normals of the adjacent faces.
 
@@ -215,13 +238,12 @@ def vertex_normals(points, faces) -> np.ndarray:
     """
     pts = np.asarray(points, dtype=float)
     f = np.asarray(faces)
-    fn = np.cross(pts[f[:, 1]] - pts[f[:, 0]], pts[f[:, 2]] - pts[f[:, 0]])   # 2 * area * unit normal
+    fn = np.cross(pts[f[:, 1]] - pts[f[:, 0]], pts[f[:, 2]] - pts[f[:, 0]])  # 2 * area * unit normal
     acc = np.zeros_like(pts)
     for k in range(3):
         np.add.at(acc, f[:, k], fn)
     norm = np.linalg.norm(acc, axis=1, keepdims=True)
     return acc / np.where(norm > 0.0, norm, 1.0)
-
 
 
 # ---------------------------------------------------------------------------
@@ -269,4 +291,3 @@ def affine(mesh: Mesh, matrix, offset=(0.0, 0.0, 0.0)) -> Mesh:
     pts = mesh.points @ a.T + b
     faces = mesh.faces[:, [0, 2, 1]] if det < 0 else mesh.faces.copy()
     return Mesh(points=pts, faces=faces)
-

@@ -83,12 +83,9 @@ def load_mesh(path) -> Mesh:
     if other:
         desc = ", ".join(f"{c} {t}" for t, c in other.items())
         raise MeshError(
-            f"mesh '{name}' contains non-triangle cells ({desc}); "
-            "cortex-ti needs a surface made only of triangles"
+            f"mesh '{name}' contains non-triangle cells ({desc}); cortex-ti needs a surface made only of triangles"
         )
     if not triangles or sum(len(t) for t in triangles) == 0:
         raise MeshError(f"mesh '{name}' contains no triangles")
     faces = np.concatenate(triangles, axis=0)
     return validate_mesh(m.points, faces, name=name)
-
-

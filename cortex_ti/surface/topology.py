@@ -45,7 +45,6 @@ class Topology:
     ring2_size: np.ndarray
 
 
-
 def build_topology(mesh: Mesh) -> Topology:
     """Counter-clockwise one-rings and two-rings of every node.
 
@@ -98,9 +97,9 @@ def build_topology(mesh: Mesh) -> Topology:
             f"cannot build topology: the faces around node {cv[c]} do not close at neighbour {cy[c]} "
             "(mesh not closed; run validate_mesh first)"
         )
-    nxt = order[pos_c]                       # corner following each corner around its node
+    nxt = order[pos_c]  # corner following each corner around its node
     first = np.r_[0, np.cumsum(valence)[:-1]]
-    start = order[first]                     # corner with the smallest neighbour index
+    start = order[first]  # corner with the smallest neighbour index
     max_val = int(valence.max())
     ring = np.full((n, max_val), -1, dtype=np.int64)
     ring[:, 0] = cx[start]
@@ -146,7 +145,7 @@ def _two_ring(ring: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     srt = np.argsort(cand, axis=1, kind="stable")
     vals = np.take_along_axis(cand, srt, axis=1)
     keep_sorted = np.ones(vals.shape, dtype=bool)
-    keep_sorted[:, 1:] = vals[:, 1:] != vals[:, :-1]      # stable sort: first occurrence kept
+    keep_sorted[:, 1:] = vals[:, 1:] != vals[:, :-1]  # stable sort: first occurrence kept
     keep_sorted &= vals != sentinel
     keep = np.empty_like(keep_sorted)
     np.put_along_axis(keep, srt, keep_sorted, axis=1)
@@ -156,5 +155,3 @@ def _two_ring(ring: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     ring2 = np.take_along_axis(cand, pick, axis=1)
     ring2[np.arange(width)[None, :] >= size[:, None]] = -1
     return ring2, size
-
-

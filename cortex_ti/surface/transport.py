@@ -31,8 +31,17 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-__all__ = ["DENSITY", "PROPERTY", "dual_areas", "triangle_gradients", "nodal_gradients", "dual_fluxes",
-           "advective_rate", "cotan_laplacian", "implicit_diffusion_reaction"]
+__all__ = [
+    "DENSITY",
+    "PROPERTY",
+    "dual_areas",
+    "triangle_gradients",
+    "nodal_gradients",
+    "dual_fluxes",
+    "advective_rate",
+    "cotan_laplacian",
+    "implicit_diffusion_reaction",
+]
 
 #: the two kinds of transported field
 DENSITY, PROPERTY = "density", "property"
@@ -44,9 +53,14 @@ _W_ADJ, _W_OPP = 5.0 / 12.0, 1.0 / 6.0
 
 def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``p x q`` over the last axis (broadcasting), without numpy.cross's overhead on small axes."""
-    return np.stack([p[..., 1] * q[..., 2] - p[..., 2] * q[..., 1],
-                     p[..., 2] * q[..., 0] - p[..., 0] * q[..., 2],
-                     p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]], axis=-1)
+    return np.stack(
+        [
+            p[..., 1] * q[..., 2] - p[..., 2] * q[..., 1],
+            p[..., 2] * q[..., 0] - p[..., 0] * q[..., 2],
+            p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0],
+        ],
+        axis=-1,
+    )
 
 
 def dual_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -88,10 +102,10 @@ def dual_fluxes(points: np.ndarray, faces: np.ndarray, u: np.ndarray, tri=None) 
     ``(T, 3, 3)``."""
     x = points[faces]
     _, n, _ = tri if tri is not None else triangle_gradients(points, faces)
-    a, b, c = [0, 1, 2], [1, 2, 0], [2, 0, 1]                   # edge k joins corners k and k+1
+    a, b, c = [0, 1, 2], [1, 2, 0], [2, 0, 1]  # edge k joins corners k and k+1
     xa, xb = x[:, a], x[:, b]
-    seg = x.mean(axis=1)[:, None, :] - 0.5 * (xa + xb)          # (T, 3, 3) midpoint -> centroid
-    nu = _cross(seg, n[:, None, :])                              # |seg| times a unit normal in the plane
+    seg = x.mean(axis=1)[:, None, :] - 0.5 * (xa + xb)  # (T, 3, 3) midpoint -> centroid
+    nu = _cross(seg, n[:, None, :])  # |seg| times a unit normal in the plane
     sign = np.sign((nu * (xb - xa)).sum(axis=2))
     uf = u[faces]
     umid = _W_ADJ * (uf[:, a] + uf[:, b]) + _W_OPP * uf[:, c]
@@ -100,8 +114,9 @@ def dual_fluxes(points: np.ndarray, faces: np.ndarray, u: np.ndarray, tri=None) 
     return flux, mids
 
 
-def _face_values(values: np.ndarray, grad: np.ndarray, points: np.ndarray, faces: np.ndarray,
-                 flux: np.ndarray, mids: np.ndarray) -> np.ndarray:
+def _face_values(
+    values: np.ndarray, grad: np.ndarray, points: np.ndarray, faces: np.ndarray, flux: np.ndarray, mids: np.ndarray
+) -> np.ndarray:
     """Upwind values at the dual edges, reconstructed linearly and limited between the two nodes."""
     a, b = faces, faces[:, [1, 2, 0]]
     up = np.where(flux >= 0.0, a, b)
@@ -111,8 +126,9 @@ def _face_values(values: np.ndarray, grad: np.ndarray, points: np.ndarray, faces
     return out
 
 
-def advective_rate(values: np.ndarray, kind: str, points: np.ndarray, faces: np.ndarray, u: np.ndarray,
-                   tri=None) -> np.ndarray:
+def advective_rate(
+    values: np.ndarray, kind: str, points: np.ndarray, faces: np.ndarray, u: np.ndarray, tri=None
+) -> np.ndarray:
     """The rate of the stored quantity of a field carried by the velocity relative to the mesh ``u``:
     ``dm_i/dt`` (``m = c A``) for a :data:`DENSITY`, ``dq_i/dt`` for a :data:`PROPERTY` (module docstring).
 
@@ -130,14 +146,15 @@ def advective_rate(values: np.ndarray, kind: str, points: np.ndarray, faces: np.
     grad = nodal_gradients(values, points, faces, tri)
     face = _face_values(values, grad, points, faces, flux, mids)
     n = points.shape[0]
-    a, b = faces, np.roll(faces, -1, axis=1)           # (T, 3): the two ends of each dual edge
+    a, b = faces, np.roll(faces, -1, axis=1)  # (T, 3): the two ends of each dual edge
     carried = flux * face
     if kind == PROPERTY:
         out_a, out_b = -(carried - flux * values[a]), carried - flux * values[b]
     else:
         out_a, out_b = -carried, carried
-    out = np.bincount(np.concatenate([a.ravel(), b.ravel()]),
-                      weights=np.concatenate([out_a.ravel(), out_b.ravel()]), minlength=n)
+    out = np.bincount(
+        np.concatenate([a.ravel(), b.ravel()]), weights=np.concatenate([out_a.ravel(), out_b.ravel()]), minlength=n
+    )
     if kind == PROPERTY:
         out /= dual_areas(points, faces)
     return out
@@ -154,9 +171,16 @@ def cotan_laplacian(points: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
     return sp.csr_matrix((local.ravel(), (rows, cols)), shape=(n, n))
 
 
-def implicit_diffusion_reaction(stored: np.ndarray, kind: str, points: np.ndarray, faces: np.ndarray,
-                                dt: float, diffusion: float = 0.0, rate: float = 0.0,
-                                target: float = 0.0) -> np.ndarray:
+def implicit_diffusion_reaction(
+    stored: np.ndarray,
+    kind: str,
+    points: np.ndarray,
+    faces: np.ndarray,
+    dt: float,
+    diffusion: float = 0.0,
+    rate: float = 0.0,
+    target: float = 0.0,
+) -> np.ndarray:
     """The nodal values on the shape ``points`` after the implicit part of a step ``dt``: surface
     diffusion ``D Lap c`` and linear turnover ``-k (c - c_target)``, backward Euler in the dual cells,
 

@@ -46,8 +46,7 @@ def _as_points(points, label: str) -> np.ndarray:
     if bad.any():
         idx = np.flatnonzero(bad)
         raise MeshError(
-            f"{label} has {idx.size} non-finite point(s) (NaN or inf), "
-            f"e.g. node {idx[0]} at {pts[idx[0]].tolist()}"
+            f"{label} has {idx.size} non-finite point(s) (NaN or inf), e.g. node {idx[0]} at {pts[idx[0]].tolist()}"
         )
     return pts
 
@@ -64,9 +63,7 @@ def _as_faces(faces, n_points: int, label: str) -> np.ndarray:
     if raw.shape[0] == 0:
         raise MeshError(f"{label} contains no triangles")
     if raw.shape[1] != 3:
-        raise MeshError(
-            f"{label} faces have {raw.shape[1]} nodes each; only triangles (3 nodes) are supported"
-        )
+        raise MeshError(f"{label} faces have {raw.shape[1]} nodes each; only triangles (3 nodes) are supported")
     if np.issubdtype(raw.dtype, np.integer):
         fc = raw.astype(np.int64)
     elif np.issubdtype(raw.dtype, np.floating):
@@ -124,13 +121,11 @@ def _face_areas(pts: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
 
 
-
 def _signed_volume(pts: np.ndarray, faces: np.ndarray) -> float:
     used = _used_nodes(faces, pts.shape[0])
     c = pts[used].mean(axis=0)
     p0, p1, p2 = pts[faces[:, 0]] - c, pts[faces[:, 1]] - c, pts[faces[:, 2]] - c
     return float(np.einsum("ij,ij->", p0, np.cross(p1, p2)) / 6.0)
-
 
 
 def validate_mesh(points, faces, name: str = "mesh") -> Mesh:
@@ -244,8 +239,7 @@ def _check_duplicate_faces(fc: np.ndarray, n: int, label: str) -> None:
         i = int(np.flatnonzero(same)[0])
         f1, f2 = sorted((int(order[i]), int(order[i + 1])))
         raise MeshError(
-            f"{label} has {int(same.sum())} duplicate face(s): faces {f1} and {f2} both connect "
-            f"nodes {sf[f1].tolist()}"
+            f"{label} has {int(same.sum())} duplicate face(s): faces {f1} and {f2} both connect nodes {sf[f1].tolist()}"
         )
 
 
@@ -253,14 +247,14 @@ def _check_duplicate_faces(fc: np.ndarray, n: int, label: str) -> None:
 class _Edges:
     """The half-edges ``h = 3 f + k`` (``faces[f, k] -> faces[f, k+1]``) matched into undirected edges."""
 
-    n: int              # number of nodes (edge keys are lo * n + hi)
-    heads: np.ndarray   # (3F,) start node of each half-edge
-    tails: np.ndarray   # (3F,) end node
-    eid: np.ndarray     # (3F,) undirected edge of each half-edge
-    key: np.ndarray     # (E,) lo * n + hi of each undirected edge
-    count: np.ndarray   # (E,) half-edges per undirected edge
-    order: np.ndarray   # half-edges sorted by edge key
-    start: np.ndarray   # (E,) first position of each edge in ``order``
+    n: int  # number of nodes (edge keys are lo * n + hi)
+    heads: np.ndarray  # (3F,) start node of each half-edge
+    tails: np.ndarray  # (3F,) end node
+    eid: np.ndarray  # (3F,) undirected edge of each half-edge
+    key: np.ndarray  # (E,) lo * n + hi of each undirected edge
+    count: np.ndarray  # (E,) half-edges per undirected edge
+    order: np.ndarray  # half-edges sorted by edge key
+    start: np.ndarray  # (E,) first position of each edge in ``order``
 
     @classmethod
     def of(cls, fc: np.ndarray, n: int) -> _Edges:
@@ -285,7 +279,7 @@ def _check_closed_manifold_edges(edges: _Edges, label: str) -> None:
         bad = np.flatnonzero(edges.count > 2)
         e = int(bad[0])
         a, b = edges.nodes(e)
-        fl = sorted(int(h) // 3 for h in edges.order[edges.start[e]:edges.start[e] + edges.count[e]])
+        fl = sorted(int(h) // 3 for h in edges.order[edges.start[e] : edges.start[e] + edges.count[e]])
         raise MeshError(
             f"{label} is not manifold (edge shared by {edges.count[e]} faces): {bad.size} edge(s) "
             f"belong to more than two faces, e.g. edge ({a}, {b}) in faces {fl}"
@@ -306,10 +300,10 @@ def _check_single_fans(edges: _Edges, n: int, label: str) -> None:
     Link-graph nodes are the half-edges v->a (two per undirected edge: 2e for lo->hi, 2e+1 for
     hi->lo); the corner of face f at v joins v->x and v->y."""
     heads, tails, eid = edges.heads, edges.tails, edges.eid
-    direction = (heads > tails).astype(np.int64)            # 0 if heads is the low end
-    out_id = 2 * eid + direction                             # link node (head -> tail) of half-edge h
+    direction = (heads > tails).astype(np.int64)  # 0 if heads is the low end
+    out_id = 2 * eid + direction  # link node (head -> tail) of half-edge h
     prev_h = (np.arange(heads.size).reshape(-1, 3)[:, [2, 0, 1]]).ravel()
-    in_id = 2 * eid[prev_h] + (1 - direction[prev_h])        # link node (head -> previous node)
+    in_id = 2 * eid[prev_h] + (1 - direction[prev_h])  # link node (head -> previous node)
     n_link = 2 * edges.key.size
     graph = coo_matrix((np.ones(out_id.size, dtype=np.int8), (out_id, in_id)), shape=(n_link, n_link))
     n_comp, lab = connected_components(graph, directed=False)

@@ -32,9 +32,13 @@ def parse_view(text: str | None):
 
 
 def add_renderer_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--renderer", default="auto", choices=RENDERERS,
-                        help="3D pictures by PyVista off screen (needs OpenGL: EGL or OSMesa) or matplotlib; "
-                             "auto (default): PyVista where it works; one line on stderr says which and why")
+    parser.add_argument(
+        "--renderer",
+        default="auto",
+        choices=RENDERERS,
+        help="3D pictures by PyVista off screen (needs OpenGL: EGL or OSMesa) or matplotlib; "
+        "auto (default): PyVista where it works; one line on stderr says which and why",
+    )
 
 
 def announce(renderer) -> None:
@@ -52,23 +56,30 @@ def _colour(name: str) -> str:
 
 def add_commands(sub) -> None:
     """Add ``movie`` and ``view`` to the subcommands ``sub`` of the ``cortex-ti`` parser."""
-    colours = "speed, active_stress, normal_velocity"      # cortex_ti.plotting.COLORS, checked when run
-    movie = sub.add_parser("movie", help="write a movie of a trajectory (.mp4 or .gif), coloured by a quantity, "
-                                         "the time in the corner (needs the [viz] extra)")
+    colours = "speed, active_stress, normal_velocity"  # cortex_ti.plotting.COLORS, checked when run
+    movie = sub.add_parser(
+        "movie",
+        help="write a movie of a trajectory (.mp4 or .gif), coloured by a quantity, "
+        "the time in the corner (needs the [viz] extra)",
+    )
     movie.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
     movie.add_argument("-o", "--output", required=True, type=Path, help="movie file: .mp4 or .gif")
     movie.add_argument("--color", default="speed", help=f"colour quantity: {colours} (default speed)")
     movie.add_argument("--fps", type=float, default=10.0, help="frames per second (default 10)")
     movie.add_argument("--every", type=int, default=1, help="every k-th frame of the trajectory (default 1)")
-    movie.add_argument("--size", default="800x800",
-                       help="WIDTHxHEIGHT in pixels, rounded down to even numbers (default 800x800)")
+    movie.add_argument(
+        "--size", default="800x800", help="WIDTHxHEIGHT in pixels, rounded down to even numbers (default 800x800)"
+    )
     movie.add_argument("--view", default=None, metavar="ELEV,AZIM", help="camera angles in degrees (default 20,-60)")
     movie.add_argument("--no-arrows", action="store_true", help="no velocity arrows")
     add_renderer_option(movie)
     movie.set_defaults(handler=_movie)
 
-    view = sub.add_parser("view", help="view a trajectory in the browser: a time slider and a choice of "
-                                       "quantity (trame + PyVista; needs the [viz] extra)")
+    view = sub.add_parser(
+        "view",
+        help="view a trajectory in the browser: a time slider and a choice of "
+        "quantity (trame + PyVista; needs the [viz] extra)",
+    )
     view.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
     view.add_argument("--port", type=int, default=8080, help="port (default 8080; 0: any free port)")
     view.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1, this machine only)")
@@ -112,5 +123,12 @@ def _view(args) -> int:
     ds = load_trajectory(args.trajectory)
     from .viewer import serve
 
-    return serve(ds, name=args.trajectory.name, color=color, host=args.host, port=args.port,
-                 open_browser=not args.no_browser, reload=lambda: load_trajectory(args.trajectory))
+    return serve(
+        ds,
+        name=args.trajectory.name,
+        color=color,
+        host=args.host,
+        port=args.port,
+        open_browser=not args.no_browser,
+        reload=lambda: load_trajectory(args.trajectory),
+    )

@@ -26,7 +26,7 @@ NEEDS: dict[str, tuple[str, ...]] = {
 def _absent(module: str) -> bool:
     try:
         return importlib.util.find_spec(module) is None
-    except (ImportError, ValueError):      # e.g. a parent package that fails to import
+    except (ImportError, ValueError):  # e.g. a parent package that fails to import
         return True
 
 

@@ -35,9 +35,19 @@ def crop_to_content(image: np.ndarray, margin: float = 0.03, background: int = 2
     return image[r0:r1, c0:c1]
 
 
-def frame_panel(fig, spec, ds, frame=-1, color: str = "speed", arrows: bool = True, view=DEFAULT_VIEW,
-                renderer: Renderer | None = None, label: str | None = None, fontsize: float = 7.0,
-                pixels: int = 700):
+def frame_panel(
+    fig,
+    spec,
+    ds,
+    frame=-1,
+    color: str = "speed",
+    arrows: bool = True,
+    view=DEFAULT_VIEW,
+    renderer: Renderer | None = None,
+    label: str | None = None,
+    fontsize: float = 7.0,
+    pixels: int = 700,
+):
     """One frame as a bare panel of ``fig`` (no axes, ticks or labels) with its colour bar below.
 
     ``spec``: where, as ``fig.add_subplot`` takes it (a ``SubplotSpec``, or ``(nrows, ncols,
@@ -53,8 +63,9 @@ def frame_panel(fig, spec, ds, frame=-1, color: str = "speed", arrows: bool = Tr
     k = frame_index(ds, frame)
     where = spec if isinstance(spec, tuple) else (spec,)
     if renderer.name == "pyvista":
-        with PyVistaFrames(ds, color, [k], size=(pixels, pixels), view=view, arrows=arrows, scalar_bar=False,
-                           time_label=False) as fr:
+        with PyVistaFrames(
+            ds, color, [k], size=(pixels, pixels), view=view, arrows=arrows, scalar_bar=False, time_label=False
+        ) as fr:
             image = crop_to_content(fr.render(k))
             mappable = ScalarMappable(norm=Normalize(*fr.clim), cmap=fr.cmap)
         ax = fig.add_subplot(*where)
@@ -67,8 +78,16 @@ def frame_panel(fig, spec, ds, frame=-1, color: str = "speed", arrows: bool = Tr
     return ax, bar
 
 
-def frame_picture(ds, frame=-1, color: str = "speed", arrows: bool = True, view=DEFAULT_VIEW,
-                  size=(1200, 1000), renderer: Renderer | None = None, **options):
+def frame_picture(
+    ds,
+    frame=-1,
+    color: str = "speed",
+    arrows: bool = True,
+    view=DEFAULT_VIEW,
+    size=(1200, 1000),
+    renderer: Renderer | None = None,
+    **options,
+):
     """Frame ``frame`` (index or time) as an ``(H, W, 3)`` picture with its colour bar and time,
     by ``renderer`` (default :func:`choose_renderer`)."""
     from .render import frame_renderer
@@ -78,9 +97,18 @@ def frame_picture(ds, frame=-1, color: str = "speed", arrows: bool = True, view=
         return fr.render(k)
 
 
-def frame_figure(ds, frame=-1, color: str = "speed", arrows: bool = True, series=DEFAULT_SERIES, view=DEFAULT_VIEW,
-                 figsize=None, dpi: float = 150.0, renderer: Renderer | None = None,
-                 max_arrows: int = MAX_ARROWS):
+def frame_figure(
+    ds,
+    frame=-1,
+    color: str = "speed",
+    arrows: bool = True,
+    series=DEFAULT_SERIES,
+    view=DEFAULT_VIEW,
+    figsize=None,
+    dpi: float = 150.0,
+    renderer: Renderer | None = None,
+    max_arrows: int = MAX_ARROWS,
+):
     """:func:`cortex_ti.plotting.figure_frame_and_series` with the 3D panel drawn by PyVista
     when it is the renderer (a picture twice the panel's pixel size, its colour bar drawn by
     matplotlib with the same limits), by matplotlib otherwise."""
@@ -91,11 +119,19 @@ def frame_figure(ds, frame=-1, color: str = "speed", arrows: bool = True, series
     with_series = bool(series)
     w, h = figsize if figsize is not None else ((11.0, 4.8) if with_series else (6.5, 5.5))
     side = int(2 * dpi * min(w * (0.45 if with_series else 0.96), h * 0.8))
-    with PyVistaFrames(ds, color, [k], size=(side, side), view=view, arrows=arrows, max_arrows=max_arrows,
-                       scalar_bar=False, time_label=False) as fr:
+    with PyVistaFrames(
+        ds,
+        color,
+        [k],
+        size=(side, side),
+        view=view,
+        arrows=arrows,
+        max_arrows=max_arrows,
+        scalar_bar=False,
+        time_label=False,
+    ) as fr:
         image = fr.render(k)
         clim, cmap = fr.clim, fr.cmap
-    return figure_frame_and_series(ds, k, color, arrows, series, view=view, figsize=figsize, dpi=dpi, image=image,
-                                   clim=clim, cmap=cmap)
-
-
+    return figure_frame_and_series(
+        ds, k, color, arrows, series, view=view, figsize=figsize, dpi=dpi, image=image, clim=clim, cmap=cmap
+    )

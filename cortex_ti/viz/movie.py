@@ -31,8 +31,10 @@ def movie_format(path) -> str:
     suffix = Path(os.fspath(path)).suffix
     fmt = suffix.lower().lstrip(".")
     if fmt not in MOVIE_FORMATS:
-        raise CortexError(f"cannot write a movie as '{path}': unknown format '{suffix or '(no suffix)'}'; "
-                          f"use {', '.join('.' + f for f in MOVIE_FORMATS)}")
+        raise CortexError(
+            f"cannot write a movie as '{path}': unknown format '{suffix or '(no suffix)'}'; "
+            f"use {', '.join('.' + f for f in MOVIE_FORMATS)}"
+        )
     return fmt
 
 
@@ -48,9 +50,19 @@ def parse_size(text: str) -> tuple[int, int]:
     return w - w % 2, h - h % 2
 
 
-def write_movie(ds, path, color: str = "speed", frames: Sequence[int] | None = None, fps: float = 10.0,
-                size=(800, 800), view=DEFAULT_VIEW, arrows: bool = True, max_arrows: int = MAX_ARROWS,
-                renderer: Renderer | None = None, clim=None) -> Path:
+def write_movie(
+    ds,
+    path,
+    color: str = "speed",
+    frames: Sequence[int] | None = None,
+    fps: float = 10.0,
+    size=(800, 800),
+    view=DEFAULT_VIEW,
+    arrows: bool = True,
+    max_arrows: int = MAX_ARROWS,
+    renderer: Renderer | None = None,
+    clim=None,
+) -> Path:
     """Write the frames ``frames`` (indices, default all) of the trajectory ``ds`` as a movie.
 
     Returns ``path``. Each frame of the movie is ``size`` (width, height; even numbers) pixels.
@@ -70,13 +82,24 @@ def write_movie(ds, path, color: str = "speed", frames: Sequence[int] | None = N
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.tmp{path.suffix}")
     if fmt == "mp4":
-        options = {"format": "FFMPEG", "fps": float(fps), "codec": "libx264", "pixelformat": "yuv420p",
-                   "quality": 8, "macro_block_size": 2, "ffmpeg_log_level": "error"}
+        options = {
+            "format": "FFMPEG",
+            "fps": float(fps),
+            "codec": "libx264",
+            "pixelformat": "yuv420p",
+            "quality": 8,
+            "macro_block_size": 2,
+            "ffmpeg_log_level": "error",
+        }
     else:
         options = {"format": "GIF", "mode": "I", "duration": 1000.0 / float(fps), "loop": 0}
     try:
-        with frame_renderer(ds, color, ks, renderer, size=size, view=view, arrows=arrows, max_arrows=max_arrows,
-                            clim=clim) as fr, iio.get_writer(tmp, **options) as writer:
+        with (
+            frame_renderer(
+                ds, color, ks, renderer, size=size, view=view, arrows=arrows, max_arrows=max_arrows, clim=clim
+            ) as fr,
+            iio.get_writer(tmp, **options) as writer,
+        ):
             for k in ks:
                 writer.append_data(fr.render(k))
         os.replace(tmp, path)

@@ -88,8 +88,7 @@ PLAIN_LABELS: dict[str, str] = {
     "normal_velocity": "normal velocity v.n [R0/t_a]",
 }
 
-_WINDOW_NAMES = {"vtkEGLRenderWindow": "EGL", "vtkOSOpenGLRenderWindow": "OSMesa",
-                 "vtkXOpenGLRenderWindow": "X11"}
+_WINDOW_NAMES = {"vtkEGLRenderWindow": "EGL", "vtkOSOpenGLRenderWindow": "OSMesa", "vtkXOpenGLRenderWindow": "X11"}
 
 
 @dataclass(frozen=True)
@@ -111,8 +110,9 @@ def _probe(window: str | None, timeout: float = 120.0) -> dict | None:
     if window is not None:
         env["VTK_DEFAULT_OPENGL_WINDOW"] = window
     try:
-        res = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True,
-                             timeout=timeout, check=False)
+        res = subprocess.run(
+            [sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=timeout, check=False
+        )
     except (subprocess.TimeoutExpired, OSError):
         return None
     lines = [ln for ln in res.stdout.splitlines() if ln.startswith("{")]
@@ -151,8 +151,11 @@ def choose_renderer(prefer: str = "auto") -> Renderer:
                     os.environ["VTK_DEFAULT_OPENGL_WINDOW"] = window
                 kind = _WINDOW_NAMES.get(info["window"], info["window"])
                 return Renderer("pyvista", f"VTK off screen through {kind} ({info['gl'] or 'OpenGL'})")
-        why = "no OpenGL off screen here (VTK's " + ", ".join(_WINDOW_NAMES.get(w, w or "default")
-                                                              for w in windows) + " windows failed)"
+        why = (
+            "no OpenGL off screen here (VTK's "
+            + ", ".join(_WINDOW_NAMES.get(w, w or "default") for w in windows)
+            + " windows failed)"
+        )
     if prefer == "pyvista":
         raise CortexError(f"--renderer pyvista cannot draw here: {why}")
     return Renderer("matplotlib", why)
@@ -206,9 +209,23 @@ class PyVistaFrames:
         Draw a horizontal colour bar at the bottom, the time in the upper left corner.
     """
 
-    def __init__(self, ds, color: str, frames: Sequence[int], size=(1200, 1000), view=DEFAULT_VIEW, clim=None,
-                 cmap=None, arrows: bool = True, max_arrows: int = MAX_ARROWS, scalar_bar: bool = True,
-                 time_label: bool = True, font_size: int = 14, edges: bool = True, lighting: bool = True):
+    def __init__(
+        self,
+        ds,
+        color: str,
+        frames: Sequence[int],
+        size=(1200, 1000),
+        view=DEFAULT_VIEW,
+        clim=None,
+        cmap=None,
+        arrows: bool = True,
+        max_arrows: int = MAX_ARROWS,
+        scalar_bar: bool = True,
+        time_label: bool = True,
+        font_size: int = 14,
+        edges: bool = True,
+        lighting: bool = True,
+    ):
         import pyvista as pv
 
         self.ds, self.frames, self.arrows, self.max_arrows = ds, list(frames), arrows, int(max_arrows)
@@ -255,13 +272,34 @@ class PyVistaFrames:
         self.surface.point_data[color] = node_values(self.ds, k, color)
         if self.plotter.scalar_bars:
             self.plotter.remove_scalar_bar()
-        bar = {"title": PLAIN_LABELS.get(color, color), "vertical": False, "position_x": 0.2, "position_y": 0.03,
-               "width": 0.6, "height": 0.07, "color": "black", "title_font_size": self.font_size,
-               "label_font_size": self.font_size - 2, "fmt": "%.3g", "n_labels": 5}
-        self.plotter.add_mesh(self.surface, scalars=color, cmap=self.cmap, clim=self.clim, smooth_shading=True,
-                              show_edges=self.edges, edge_color="black", edge_opacity=0.15, line_width=0.5,
-                              show_scalar_bar=self.scalar_bar, scalar_bar_args=bar, lighting=self.lighting,
-                              name="surface")
+        bar = {
+            "title": PLAIN_LABELS.get(color, color),
+            "vertical": False,
+            "position_x": 0.2,
+            "position_y": 0.03,
+            "width": 0.6,
+            "height": 0.07,
+            "color": "black",
+            "title_font_size": self.font_size,
+            "label_font_size": self.font_size - 2,
+            "fmt": "%.3g",
+            "n_labels": 5,
+        }
+        self.plotter.add_mesh(
+            self.surface,
+            scalars=color,
+            cmap=self.cmap,
+            clim=self.clim,
+            smooth_shading=True,
+            show_edges=self.edges,
+            edge_color="black",
+            edge_opacity=0.15,
+            line_width=0.5,
+            show_scalar_bar=self.scalar_bar,
+            scalar_bar_args=bar,
+            lighting=self.lighting,
+            name="surface",
+        )
 
     def _update(self, k: int) -> None:
         ds = self.ds
@@ -278,8 +316,12 @@ class PyVistaFrames:
                 cloud = self._pv.PolyData(pts[chosen])
                 cloud["velocity"] = vel[chosen]
                 scale = ARROW_FRACTION * 2.0 * self.half_shape / self.speed_max
-                glyphs = cloud.glyph(orient="velocity", scale="velocity", factor=scale,
-                                     geom=self._pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04))
+                glyphs = cloud.glyph(
+                    orient="velocity",
+                    scale="velocity",
+                    factor=scale,
+                    geom=self._pv.Arrow(tip_length=0.3, tip_radius=0.12, shaft_radius=0.04),
+                )
                 self.plotter.add_mesh(glyphs, color="black", name="arrows")
             else:
                 self.plotter.remove_actor("arrows")
@@ -287,8 +329,9 @@ class PyVistaFrames:
             t = float(ds["time"].values[k])
             w, h = self.plotter.window_size
             corner = (int(0.03 * w), int(h - 0.03 * w - 1.6 * self.font_size))
-            self.plotter.add_text(f"t = {t:.{self.decimals}f} t_a", position=corner, font_size=self.font_size,
-                                  color="black", name="time")
+            self.plotter.add_text(
+                f"t = {t:.{self.decimals}f} t_a", position=corner, font_size=self.font_size, color="black", name="time"
+            )
 
     def show(self, k: int) -> None:
         """Put frame ``k`` in the scene (without drawing it)."""
@@ -314,9 +357,23 @@ class MatplotlibFrames:
     """The same pictures drawn by matplotlib (:func:`cortex_ti.plotting.plot_frame`), for
     machines without OpenGL: a colour bar below, the time in the title."""
 
-    def __init__(self, ds, color: str, frames: Sequence[int], size=(1200, 1000), view=DEFAULT_VIEW, clim=None,
-                 cmap=None, arrows: bool = True, max_arrows: int = MAX_ARROWS, scalar_bar: bool = True,
-                 time_label: bool = True, font_size: int = 14, edges: bool = True, lighting: bool = True):
+    def __init__(
+        self,
+        ds,
+        color: str,
+        frames: Sequence[int],
+        size=(1200, 1000),
+        view=DEFAULT_VIEW,
+        clim=None,
+        cmap=None,
+        arrows: bool = True,
+        max_arrows: int = MAX_ARROWS,
+        scalar_bar: bool = True,
+        time_label: bool = True,
+        font_size: int = 14,
+        edges: bool = True,
+        lighting: bool = True,
+    ):
         if color not in COLORS:
             raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
         self.ds, self.color, self.view, self.cmap = ds, color, view, cmap
@@ -333,10 +390,20 @@ class MatplotlibFrames:
         dpi = 100.0
         fig = Figure(figsize=(self.size[0] / dpi, self.size[1] / dpi), dpi=dpi)
         canvas = FigureCanvasAgg(fig)
-        ax = fig.add_axes((0.02, 0.16 if self.scalar_bar else 0.02, 0.96, 0.8 if self.scalar_bar else 0.94),
-                          projection="3d")
-        _, mappable = plot_frame(self.ds, k, color=self.color, arrows=self.arrows, ax=ax, view=self.view,
-                                 cmap=self.cmap, clim=self.clim, max_arrows=self.max_arrows)
+        ax = fig.add_axes(
+            (0.02, 0.16 if self.scalar_bar else 0.02, 0.96, 0.8 if self.scalar_bar else 0.94), projection="3d"
+        )
+        _, mappable = plot_frame(
+            self.ds,
+            k,
+            color=self.color,
+            arrows=self.arrows,
+            ax=ax,
+            view=self.view,
+            cmap=self.cmap,
+            clim=self.clim,
+            max_arrows=self.max_arrows,
+        )
         if not self.time_label:
             ax.set_title("")
         if self.scalar_bar:
@@ -355,8 +422,9 @@ class MatplotlibFrames:
         self.close()
 
 
-def frame_renderer(ds, color: str = "speed", frames: Sequence[int] | None = None, renderer: Renderer | None = None,
-                   **options):
+def frame_renderer(
+    ds, color: str = "speed", frames: Sequence[int] | None = None, renderer: Renderer | None = None, **options
+):
     """A :class:`PyVistaFrames` or :class:`MatplotlibFrames` (by ``renderer``, default
     :func:`choose_renderer`) for the frames ``frames`` (indices or times, default all)."""
     n = ds.sizes["time"]

@@ -78,9 +78,9 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     def _reload():
         new = reload()
         run["n"], run["times"] = int(new.sizes["time"]), np.asarray(new["time"].values, dtype=float)
-        scene.set_frames(new, range(run["n"]))   # colour limits and arrow scale over the frames now there
+        scene.set_frames(new, range(run["n"]))  # colour limits and arrow scale over the frames now there
         state.last = run["n"] - 1
-        if state.frame == run["n"] - 1:           # the slider did not move: draw anyway
+        if state.frame == run["n"] - 1:  # the slider did not move: draw anyway
             _update(state.frame, state.color)
         state.frame = run["n"] - 1
 
@@ -89,14 +89,33 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
         layout.title.style = "min-width: 8em;"
         with layout.toolbar:
             v3.VSpacer()
-            v3.VSelect(v_model=("color",), items=("colors",), label="colour", density="compact",
-                       hide_details=True, style="max-width: 260px;")
-            v3.VSlider(v_model=("frame",), min=0, max=("last",), step=1, label="frame", density="compact",
-                       hide_details=True, style="max-width: 380px; margin-left: 16px;")
+            v3.VSelect(
+                v_model=("color",),
+                items=("colors",),
+                label="colour",
+                density="compact",
+                hide_details=True,
+                style="max-width: 260px;",
+            )
+            v3.VSlider(
+                v_model=("frame",),
+                min=0,
+                max=("last",),
+                step=1,
+                label="frame",
+                density="compact",
+                hide_details=True,
+                style="max-width: 380px; margin-left: 16px;",
+            )
             html.Div("{{ time_text }}", style="margin: 0 16px; min-width: 220px;")
             if reload is not None:
-                v3.VBtn("reload", click=_reload, variant="outlined", density="compact",
-                        title="read the trajectory again (a run still going has more frames)")
+                v3.VBtn(
+                    "reload",
+                    click=_reload,
+                    variant="outlined",
+                    density="compact",
+                    title="read the trajectory again (a run still going has more frames)",
+                )
         with layout.content, v3.VContainer(fluid=True, classes="pa-0 fill-height"):
             view = vtk_widgets.VtkRemoteView(window, interactive_ratio=1, interactive_quality=80)
             ctrl.view_update = view.update
@@ -104,8 +123,15 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     return server, scene
 
 
-def serve(ds, name: str = "trajectory", color: str = "speed", host: str = "127.0.0.1", port: int = 8080,
-          open_browser: bool = True, reload=None) -> int:
+def serve(
+    ds,
+    name: str = "trajectory",
+    color: str = "speed",
+    host: str = "127.0.0.1",
+    port: int = 8080,
+    open_browser: bool = True,
+    reload=None,
+) -> int:
     """Build the viewer and serve it until interrupted (port 0: a free one); returns 0."""
     if port == 0:
         import socket

@@ -25,8 +25,9 @@ from cortex_ti.simulation.core import Simulation
 out = Path(tempfile.mkdtemp())
 results = {}
 for formulation, fit in [("paper", "quartic"), ("rayleigh_p1", "quadratic")]:
-    scene = load_scene("sphere_y20_full", ["mesh.nodes=642", f"numerics.formulation={formulation}",
-                                           f"numerics.fit={fit}"])
+    scene = load_scene(
+        "sphere_y20_full", ["mesh.nodes=642", f"numerics.formulation={formulation}", f"numerics.fit={fit}"]
+    )
     path = Simulation(scene).run(out / f"y20_{formulation}.h5", progress=False)
     results[formulation] = Trajectory(path)
 

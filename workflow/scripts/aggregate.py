@@ -28,9 +28,16 @@ else:  # cost: one entry per run of every study, with the error against the refe
         ran = study != "static" and traj.exists()
         dev = twin_deviation(traj, twin) if ran and twin else None
         ext = trajectory_deviation(traj) if ran else None
-        entries.append({"study": study, "run": f"{study}/{label}", "params": row,
-                        "error": max(dev["pole"], dev["furrow"]) if dev else float("nan"),
-                        "error_external": max(ext["pole"], ext["furrow"]) if ext else float("nan"),
-                        "benchmark": folder / "benchmark.tsv", "summary": summary})
+        entries.append(
+            {
+                "study": study,
+                "run": f"{study}/{label}",
+                "params": row,
+                "error": max(dev["pole"], dev["furrow"]) if dev else float("nan"),
+                "error_external": max(ext["pole"], ext["furrow"]) if ext else float("nan"),
+                "benchmark": folder / "benchmark.tsv",
+                "summary": summary,
+            }
+        )
     ds = cost_dataset(entries)
 write_dataset(ds, sm.output[0])

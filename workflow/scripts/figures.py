@@ -21,8 +21,9 @@ else:
     fig = figures.draw_figure(name, data, sm.params.options, sm.params.rows)
     for path in sm.output.figures:
         save_figure(fig, path)
-    numbers, cost = figure_numbers(name, data, sm.params.options, sm.params.rows,
-                                   xr.load_dataset(sm.input.cost, engine="h5netcdf"))
+    numbers, cost = figure_numbers(
+        name, data, sm.params.options, sm.params.rows, xr.load_dataset(sm.input.cost, engine="h5netcdf")
+    )
     out, tmp = atomic_path(sm.output.numbers)
     tmp.write_text(numbers_html(name, numbers, cost))
     tmp.replace(out)

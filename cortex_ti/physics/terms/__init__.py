@@ -9,5 +9,15 @@ from ..model import Physics
 from . import active, bending, constraints, implicit_tension, viscous  # noqa: F401  (registration)
 from .base import TERMS, Constraint, Context, P1Context, PaperContext, Term, effects_without_terms, register, terms_for
 
-__all__ = ["TERMS", "Constraint", "Context", "P1Context", "PaperContext", "Physics", "Term", "effects_without_terms",
-           "register", "terms_for"]
+__all__ = [
+    "TERMS",
+    "Constraint",
+    "Context",
+    "P1Context",
+    "PaperContext",
+    "Physics",
+    "Term",
+    "effects_without_terms",
+    "register",
+    "terms_for",
+]

@@ -59,8 +59,22 @@ from ..model import Physics
 if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
     from ...surface.geometry import Geometry
 
-__all__ = ["ROW_ETA", "ROW_NORMAL", "ROW_XI", "TERMS", "Constraint", "Context", "P1Context", "PaperContext",
-           "Term", "check_inputs", "effects_without_terms", "register", "terms_for", "velocity_basis"]
+__all__ = [
+    "ROW_ETA",
+    "ROW_NORMAL",
+    "ROW_XI",
+    "TERMS",
+    "Constraint",
+    "Context",
+    "P1Context",
+    "PaperContext",
+    "Term",
+    "check_inputs",
+    "effects_without_terms",
+    "register",
+    "terms_for",
+    "velocity_basis",
+]
 
 #: Row indices within a node (formulation ``paper``)
 ROW_XI, ROW_ETA, ROW_NORMAL = 0, 1, 2
@@ -148,11 +162,11 @@ class P1Context(Context):
     tnormal: np.ndarray = None
     grads: np.ndarray = None
     pressure_weights: str = "petrov"
-    shear: float = 0.0                      # eta_s of A_T eta_s |U~_T|^2
-    bulk: float = 0.0                       # eta_b of A_T eta_b / 2 (tr U_T)^2
-    normal_form: np.ndarray | None = None   # B^cd (N, 2, 2) of 1/2 int B^cd d_c v_n d_d v_n dA
-    normal_drag: np.ndarray | None = None   # beta (N,) of 1/2 sum_k A_k beta_k v_n,k^2
-    blocks: np.ndarray | None = None        # (T, 9, 9) second derivatives of further dissipation
+    shear: float = 0.0  # eta_s of A_T eta_s |U~_T|^2
+    bulk: float = 0.0  # eta_b of A_T eta_b / 2 (tr U_T)^2
+    normal_form: np.ndarray | None = None  # B^cd (N, 2, 2) of 1/2 int B^cd d_c v_n d_d v_n dA
+    normal_drag: np.ndarray | None = None  # beta (N,) of 1/2 sum_k A_k beta_k v_n,k^2
+    blocks: np.ndarray | None = None  # (T, 9, 9) second derivatives of further dissipation
     triangle_force: np.ndarray | None = None  # (T, 9): the power sum_T f_T . (v_a, v_b, v_c)
 
     formulation = "rayleigh_p1"
@@ -214,9 +228,11 @@ def effects_without_terms(effects, formulation: str) -> list[str]:
         if not (cls.effect is None or cls.effect in effects):
             continue
         if not hasattr(cls, formulation):
-            raise SolverError(f"the term {cls.__name__} ({cls.name}) does not say what it adds to formulation "
-                              f"{formulation!r}: give it a method {formulation}(ctx), or {formulation} = None if it "
-                              "has no part there")
+            raise SolverError(
+                f"the term {cls.__name__} ({cls.name}) does not say what it adds to formulation "
+                f"{formulation!r}: give it a method {formulation}(ctx), or {formulation} = None if it "
+                "has no part there"
+            )
         if getattr(cls, formulation) is not None:
             implemented.add(cls.effect)
     return sorted(e for e in effects if e in with_terms and e not in implemented)
@@ -234,13 +250,16 @@ def check_inputs(physics: Physics, zeta, implicit_dt: float) -> np.ndarray:
     has no unique solution), a finite active tension (returned as a contiguous float64 array)
     and a finite step >= 0; one :class:`~cortex_ti.errors.SolverError` naming what is wrong."""
     if not (physics.eta_s > 0 and "shear_viscosity" in physics.effects):
-        raise SolverError("the force balance needs shear viscosity (effect 'shear_viscosity' with "
-                          "viscosity.shear > 0): without it every area-preserving flow is a solution")
+        raise SolverError(
+            "the force balance needs shear viscosity (effect 'shear_viscosity' with "
+            "viscosity.shear > 0): without it every area-preserving flow is a solution"
+        )
     zeta = np.ascontiguousarray(zeta, dtype=np.float64)
     if not np.all(np.isfinite(zeta)):
         bad = np.flatnonzero(~np.isfinite(zeta))
-        raise SolverError(f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, "
-                          f"value {zeta[bad[0]]})")
+        raise SolverError(
+            f"the active tension is not finite at {bad.size} node(s) (first: node {bad[0]}, value {zeta[bad[0]]})"
+        )
     if not (np.isfinite(implicit_dt) and implicit_dt >= 0.0):
         raise SolverError(f"implicit_dt must be a finite step >= 0, got {implicit_dt}")
     return zeta

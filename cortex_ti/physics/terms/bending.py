@@ -45,8 +45,8 @@ from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
 def curvature_invariants(geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``C^a_b``, ``C^ab``, ``C``, ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a`` per node."""
     gi, cab = geometry.metric_inv, geometry.curvature
-    cmix = np.einsum("nac,ncb->nab", gi, cab)            # C^a_b
-    cup = np.einsum("nab,nbd->nad", cmix, gi)           # C^ad
+    cmix = np.einsum("nac,ncb->nab", gi, cab)  # C^a_b
+    cup = np.einsum("nab,nbd->nad", cmix, gi)  # C^ad
     ctr = np.trace(cmix, axis1=1, axis2=2)
     c2 = np.einsum("nab,nba->n", cmix, cmix)
     c3 = np.einsum("nab,nbc,nca->n", cmix, cmix, cmix)

@@ -58,7 +58,7 @@ class RigidBodyGauge(Term):
     def paper(self, ctx: Context) -> None:
         ctx.constraints.append(Constraint("momentum", gauge_rows(ctx.geometry, ctx.physics)))
 
-    rayleigh_p1 = paper   # the same rows, the same multipliers
+    rayleigh_p1 = paper  # the same rows, the same multipliers
 
 
 @register
@@ -67,7 +67,7 @@ class Incompressibility(Term):
     name = "pressure and volume conservation"
 
     def applies(self, ctx: Context) -> bool:
-        return ctx.physics.normal_balance   # the scene refuses the effect without it
+        return ctx.physics.normal_balance  # the scene refuses the effect without it
 
     def paper(self, ctx: PaperContext) -> None:
         g = ctx.geometry

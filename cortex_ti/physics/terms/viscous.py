@@ -36,8 +36,17 @@ def add_viscous(ctx: PaperContext, eta_s: float, eta_b: float) -> None:
     from .viscous_kernel import viscous_kernel
 
     g = ctx.geometry
-    viscous_kernel(g.tangents, g.normal_fit, g.metric_inv, g.curvature, g.christoffel,
-                    float(eta_s), float(eta_b), int(ctx.physics.normal_balance), ctx.W)
+    viscous_kernel(
+        g.tangents,
+        g.normal_fit,
+        g.metric_inv,
+        g.curvature,
+        g.christoffel,
+        float(eta_s),
+        float(eta_b),
+        int(ctx.physics.normal_balance),
+        ctx.W,
+    )
 
 
 @register

@@ -23,8 +23,15 @@ def _add(W: ti.template(), i, r, k: ti.template(), v):
 
 @kernel
 def viscous_kernel(
-    tangents: f64_3, nfit: f64_2, metric_inv: f64_3, curv: f64_3, gamma: f64_4,
-    eta_s: ti.f64, eta_b: ti.f64, with_normal: ti.i32, W: f64_4,
+    tangents: f64_3,
+    nfit: f64_2,
+    metric_inv: f64_3,
+    curv: f64_3,
+    gamma: f64_4,
+    eta_s: ti.f64,
+    eta_b: ti.f64,
+    with_normal: ti.i32,
+    W: f64_4,
 ):
     for i in range(tangents.shape[0]):
         es = [ti.Vector([tangents[i, a, 0], tangents[i, a, 1], tangents[i, a, 2]]) for a in ti.static(range(2))]

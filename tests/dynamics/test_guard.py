@@ -1,0 +1,66 @@
+"""StabilityGuard: the checks that stop a run going unstable or losing its meaning."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from cortex_ti.dynamics.guard import StabilityGuard
+from cortex_ti.dynamics.schemes import Evaluation
+from cortex_ti.errors import StabilityError
+from cortex_ti.surface.mesh import icosphere
+
+
+def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
+    """StabilityGuard's resolution checks, on hand-made steps: a triangle squashed below 0.2 of the
+    starting smallest angle, and a solve whose relative residual exceeds 0.05."""
+    mesh = icosphere(42)
+    x0 = mesh.points
+    edge = np.full(len(x0), 10.0)  # large: only the resolution checks can fire
+
+    def ev(points, residual):
+        return Evaluation(
+            points=points,
+            velocity=np.zeros_like(points),
+            normal=points,
+            pressure=0.0,
+            solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)),
+        )
+
+    guard = StabilityGuard(faces=mesh.faces)
+    guard.check(0.01, 0.01, x0, x0.copy(), ev(x0, 1e-3), edge)  # a healthy step passes
+    a, b, c = mesh.faces[0]
+    squashed = x0.copy()
+    squashed[a] = 0.5 * (x0[b] + x0[c]) + 0.01 * (x0[a] - 0.5 * (x0[b] + x0[c]))  # corner a onto edge bc
+    with pytest.raises(StabilityError, match="mesh is collapsing"):
+        guard.check(0.02, 0.01, x0, squashed, ev(x0, 1e-3), edge)
+    with pytest.raises(StabilityError, match="no longer satisfied"):
+        StabilityGuard(faces=mesh.faces).check(0.01, 0.01, x0, x0.copy(), ev(x0, 0.2), edge)
+
+
+def test_guard_names_an_extensile_tension_as_a_physical_instability():
+    """A blow-up under zeta < 0 is the physics (a negative tension does work on any wrinkle that adds
+    area): the guard says so instead of asking for a smaller step; under zeta >= 0 it asks for one."""
+    from cortex_ti.dynamics.guard import extensile_tension
+
+    mesh = icosphere(42)
+    x0 = mesh.points
+    edge = np.full(len(x0), 1e-3)  # every node moves by far more than its edge
+    ev = Evaluation(
+        points=x0,
+        velocity=np.zeros_like(x0),
+        normal=x0,
+        pressure=0.0,
+        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=1e-6)),
+    )
+    moved = 1.1 * x0
+    with pytest.raises(StabilityError, match="physically unstable") as exc:
+        StabilityGuard(zeta=np.full(len(x0), -1.0)).check(0.01, 0.01, x0, moved, ev, edge)
+    assert "zeta < 0 everywhere, down to -1" in str(exc.value) and "try time.dt" not in str(exc.value)
+    with pytest.raises(StabilityError, match="try time.dt=0.0025") as exc:
+        StabilityGuard(zeta=np.ones(len(x0))).check(0.01, 0.01, x0, moved, ev, edge)
+    assert "physically" not in str(exc.value)
+    zeta = np.ones(len(x0))
+    zeta[:3] = -0.5
+    assert f"zeta < 0 at 3 of {len(x0)} nodes, down to -0.5" in extensile_tension(zeta)
+    assert extensile_tension(np.zeros(5)) is None

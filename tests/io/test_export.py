@@ -1,0 +1,154 @@
+"""ParaView export (``cortex-ti export``): one VTKHDF file per run with its frames as time steps,
+read back by VTK's own reader (an independent implementation of the format), or a PVD whose
+frames carry the run's name; two runs exported into one folder do not mix."""
+
+import shutil
+import xml.etree.ElementTree as ET
+
+import h5py
+import meshio
+import numpy as np
+import pytest
+
+from cortex_ti.cli import main
+from cortex_ti.io import Trajectory
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory, taichi_runtime):
+    out = tmp_path_factory.mktemp("export") / "f.h5"
+    assert (
+        main(
+            [
+                "run",
+                "furrow_p8_a1",
+                "-o",
+                str(out),
+                "--set",
+                "mesh.nodes=162",
+                "--set",
+                "time.t_end=0.002",
+                "--set",
+                "time.save_every=0.001",
+                "--set",
+                "time.scheme=euler",
+            ]
+        )
+        == 0
+    )
+    return out
+
+
+def expected_point_data(tr, k):
+    v = tr.ds["velocity"].values[k]
+    return {
+        "velocity": v,
+        "speed": np.linalg.norm(v, axis=1),
+        "normal_speed": np.einsum("nc,nc->n", v, tr.normals(k)),  # the solver's normals, stored
+        "active_stress": tr.ds["active_stress"].values[k],
+    }
+
+
+def check_frame(points, triangles, data, tr, k):
+    np.testing.assert_array_equal(points, tr.ds["points"].values[k])
+    np.testing.assert_array_equal(triangles, tr.triangles)
+    for name, value in expected_point_data(tr, k).items():
+        np.testing.assert_allclose(data[name], value, rtol=1e-14, atol=1e-15, err_msg=name)
+
+
+def test_vtkhdf_is_one_file_read_by_vtk_with_every_time_step(run, tmp_path, capsys):
+    vtk = pytest.importorskip("vtk", reason="VTK's reader comes with the [viz] extra: pip install 'cortex-ti[viz]'")
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    assert main(["export", str(run), "-o", str(tmp_path)]) == 0
+    path = capsys.readouterr().out.strip().splitlines()[-1]
+    assert path == str(tmp_path / "f.vtkhdf")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.vtkhdf"]
+    tr = Trajectory(run)
+    reader = vtk.vtkHDFReader()
+    reader.SetFileName(path)
+    reader.UpdateInformation()
+    assert reader.GetNumberOfSteps() == len(tr.times)
+    key = vtk.vtkStreamingDemandDrivenPipeline.TIME_STEPS()
+    np.testing.assert_array_equal(reader.GetOutputInformation(0).Get(key), tr.times)
+    for k, t in enumerate(tr.times):
+        reader.UpdateTimeStep(t)
+        grid = reader.GetOutput()
+        assert grid.GetNumberOfPoints() == tr.ds.sizes["node"] and grid.GetNumberOfCells() == len(tr.triangles)
+        assert {grid.GetCellType(c) for c in range(grid.GetNumberOfCells())} == {vtk.VTK_TRIANGLE}
+        cells = vtk_to_numpy(grid.GetCells().GetConnectivityArray()).reshape(-1, 3)
+        pd = grid.GetPointData()
+        data = {pd.GetArrayName(i): vtk_to_numpy(pd.GetArray(i)) for i in range(pd.GetNumberOfArrays())}
+        check_frame(vtk_to_numpy(grid.GetPoints().GetData()), cells, data, tr, k)
+
+
+def test_vtkhdf_layout_follows_the_specification(run, tmp_path):
+    """Without VTK: the rows the specification's offsets point at are the frame's (every other frame)."""
+    assert main(["export", str(run), "-o", str(tmp_path / "g.vtkhdf"), "--every", "2"]) == 0
+    tr = Trajectory(run)
+    with h5py.File(tmp_path / "g.vtkhdf", "r") as h5:
+        root = h5["VTKHDF"]
+        assert root.attrs["Type"] == b"UnstructuredGrid" and int(root.attrs["Version"][0]) == 2
+        steps = root["Steps"]
+        kept = list(range(0, len(tr.times), 2))
+        assert steps.attrs["NSteps"] == len(kept)
+        np.testing.assert_array_equal(steps["Values"][()], tr.times[kept])
+        n, f = int(root["NumberOfPoints"][0]), int(root["NumberOfCells"][0])
+        for j, k in enumerate(kept):
+            p0 = int(steps["PointOffsets"][j])
+            c0, i0 = int(steps["CellOffsets"][j, 0]), int(steps["ConnectivityIdOffsets"][j, 0])
+            offsets = root["Offsets"][c0 + int(steps["PartOffsets"][j]) :][: f + 1]
+            conn = root["Connectivity"][i0 + offsets[0] : i0 + offsets[-1]].reshape(-1, 3)
+            data = {
+                name: root["PointData"][name][int(steps["PointDataOffsets"][name][j]) :][:n]
+                for name in root["PointData"]
+            }
+            check_frame(root["Points"][p0 : p0 + n], conn, data, tr, k)
+
+
+def test_pvd_frames_are_named_per_run_and_two_runs_do_not_mix(run, tmp_path, capsys):
+    other = tmp_path / "g.h5"
+    shutil.copy(run, other)
+    out = tmp_path / "paraview"
+    assert main(["export", str(run), "-o", str(out), "--format", "pvd"]) == 0
+    assert main(["export", str(other), "-o", str(out), "--format", "pvd", "--every", "2"]) == 0
+    pvd_f, pvd_g = capsys.readouterr().out.strip().splitlines()[-2:]
+    tr = Trajectory(run)
+    for pvd, stem, kept in ((pvd_f, "f", range(len(tr.times))), (pvd_g, "g", range(0, len(tr.times), 2))):
+        entries = ET.parse(pvd).getroot().findall("./Collection/DataSet")
+        assert [e.get("file") for e in entries] == [f"{stem}_{k:05d}.vtu" for k in kept]
+        assert [float(e.get("timestep")) for e in entries] == pytest.approx(tr.times[list(kept)].tolist(), abs=1e-15)
+        for k, entry in zip(kept, entries, strict=False):
+            m = meshio.read(out / entry.get("file"))
+            check_frame(m.points, m.cells_dict["triangle"], m.point_data, tr, k)
+    assert len(list(out.glob("*.vtu"))) == len(tr.times) + len(range(0, len(tr.times), 2))
+
+
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (["--format", "xdmf"], "unknown --format 'xdmf'"),
+        (["--every", "0"], "--every must be >= 1"),
+        (["-o", "OUT/x.pvd", "--format", "vtkhdf"], "another format"),
+    ],
+)
+def test_export_bad_input_one_line_exit_2_nothing_written(run, tmp_path, capsys, args, words):
+    args = [a.replace("OUT", str(tmp_path)) for a in args]
+    assert main(["export", str(run), "-o", str(tmp_path), *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("cortex-ti: error:") and words in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_export_missing_file(tmp_path, capsys):
+    assert main(["export", str(tmp_path / "nope.h5")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_stored_normals_are_unit_and_outward(run):
+    tr = Trajectory(run)
+    for k in range(len(tr.times)):
+        n = tr.normals(k)
+        x = tr.ds["points"].values[k]
+        np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-13)
+        assert np.all(np.einsum("nc,nc->n", n, x - x.mean(axis=0)) > 0.9 * np.linalg.norm(x - x.mean(axis=0), axis=1))

@@ -1,0 +1,157 @@
+"""Sweep tables of the workflow: config records -> one row per run -> scene overrides."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from cortex_ti.errors import SceneError
+from cortex_ti.scene import load_scene
+from cortex_ti.studies.figures import pareto_front
+from cortex_ti.studies.registry import STUDIES
+from cortex_ti.studies.sweeps import (
+    expand_runs,
+    format_value,
+    job_resources,
+    scene_overrides,
+    tilt_axis,
+)
+
+
+def test_lists_expand_to_the_cartesian_product_and_missing_values_come_from_the_scene():
+    rows = expand_runs("furrow", [{"scene": "furrow_p4_a1", "zeta_hat": [1, 3], "dt": [5e-4, 1e-3]}])
+    assert len(rows) == 4
+    assert [(r["zeta_hat"], r["dt"]) for r in rows] == [
+        ("1", "0.0005"),
+        ("1", "0.001"),
+        ("3", "0.0005"),
+        ("3", "0.001"),
+    ]
+    scene = load_scene("furrow_p4_a1")
+    for r in rows:
+        assert list(r) == list(STUDIES["furrow"].columns)
+        assert r["p"] == format_value(scene["active_stress.0.p"]) == "4"
+        assert r["nodes"] == str(scene["mesh.nodes"])
+        assert r["scheme"] == scene["time.scheme"]
+
+
+def test_duplicate_records_give_one_run():
+    rows = expand_runs("fold", [{"scene": "fold_narrow"}, {"scene": "fold_narrow", "nodes": 2562}])
+    assert len(rows) == 1
+
+
+def test_overrides_rebuild_the_run_scene():
+    row = expand_runs("reorientation", [{"scene": "shear_035", "gamma": 0.75, "tilt": 45, "t_end": 0.2}])[0]
+    scene = load_scene(row["scene"], scene_overrides(row))
+    assert scene["mesh.shear"] == 0.75
+    assert scene["time.t_end"] == 0.2
+    axis = np.asarray(scene["active_stress.0.axis"])
+    assert np.allclose(axis, [math.sqrt(0.5), 0.0, math.sqrt(0.5)], atol=1e-14)
+    # the tilted built-in scene reads back as tilt 45
+    tilted = expand_runs("reorientation", [{"scene": "shear_035_tilted"}])[0]
+    assert float(tilted["tilt"]) == pytest.approx(45.0, abs=1e-9)
+
+
+def test_tilt_axis_rotates_z_toward_x():
+    assert np.allclose(tilt_axis(0), [0, 0, 1])
+    assert np.allclose(tilt_axis(90), [1, 0, 0], atol=1e-15)
+    assert np.linalg.norm(tilt_axis(30)) == pytest.approx(1.0, abs=1e-14)
+
+
+def test_values_are_the_shortest_exact_text():
+    assert format_value(5e-4) == "0.0005"
+    assert format_value(2562.0) == "2562"
+    assert float(format_value(0.1 + 0.2)) == 0.1 + 0.2
+
+
+@pytest.mark.parametrize(
+    "records, message",
+    [
+        ([{"nodes": 642}], "names no scene"),
+        ([{"scene": "furrow_p8_a1", "gamma": 0.3}], "unknown parameter(s) gamma"),
+        ([{"scene": "furrow_p8_a1", "dt": []}], "empty list"),
+        ([{"scene": "furrow_p8_a1", "fit": "a/b"}], "cannot name a folder"),
+        ([{"scene": "furrow_p8_a1", "dt": float("nan")}], "finite"),
+        ([{"scene": "no_such_scene"}], "no_such_scene"),
+    ],
+)
+def test_bad_records_name_the_problem(records, message):
+    with pytest.raises(SceneError, match=message.replace("(", r"\(").replace(")", r"\)")):
+        expand_runs("furrow", records)
+
+
+def test_unknown_study():
+    with pytest.raises(SceneError, match="unknown study"):
+        expand_runs("nope", [])
+
+
+def test_job_resources_from_benchmarks(tmp_path):
+    def bench(folder, nodes, s, rss):
+        folder.mkdir(parents=True)
+        (folder / "benchmark.tsv").write_text(
+            "s\th:m:s\tmax_rss\tmax_vms\tmax_uss\tmax_pss\tio_in\tio_out\tmean_load\tcpu_time\n"
+            f"{s}\t0:00:01\t{rss}\t1\t1\t1\t0\t0\t1\t1\n"
+        )
+        (folder / "summary.json").write_text(json.dumps({"n_nodes": nodes}))
+        return folder / "benchmark.tsv"
+
+    files = [
+        bench(tmp_path / "a", 2562, 600.0, 300.0),
+        bench(tmp_path / "b", 2562, 100.0, 400.0),
+        bench(tmp_path / "c", 642, 9000.0, 9000.0),
+    ]
+    got = job_resources(files, 2562)
+    assert got == {"mem_mb": 600, "runtime": 15}  # 1.5 x 400 MB, 1.5 x 600 s = 15 min
+    default = job_resources(files, 10242)  # nothing measured at that size
+    assert default["mem_mb"] > job_resources([], 2562)["mem_mb"]
+
+
+def test_pareto_front():
+    cost = np.array([1.0, 2.0, 3.0, 4.0, np.nan, 2.5])
+    err = np.array([1.0, 0.5, 0.7, 0.1, 0.01, 0.5])
+    # 3 (cost 3, err .7) and 5 (cost 2.5, err .5 tie) are dominated; NaN ignored
+    assert pareto_front(cost, err).tolist() == [0, 1, 3]
+
+
+def test_the_implicit_tension_column_says_what_runs():
+    """'auto' (the scene default) is resolved per scheme; a refused combination fails when the
+    table is built, not in a job."""
+    rows = expand_runs(
+        "accuracy",
+        [
+            {"scene": "furrow_p8_a1", "scheme": ["euler", "adaptive_euler", "heun"]},
+            {"scene": "furrow_p8_a1", "scheme": "euler", "implicit": False},
+        ],
+    )
+    assert [(r["scheme"], r["implicit"]) for r in rows] == [
+        ("euler", "true"),
+        ("adaptive_euler", "true"),
+        ("heun", "false"),
+        ("euler", "false"),
+    ]
+    for r in rows:
+        assert load_scene(r["scene"], scene_overrides(r))["time.implicit_tension"] is (r["implicit"] == "true")
+    with pytest.raises(SceneError, match=r"accuracy runs\[0\].*first-order"):
+        expand_runs("accuracy", [{"scene": "furrow_p8_a1", "scheme": "heun", "implicit": True}])
+
+
+def test_the_residual_column_gives_the_weight_that_runs():
+    rows = expand_runs(
+        "accuracy",
+        [
+            {"scene": "furrow_p8_a1", "nodes": 642, "formulation": "paper", "residual": [0, 1e-3]},
+            {"scene": "furrow_p8_a1", "nodes": 642, "formulation": "paper"},
+        ],
+    )
+    assert [r["residual"] for r in rows] == ["0", "0.001"]  # the scene's default (null) is 0
+    assert load_scene(rows[1]["scene"], scene_overrides(rows[1]))["numerics.fit_residual_weight"] == 1e-3
+
+
+def test_a_swept_tilt_names_the_same_folder_as_the_scenes_own():
+    """tilt 45 given in a record and the shear_035_tilted scene's own 45-degree axis are one run
+    (the axis round-trips through 15 digits; the folder must not read 44.999999999999964)."""
+    rows = expand_runs(
+        "reorientation", [{"scene": "shear_035_tilted", "tilt": [22.5, 45]}, {"scene": "shear_035_tilted"}]
+    )
+    assert [r["tilt"] for r in rows] == ["22.5", "45"]
