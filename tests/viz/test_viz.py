@@ -370,6 +370,40 @@ def view_image(page) -> np.ndarray:
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(not HAVE_VIEW, reason="the viewer test needs the [viz] extra: pip install -e '.[test,viz]'")
+def test_viewer_off_screen_follows_slider_and_colour(ds, pyvista_renderer):
+    """The viewer's own application (no browser): its server state driven as the page drives it,
+    its render window read back off screen. The picture has content, the slider to frame 0 changes
+    it and the time shown, the colour choice changes its colour map. (With Chromium, the test below
+    does the same through the page.)"""
+    from trame.app import get_server
+
+    from cortex_ti.viz.viewer import build_viewer
+
+    server = get_server(name=f"viewer-test-{os.getpid()}", client_type="vue3")
+    server, scene = build_viewer(ds, "furrow", server=server, size=(600, 600))
+    server.state.ready()  # what the server does once it starts: from now on, changes run the callbacks
+
+    def picture():
+        scene.plotter.render()
+        return np.asarray(scene.plotter.screenshot(return_img=True))
+
+    last = picture()
+    h, w = last.shape[:2]
+    surface = not_background(last)
+    assert surface.shape[0] > 0.15 * h * w  # not blank: the cortex
+    assert server.state.time_text.startswith("t = 0.05 t_a")
+    server.state.frame = 0
+    server.state.flush()
+    assert server.state.time_text.startswith("t = 0 t_a")
+    first = picture()
+    assert np.abs(first.astype(float) - last).max() > 0.2 * 255
+    server.state.color = "active_stress"
+    server.state.flush()
+    stress = not_background(picture())
+    assert fits_better(stress, "plasma", "viridis") and fits_better(surface, "viridis", "plasma")
+
+
 @pytest.mark.skipif(not CHROMIUM, reason="the viewer test needs Chromium: apt-get install chromium")
 @pytest.mark.skipif(
     not (HAVE_VIEW and HAVE_PLAYWRIGHT),
