@@ -1,4 +1,5 @@
-"""Tests of cortex_ti.physics.spherical and .patterns: real spherical harmonics, their surface gradient, patterns, sphere means."""
+"""Tests of cortex_ti.physics.spherical and .patterns: real spherical harmonics, their surface gradient,
+patterns, sphere means."""
 
 import math
 
