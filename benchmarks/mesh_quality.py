@@ -38,6 +38,7 @@ MOTIONS = {
     "normal (glued)": [],
     "normal": ["tension_transport=material"],
     "ale": ["tension_transport=material", "mesh.motion=ale"],
+    "ale, relaxed start": ["tension_transport=material", "mesh.motion=ale", "mesh.relax_start=true"],
     "lagrangian": ["mesh.motion=lagrangian"],
 }
 

@@ -91,6 +91,8 @@ def _check_mesh_source(mesh: dict) -> None:
         raise SceneError(f"mesh.nodes = {nodes} and mesh.file = '{file}' are both set: give exactly one of them")
     if nodes is None and file is None:
         raise SceneError("mesh needs exactly one of mesh.nodes (icosphere node count) or mesh.file (a mesh file)")
+    if file is not None and mesh.get("relax_start"):
+        raise SceneError(f"mesh.relax_start moves the nodes of an icosphere, not of mesh.file = '{file}': remove one")
     if nodes is not None and nodes not in VALID_NODE_COUNTS:
         valid = ", ".join(str(n) for n in VALID_NODE_COUNTS)
         raise SceneError(f"mesh.nodes = {nodes} is not an icosphere node count 10*4^k+2; valid values: {valid}")

@@ -47,6 +47,7 @@ class MeshSettings:
     transform: tuple[tuple[float, float, float], ...] | None
     motion: str = "normal"  # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
     ale_time: float = 0.05  # relaxation time of the ALE mesh velocity (motion: ale)
+    relax_start: bool = False  # mend the triangles the initial shear/transform distorts (icosphere only)
 
     def initial_map(self) -> np.ndarray | None:
         """The 3x3 matrix of ``transform`` followed by ``shear`` (None for the identity)."""
@@ -181,6 +182,7 @@ class RunSettings:
                 shear=float(mesh["shear"]),
                 motion=mesh["motion"],
                 ale_time=float(mesh["ale_time"]),
+                relax_start=bool(mesh["relax_start"]),
                 transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform),
             ),
             viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),

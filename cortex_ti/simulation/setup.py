@@ -16,14 +16,54 @@ from ..scene.settings import RunSettings
 from ..surface.mesh import Mesh, affine, icosphere
 from ..surface.reading import load_mesh
 
-__all__ = ["initial_mesh", "active_tension", "initial_fields", "initial_shape"]
+__all__ = ["initial_mesh", "active_tension", "initial_fields", "initial_shape", "relaxed_start"]
+
+#: The relaxation of a distorted start (``mesh.relax_start``): explicit steps of the conformal
+#: distortion's gradient flow (:func:`cortex_ti.dynamics.motion.ale_velocity`) and their length in
+#: units of the flow's relaxation time. 0.2 is stable on every icosphere up to 2562 nodes (0.4 folds
+#: triangles at 2562: the distortion does not see an inverted triangle); 1500 steps bring the
+#: smallest angle of the shear_075 start from 31.7 to 39.2 deg at 2562 nodes.
+RELAX_STEPS, RELAX_STEP = 1500, 0.2
 
 
 def initial_mesh(settings: RunSettings) -> Mesh:
-    """The icosphere or the user's mesh the settings name (before the initial deformation)."""
+    """The icosphere or the user's mesh the settings name (before the initial deformation); with
+    ``mesh.relax_start`` the icosphere's nodes moved along it so that the initial map's image has
+    mended triangles (:func:`relaxed_start`)."""
     if settings.mesh.file:
         return load_mesh(settings.mesh.file)
-    return icosphere(int(settings.mesh.nodes), settings.mesh.radius)
+    sphere = icosphere(int(settings.mesh.nodes), settings.mesh.radius)
+    matrix = settings.mesh.initial_map()
+    if settings.mesh.relax_start and matrix is not None:
+        return relaxed_start(sphere, matrix, settings.mesh.radius)
+    return sphere
+
+
+def relaxed_start(sphere: Mesh, matrix: np.ndarray, radius: float) -> Mesh:
+    """The sphere ``sphere`` (radius ``radius``) with its nodes moved along it so that the triangles
+    of its image under ``matrix`` (a shear, an affine transform) come close to the shapes they had on
+    the sphere: the image's nodes follow the tangential gradient flow of the conformal distortion
+    against the sphere's own triangles, on the image (an ellipsoid, the nodes put back on it after
+    each step), and are pulled back by ``matrix^-1``. The sphere and the ellipsoid are conformally
+    equivalent, so the flow's target exists; it mends the triangles the map sheared, which the ALE
+    of a run (relaxing toward the triangles at t = 0) would otherwise keep. The fields are then
+    assigned at the moved nodes, i.e. at their material points on the undeformed sphere."""
+    from ..dynamics.motion import MotionContext, ale_velocity
+
+    inverse = np.linalg.inv(matrix)
+    reference = MotionContext(sphere.faces, sphere.points, ale_time=1.0)
+    u = sphere.points.copy()
+    for _ in range(RELAX_STEPS):
+        x = u @ matrix.T
+        normal = u @ inverse  # the ellipsoid's normal at x: grad |matrix^-1 x|^2 = matrix^-T u
+        normal /= np.linalg.norm(normal, axis=1)[:, None]
+        x = x + RELAX_STEP * ale_velocity(np.zeros_like(x), normal, x, reference)
+        u = x @ inverse.T
+        u *= radius / np.linalg.norm(u, axis=1)[:, None]
+    p = u[sphere.faces]
+    if np.any(np.einsum("tc,tc->t", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p.sum(1)) <= 0.0):
+        raise CortexError("mesh.relax_start folded a triangle of the start: report this with the scene")
+    return Mesh(u, sphere.faces)
 
 
 def active_tension(mesh: Mesh, settings: RunSettings) -> np.ndarray:

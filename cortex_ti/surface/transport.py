@@ -35,6 +35,7 @@ __all__ = [
     "DENSITY",
     "PROPERTY",
     "dual_areas",
+    "dual_area_rates",
     "triangle_gradients",
     "nodal_gradients",
     "dual_fluxes",
@@ -68,6 +69,25 @@ def dual_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     x = points[faces]
     area = 0.5 * np.linalg.norm(np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]), axis=1)
     return np.bincount(faces.ravel(), weights=np.repeat(area / 3.0, 3), minlength=points.shape[0])
+
+
+def dual_area_rates(points: np.ndarray, faces: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``dA_i/dt`` (N,) of the barycentric dual areas when the nodes move with ``w`` (N, 3): a third
+    of each triangle's ``dA_T/dt = n_T . (dot e_1 x e_2 + e_1 x dot e_2) / 2`` (exact, no differencing).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> rate = dual_area_rates(m.points, m.faces, m.points)      # a uniform dilation x -> (1 + t) x
+    >>> bool(np.allclose(rate, 2.0 * dual_areas(m.points, m.faces), rtol=1e-13))
+    True
+    """
+    x, v = points[faces], w[faces]
+    e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    cr = _cross(e1, e2)
+    n = cr / np.linalg.norm(cr, axis=1)[:, None]
+    d = _cross(v[:, 1] - v[:, 0], e2) + _cross(e1, v[:, 2] - v[:, 0])
+    rate = 0.5 * np.einsum("tc,tc->t", n, d)
+    return np.bincount(faces.ravel(), weights=np.repeat(rate / 3.0, 3), minlength=points.shape[0])
 
 
 def triangle_gradients(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -202,6 +202,7 @@ def test_defaults_and_canonical_numbers():
         "transform": None,
         "motion": "normal",
         "ale_time": 0.05,
+        "relax_start": False,
     }
     assert scene["viscosity"] == {"shear": 2.0, "bulk": 0.0, "bending": 0.0, "bending_bulk": 0.0}
     assert type(scene["viscosity.shear"]) is float

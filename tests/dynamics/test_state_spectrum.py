@@ -1,0 +1,140 @@
+"""The spectrum of the whole state, the shape and the fields it carries (cortex_ti.dynamics.spectrum:
+state_jacobian, state_spectrum).
+
+Truths:
+
+* the closed-form linear stability of a uniform myosin cortex on the sphere
+  (:mod:`cortex_ti.analysis.myosin_stability`, derived in docs/derivations/myosin_stability.md):
+  each degree l has two rates (myosin and shape coupled), each 2l + 1 times; the 3D rates of the
+  modes of degree l must converge to them at second order (the error falls ~4x from 162 to 642
+  nodes, h halves);
+* a carried property on the uniformly tense sphere: at rest in the continuum, so a perturbation
+  of the tension moves only with the discrete sphere's small residual flow (its rows are bounded by
+  that flow over the mesh size), and the shape block is the normal dynamics of
+  :func:`normal_spectrum` (a second, independent linearisation: coloured differences of the
+  optimality conditions).
+"""
+
+import numpy as np
+import pytest
+
+from cortex_ti.analysis import myosin_stability as ms
+from cortex_ti.analysis.sphere_exact import real_sph_harm
+from cortex_ti.dynamics.spectrum import normal_jacobian, state_jacobian, state_spectrum
+from cortex_ti.scene import load_scene, scene_from_dict
+from cortex_ti.simulation import Simulation
+from cortex_ti.surface.transport import dual_area_rates, dual_areas
+
+pytestmark = pytest.mark.hard
+
+EFFECTS = [
+    "active_stress",
+    "shear_viscosity",
+    "bulk_viscosity",
+    "normal_balance",
+    "incompressibility",
+    "shape_evolution",
+]
+D, K, GAMMA = 0.05, 0.2, 1.0  # the docstring example of myosin_stability: l = 2 grows at +0.118
+
+
+def myosin_sphere(nodes):
+    data = {
+        "name": "myosin_sphere",
+        "mesh": {"nodes": nodes},
+        "fields": {
+            "myosin": {
+                "c0": 1.0,
+                "diffusion": D,
+                "turnover": K,
+                "tension": {"law": "linear", "zeta0": 1.0, "gamma": GAMMA},
+            }
+        },
+        "active_stress": [],
+        "effects": EFFECTS,
+    }
+    return Simulation(scene_from_dict(data))
+
+
+def degree_rates(spec, points, area, l):
+    """The eigenvalues whose modes lie (> 90 % of their area-weighted norm, both blocks) in degree l."""
+    n = spec.n_nodes
+    w = np.sqrt(area)
+    q, _ = np.linalg.qr(np.stack([real_sph_harm(l, m, points) for m in range(-l, l + 1)], 1) * w[:, None])
+    out = []
+    for j in range(spec.modes.shape[1]):
+        blocks = [w * spec.modes[i * n : (i + 1) * n, j] for i in range(len(spec.names))]
+        total = sum(np.vdot(b, b).real for b in blocks)
+        inside = sum(np.linalg.norm(q.T @ b) ** 2 for b in blocks)
+        if inside > 0.9 * total:
+            out.append(spec.eigenvalues[j])
+    return np.array(out)
+
+
+def test_dual_area_rates_are_the_derivative_of_the_dual_areas():
+    """Against central differences of dual_areas along a random velocity (truncation ~1e-12)."""
+    sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=162"]))
+    x, f = sim.mesh.points, sim.mesh.faces
+    w = np.random.default_rng(3).standard_normal(x.shape)
+    h = 1e-6
+    fd = (dual_areas(x + h * w, f) - dual_areas(x - h * w, f)) / (2 * h)
+    np.testing.assert_allclose(dual_area_rates(x, f, w), fd, rtol=0, atol=1e-8 * np.abs(fd).max())
+
+
+def test_a_carried_tension_on_the_sphere_at_rest_barely_moves():
+    """furrow_p4_a1's mesh, the tension carried by the material, uniform zeta = 1: the continuum
+    is at rest, the discrete sphere has a residual tangential flow |u_t| (4.4e-4 at 162 nodes, the
+    polyhedron's O(h^2) imbalance). The tension rows are the linearised upwind transport by that
+    flow, ``A_a dq_a/dt = -sum_b F_ab (q_ab - q_a)``, so they are bounded by |u_t| times the dual
+    cells' perimeter over area (< 12 / h) times the reconstruction's largest weight (2): measured
+    8.5e-4 against that bound's 2e-2. The shape-shape block equals the coloured linearisation of
+    normal_jacobian (both central differences, truncation ~1e-10)."""
+    sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=162", "tension_transport=material"]))
+    sim.zeta = np.ones(sim.mesh.n_nodes)
+    jac = state_jacobian(sim)
+    assert jac.names == ("normal", "prescribed_tension")
+    ev = sim.evaluate(sim.state0)
+    ut = np.linalg.norm(ev.velocity - ev.normal_speed[:, None] * ev.normal, axis=1).max()
+    assert 0.0 < np.abs(jac.matrix[jac.n_nodes :]).max() < 2.0 * ut * 12.0 / np.min(ev.edge_length)
+    ss = jac.block("normal", "normal")
+    ref = normal_jacobian(sim, sim.mesh.points).dense()
+    assert np.linalg.norm(ss - ref) < 1e-6 * np.linalg.norm(ref)
+    # the tension drives the shape: the column block is not empty
+    assert np.abs(jac.block("normal", "prescribed_tension")).max() > 0.1
+
+
+@pytest.mark.slow
+def test_myosin_sphere_spectrum_converges_to_the_closed_form():
+    """The uniform myosin cortex (D = 0.05, k = 0.2, linear law gamma = 1): the 3D rates of the
+    degree-1, 2, 3 modes against myosin_stability.growth_rates. Measured (162 / 642 nodes; exact):
+    l = 1 +0.6710 / +0.6925 (+0.7, three times; the drift at 0 is the mean-velocity gauge's),
+    l = 2 +0.0625 / +0.1035 (+0.1180) and -2.1185 / -2.1193 (-2.1180),
+    l = 3 -0.3436 / -0.2965 (-0.2788) and -4.683 / -4.937 (-5.021).
+    Second order: the errors of the l = 1 and the growing l = 2 rates and of both l = 3 branches fall
+    3.5x-4.5x from 162 to 642 nodes, and Richardson's (4 e_642 - e_162) / 3 removes >= 80 % of the
+    642 error; the fast l = 2 rate is already within the growing one's 642 error."""
+    found = {}
+    for nodes in (162, 642):
+        sim = myosin_sphere(nodes)
+        spec = state_spectrum(sim, modes=True)
+        assert spec.names == ("normal", "myosin")
+        x = sim.mesh.points
+        area = dual_areas(x, sim.mesh.faces)
+        for l in (1, 2, 3):
+            w = np.sort(degree_rates(spec, x, area, l).real)[::-1]
+            assert w.size == 2 * (2 * l + 1), (nodes, l, w)
+            found[nodes, l] = w
+    for l in (1, 2, 3):
+        exact = ms.growth_rates(l, 1.0, GAMMA, D, K, decimals=None)
+        m = 2 * l + 1
+        for branch in (0, 1):
+            if l == 1 and branch == 1:
+                continue  # the neutral translation: no rate to converge
+            coarse, fine = (found[nodes, l][branch * m : (branch + 1) * m].mean() for nodes in (162, 642))
+            e162, e642 = coarse - exact[branch], fine - exact[branch]
+            if (l, branch) == (2, 1):
+                growing = found[642, 2][:5].mean() - exact[0]
+                assert abs(e642) < abs(growing)
+                continue
+            assert 3.5 < e162 / e642 < 4.5, (l, branch, e162, e642)
+            assert abs((4.0 * fine - coarse) / 3.0 - exact[branch]) < 0.2 * abs(e642)
