@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...solve.system import rigid_motion_rows
 from .base import ROW_NORMAL, P1Context, PaperContext, Term, register
 
 #: The choices of ``numerics.active_force`` (formulation ``rayleigh_p1``, module docstring).
@@ -51,28 +50,20 @@ class ActiveStress(Term):
                     ctx.grads,
                     ctx.zeta,
                     ctx.geometry.normal,
-                    ctx.geometry.area,
                 )
             )
 
 
-def tangential_area_force(points, faces, area, grads, zeta, normal, node_area) -> np.ndarray:
-    r"""``zeta_k P_k dA/dx_k`` (N, 3), the tangential part of the area gradient at each node
-    times the node's tension, less its net force and torque.
+def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarray:
+    r"""``zeta_k P_k dA/dx_k`` (N, 3): the tangential part of the area gradient at each node
+    (``P_k = I - n_k n_k^T``) times the node's tension; local (node k and its triangles).
 
-    The net force and torque of ``-dE/dX`` are zero (``E`` is invariant under rigid motions);
-    those of ``zeta_k P_k dA/dx_k`` are O(h^2), not zero, so the resultant is removed along the
-    rows of the mean-velocity gauge (``A_k e`` and ``A_k e x (x_k - x_c)``, ``A_k`` the node
-    areas), which that gauge's multipliers take up anyway: the balanced force is then
-    translation and rotation invariant like the gradient, and both translation gauges give
-    flows that differ by a rigid translation. On a mesh with the icosahedron's symmetry the
-    resultant is zero and nothing is removed."""
+    Unlike ``-dE/dX`` it has a net force and torque, O(h^2) (zero on a mesh with the
+    icosahedron's symmetry): the mean-velocity gauge's multipliers take them up as a uniform force
+    density, the centroid gauge as a rigid motion plus an O(h^2) flow, so the two gauges' flows
+    differ by a rigid translation only to O(h^2) (with ``gradient``: exactly)."""
     n = points.shape[0]
     grad_area = (area[:, None, None] * grads).reshape(-1, 3)  # dA_T/dx_k, (T*3, 3)
     idx = faces.ravel()
     ga = np.stack([np.bincount(idx, weights=grad_area[:, c], minlength=n) for c in range(3)], axis=1)
-    corr = zeta[:, None] * (ga - np.einsum("nc,nc->n", ga, normal)[:, None] * normal)
-    pushes = rigid_motion_rows(points, node_area).reshape(6, -1)  # the gauge's force rows
-    rigid = rigid_motion_rows(points, np.ones(n)).reshape(6, -1)  # translations, rotations
-    alpha = np.linalg.solve(rigid @ pushes.T, rigid @ corr.ravel())
-    return (corr.ravel() - pushes.T @ alpha).reshape(n, 3)
+    return zeta[:, None] * (ga - np.einsum("nc,nc->n", ga, normal)[:, None] * normal)
