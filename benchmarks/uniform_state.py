@@ -15,7 +15,8 @@ what they test):
     python benchmarks/uniform_state.py t0 --nodes 162 642 2562
     python benchmarks/uniform_state.py run --nodes 642 --t-end 20
     python benchmarks/uniform_state.py --smoke
-    python benchmarks/page.py uniform_state --title "The uniform state" -- uniform_state all
+    python benchmarks/page.py uniform_state --title "The uniform state" -- uniform_state all \
+        --nodes 162 642 2562 --run-nodes 162 642 --final-nodes 2562
 """
 
 from __future__ import annotations
@@ -115,7 +116,7 @@ def run_rows(nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float
                         f"mesh.motion={motion}",
                         f"time.t_end={t_end}",
                         f"time.dt={dt}",
-                        f"time.save_every={max(dt, t_end / 40):g}",
+                        f"time.save_every={max(dt, t_end / 200):g}",
                     ]
                     sim = Simulation(_scene(nodes, sets))
                     ds = xr.load_dataset(sim.run(Path(tmp) / "run.h5", progress=False), engine="h5netcdf")
@@ -171,6 +172,7 @@ def main(argv=None) -> None:
     ap.add_argument("what", nargs="?", choices=("t0", "run", "all"), default="all")
     ap.add_argument("--nodes", type=int, nargs="+", default=None)
     ap.add_argument("--run-nodes", type=int, nargs="+", default=[162, 642])
+    ap.add_argument("--final-nodes", type=int, nargs="*", default=[], help="further meshes run with normal motion only")
     ap.add_argument("--t-end", type=float, default=20.0)
     ap.add_argument("--dt", type=float, default=0.01)
     ap.add_argument("--motions", nargs="+", default=list(MOTIONS), choices=MOTIONS)
@@ -189,6 +191,9 @@ def main(argv=None) -> None:
         print(orders(rows, "max|f_t|/A"))
     if args.what in ("run", "all"):
         rows = run_rows(args.run_nodes, args.t_end, args.motions, args.forces, args.dt, where)
+        if args.final_nodes:
+            rows += run_rows(args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where)
+            rows.sort(key=lambda r: (r["active_force"] != "gradient", r["motion"], r["nodes"]))
         print(f"## Uniform myosin to t = {args.t_end:g}\n")
         print(table(rows))
         print(orders(rows, "max dev", by=("active_force", "motion")))
