@@ -7,13 +7,17 @@ what they test):
   the icosphere at t = 0, max |v| split into its normal and tangential parts, and the flows driven
   separately by the tangential part of the nodal active force and by the normal residual
   (active force plus pressure); linear, so the two add up to the flow. Per ``numerics.active_force``.
+* ``axisym``: what the balanced force costs a paper scene: furrow_p4_a1 run to t = 3 with each
+  force and compared with its axisymmetric twin (``cortex_ti.axisymmetric.compare``, as
+  ``benchmarks/axisym_vs_3d.py`` does): radii and velocity profiles.
 * ``run``: a uniform, subcritical myosin field (c = c0 = 1, linear law zeta0 = gamma = 1,
   D = 0.05, k = 1; the l = 1 mode decays at -0.1, ``analysis.myosin_stability``) run to t_end with
   each mesh motion: max_i |c_i - <c>| / <c> (<c> the area-weighted mean) over time, its value at
   the end, and max |v| at the end.
 
     python benchmarks/uniform_state.py t0 --nodes 162 642 2562
-    python benchmarks/uniform_state.py run --nodes 642 --t-end 20
+    python benchmarks/uniform_state.py run --run-nodes 162 642 --t-end 20
+    python benchmarks/uniform_state.py axisym --axisym-nodes 642
     python benchmarks/uniform_state.py --smoke
     python benchmarks/page.py uniform_state --title "The uniform state" -- uniform_state all \
         --nodes 162 642 2562 --run-nodes 162 642 --final-nodes 2562
@@ -143,6 +147,35 @@ def run_rows(nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float
     return rows
 
 
+def axisym_rows(nodes_list, t_end: float = 3.0, forces=FORCES, where=None) -> list[dict]:
+    """furrow_p4_a1 with each active force against its axisymmetric twin."""
+    from cortex_ti.axisymmetric.compare import compare
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation.core import Simulation
+
+    rows = []
+    with tempfile.TemporaryDirectory(dir=where) as tmp:
+        for nodes in nodes_list:
+            for force in forces:
+                sets = [f"mesh.nodes={nodes}", f"numerics.active_force={force}", f"time.t_end={t_end}"]
+                path = Simulation(load_scene("furrow_p4_a1", sets)).run(Path(tmp) / f"{force}.h5", progress=False)
+                r = compare(str(path))
+                row = {
+                    "active_force": force,
+                    "nodes": nodes,
+                    "max dev pole": r["pole_radius"][0],
+                    "max dev furrow": r["furrow_radius"][0],
+                    "dev pole (t_end)": r["pole_radius"][2],
+                    "dev furrow (t_end)": r["furrow_radius"][2],
+                }
+                for key in sorted(k for k in r if k.startswith("profile_")):
+                    t = key.split("_", 1)[1]
+                    row[f"v_n max/rms (t={t})"] = f"{r[key][0]:.2e} / {r[key][1]:.2e}"
+                    row[f"abs v_t max/rms (t={t})"] = f"{r[key][2]:.2e} / {r[key][3]:.2e}"
+                rows.append(row)
+    return rows
+
+
 def table(rows: list[dict]) -> str:
     cols = list(rows[0])
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
@@ -169,7 +202,9 @@ def orders(rows: list[dict], key: str, by=("active_force",)) -> str:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", nargs="?", choices=("t0", "run", "all"), default="all")
+    ap.add_argument("what", nargs="?", choices=("t0", "run", "axisym", "all"), default="all")
+    ap.add_argument("--axisym-nodes", type=int, nargs="+", default=[642])
+    ap.add_argument("--axisym-t-end", type=float, default=3.0)
     ap.add_argument("--nodes", type=int, nargs="+", default=None)
     ap.add_argument("--run-nodes", type=int, nargs="+", default=[162, 642])
     ap.add_argument("--final-nodes", type=int, nargs="*", default=[], help="further meshes run with normal motion only")
@@ -182,10 +217,19 @@ def main(argv=None) -> None:
     where = None
     if args.smoke:
         args.what, args.nodes, args.run_nodes, args.t_end, args.dt = "all", [162], [162], 0.05, 0.01
+        args.axisym_nodes, args.axisym_t_end = [162], 0.12
         where = _smoke.folder()
     if args.what in ("t0", "all"):
         rows = t0_rows(args.nodes or [162, 642, 2562], args.forces)
         print("## The flow of a uniform tension at t = 0\n")
+        print(
+            "zeta = 1 on the unit icosphere, rayleigh_p1 with the paper's bending viscosity, pressure on the "
+            "Meyer areas (petrov). max|v| and its normal and tangential parts (the fitted normals); the "
+            "nodal active force's tangential part per node area (max|f_t|/A) and the normal residual with "
+            "the pressure (max|f_n+PA|/A); the flows each drives alone (v(f_t), v(f_n): the solve is linear "
+            "and the pressure's force is along A_k n_k, so they add up to the flow); P - 2 the pressure's "
+            "error. The bending viscosity adds no force at t = 0.\n"
+        )
         print(table(rows))
         print(orders(rows, "max|v_t|"))
         print(orders(rows, "max|f_t|/A"))
@@ -195,8 +239,25 @@ def main(argv=None) -> None:
             rows += run_rows(args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where)
             rows.sort(key=lambda r: (r["active_force"] != "gradient", r["motion"], r["nodes"]))
         print(f"## Uniform myosin to t = {args.t_end:g}\n")
+        print(
+            "c = c0 = 1 with D = 0.05, k = 1, linear law zeta0 = gamma = 1 (subcritical: the slowest mode, "
+            "l = 1, decays at -0.1), furrow_p4_a1's viscosities, Euler dt = "
+            f"{args.dt:g} with the semi-implicit tension. max dev: the largest max_i |c_i - <c>| / <c> over "
+            "the frames (every t_end/200), dev(t_end) at the end, t of max when it peaked; max|v| at the end.\n"
+        )
         print(table(rows))
         print(orders(rows, "max dev", by=("active_force", "motion")))
+    if args.what in ("axisym", "all"):
+        rows = axisym_rows(args.axisym_nodes, args.axisym_t_end, args.forces, where)
+        print(
+            "## What the balanced force costs a paper scene: furrow_p4_a1 against its twin to "
+            f"t = {args.axisym_t_end:g}\n"
+        )
+        print(
+            "Largest |3D - axisymmetric| of the pole and furrow radii over the frames and at the end, and "
+            "of v_n and |v_t| at the nodes (max / rms) at the profile times (benchmarks/axisym_vs_3d.py).\n"
+        )
+        print(table(rows))
     if where is not None:
         import shutil
 
