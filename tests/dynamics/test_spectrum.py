@@ -169,8 +169,10 @@ def test_the_one_growing_mode_on_the_furrow_is_the_free_translation(tmp_path):
     """On the furrow_p4_a1 shape at t = 1 (642 nodes, the default formulation) exactly one
     eigenvalue has Re > 0.1. Truths: the axisymmetric solver linearised with the same constraint
     on the translation has the same two rightmost eigenvalues (measured: axisymmetric +0.32547,
-    -0.00474, the same at n = 64 and 96; 3D +0.3255, -0.0045 at 642 nodes, +0.3248 at 2562: bound
-    1e-3), the 3D mode is a rigid translation along the axis seen through the normals (98 % of it),
+    -0.00474, the same at n = 64 and 96; 3D with the balanced active force, the default, +0.32152,
+    -0.00462 at 642 nodes, +0.32381, -0.00480 at 2562: the error 3.95e-3 -> 1.67e-3, order 1.2,
+    the balanced force's O(h^2) net force taken up by the mean-velocity gauge; with
+    active_force: gradient +0.32547 at 642, +0.3248 at 2562. Bound at 642: 4.4e-3), the 3D mode is a rigid translation along the axis seen through the normals (98 % of it),
     and with the centroid held instead (scene key ``translation: centroid``) neither the 3D code
     nor the axisymmetric solver has a growing normal mode (measured -0.0047): the growth is the
     gauge of the free translation under normal-only advection, not the shape or the
@@ -207,7 +209,7 @@ def test_the_one_growing_mode_on_the_furrow_is_the_free_translation(tmp_path):
         assert float(tr.ds["time"].values[-1]) == pytest.approx(1.0)
     spec = normal_spectrum(sim, x, modes=True)
     assert spec.count_above(0.1) == 1
-    np.testing.assert_allclose(spec.eigenvalues.real[:2], ax.real[:2], atol=1e-3)
+    np.testing.assert_allclose(spec.eigenvalues.real[:2], ax.real[:2], atol=4.4e-3)
     geo = sim.shape_geometry(x)
     share, u = translation_share(np.real(spec.modes[:, 0]), geo.normal, np.asarray(geo.area))
     assert share > 0.95  # measured 0.984 (642), 0.982 (2562)
