@@ -93,7 +93,7 @@ def test_uniform_myosin_stays_uniform_and_the_cortex_comes_to_rest(tmp_path, mot
     force, active_force: gradient, the flow stays at 5e-1 of it, a steady tangential flow). The
     myosin's deviation max |c - <c>| / <c> is bounded by what that flow can dilute: c0 times the
     integral of the largest dilation rate, at most 7.42 max|v| / h_min on these meshes, times the
-    feedback's transient gain 1.079 (measured 1.5e-9 against a bound of ~1e-5); after its peak it
+    feedback's transient gain 1.079 (measured 5.5e-9 against a bound of ~1e-5); after its peak it
     decays at least as fast as the slowest mode."""
     rate = slowest_rate()
     t, dev, speed, h_min = run(tmp_path, 162, motion)
@@ -108,8 +108,8 @@ def test_uniform_myosin_stays_uniform_and_the_cortex_comes_to_rest(tmp_path, mot
 def test_the_deviation_from_uniform_converges_with_the_mesh(tmp_path):
     """Normal motion, 162 and 642 nodes to t = 20. The residual flow at t = 0 falls at order ~3.7 in
     h (9.2e-7, 6.4e-8, 5.4e-9 at 162, 642, 2562), the dilution it causes is one derivative of it, so
-    the deviation falls at order >= 2.5 by that estimate; measured 1.48e-9 -> 3.82e-10, order 1.97
-    (the barycentric cells' O(h^2) areas enter the dilution too). Bound: order > 1.5 (a ratio
+    the deviation falls at order >= 2.5 by that estimate; measured 5.47e-9 -> 9.65e-10, order 2.5
+    (5.8e-11 at 2562, order 4.1; docs/validation/uniform_state.md). Bound: order > 1.5 (a ratio
     > 2.8), and the flow decays at both resolutions as in the test above."""
     devs = []
     for nodes in (162, 642):
