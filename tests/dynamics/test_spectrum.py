@@ -171,8 +171,9 @@ def test_the_one_growing_mode_on_the_furrow_is_the_free_translation(tmp_path):
     on the translation has the same two rightmost eigenvalues (measured: axisymmetric +0.32547,
     -0.00474, the same at n = 64 and 96; 3D with the balanced active force, the default, +0.32152,
     -0.00462 at 642 nodes, +0.32381, -0.00480 at 2562: the error 3.95e-3 -> 1.67e-3, order 1.2,
-    the balanced force's O(h^2) net force taken up by the mean-velocity gauge; with
-    active_force: gradient +0.32547 at 642, +0.3248 at 2562. Bound at 642: 4.4e-3), the 3D mode is a rigid translation along the axis seen through the normals (98 % of it),
+    likely through the balanced force's O(h^2) net force, which the mean-velocity gauge takes up; with
+    active_force: gradient +0.32547 at 642, +0.3248 at 2562. Bound at 642: 4.4e-3), the 3D mode
+    is a rigid translation along the axis seen through the normals (98 % of it),
     and with the centroid held instead (scene key ``translation: centroid``) neither the 3D code
     nor the axisymmetric solver has a growing normal mode (measured -0.0047): the growth is the
     gauge of the free translation under normal-only advection, not the shape or the
