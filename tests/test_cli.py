@@ -249,7 +249,8 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     rc, stdout, _ = run(["check", "shear_075", "--set", "mesh.nodes=162"], capsys)
     assert rc == 0
     assert stdout.strip().splitlines()[-2:] == [
-        "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov",
+        "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov, "
+        "active force balanced",
         "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension",
     ]
     rc, stdout, _ = run(

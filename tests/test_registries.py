@@ -15,6 +15,7 @@ from cortex_ti.physics.galerkin import PRESSURE_WEIGHTS
 from cortex_ti.physics.model import EFFECTS
 from cortex_ti.physics.patterns import PATTERNS, pattern_schemas, register_pattern
 from cortex_ti.physics.terms import TERMS
+from cortex_ti.physics.terms.active import ACTIVE_FORCES
 from cortex_ti.scene import full_schema, load_scene, scene_from_dict
 from cortex_ti.solve.factorizations import FACTORIZATIONS
 from cortex_ti.studies.registry import FIGURES, STORES, STUDIES
@@ -35,6 +36,7 @@ def test_scene_schema_enums_are_the_registries():
     assert props["numerics"]["properties"]["fit"]["enum"] == list(FIT_SCHEMES)
     assert props["numerics"]["properties"]["formulation"]["enum"] == list(FORMULATIONS)
     assert props["numerics"]["properties"]["pressure_weights"]["enum"] == list(PRESSURE_WEIGHTS)
+    assert props["numerics"]["properties"]["active_force"]["enum"] == list(ACTIVE_FORCES)
     assert props["time"]["properties"]["scheme"]["enum"] == list(SCHEMES)
     assert props["solver"]["properties"]["backend"]["enum"] == ["auto", *FACTORIZATIONS]
     assert schema["$defs"]["pattern"]["properties"]["type"]["enum"] == list(PATTERNS)

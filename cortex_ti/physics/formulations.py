@@ -30,12 +30,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .model import Physics
+from .terms.active import ACTIVE_FORCES
 from .terms.constraints import PRESSURE_WEIGHTS
 
 if TYPE_CHECKING:  # the geometry module starts Taichi; only its type is needed here
     from ..surface.geometry import Geometry
 
-__all__ = ["FORMULATIONS", "PRESSURE_WEIGHTS", "Formulation"]
+__all__ = ["ACTIVE_FORCES", "FORMULATIONS", "PRESSURE_WEIGHTS", "Formulation"]
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,15 @@ def _paper(geometry, physics, zeta, faces, numerics, dt):
 def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
     from .galerkin import assemble_p1
 
-    return assemble_p1(geometry, physics, zeta, faces, implicit_dt=dt, pressure_weights=numerics.pressure_weights)
+    return assemble_p1(
+        geometry,
+        physics,
+        zeta,
+        faces,
+        implicit_dt=dt,
+        pressure_weights=numerics.pressure_weights,
+        active_force=numerics.active_force,
+    )
 
 
 #: name -> :class:`Formulation`
@@ -84,7 +93,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "stationary point of the discrete Rayleighian, piecewise-linear velocities integrated "
         "exactly on the flat triangles: symmetric positive semidefinite, no growing spurious modes; second order",
         _rayleigh_p1,
-        keys=("pressure_weights",),
+        keys=("pressure_weights", "active_force"),
     ),
 }
 

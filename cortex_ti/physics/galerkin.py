@@ -48,6 +48,7 @@ from ..surface.geometry import Geometry
 from ..surface.transport import triangle_gradients  # the flat triangles' P1 gradients (one definition)
 from .model import Physics
 from .terms import P1Context, terms_for
+from .terms.active import ACTIVE_FORCES
 from .terms.base import check_inputs, constraint_names, velocity_basis
 from .terms.constraints import PRESSURE_WEIGHTS
 
@@ -144,12 +145,15 @@ def assemble_p1(
     faces: np.ndarray,
     implicit_dt: float = 0.0,
     pressure_weights: str = "petrov",
+    active_force: str = "balanced",
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the shape ``geometry`` (module
     docstring): the ``rayleigh_p1`` method of each of their terms, then one matrix;
     ``implicit_dt > 0``: the semi-implicit tension of a step of that length."""
     if pressure_weights not in PRESSURE_WEIGHTS:
         raise SolverError(f"unknown pressure_weights {pressure_weights!r}: choose one of {', '.join(PRESSURE_WEIGHTS)}")
+    if active_force not in ACTIVE_FORCES:
+        raise SolverError(f"unknown active_force {active_force!r}: choose one of {', '.join(ACTIVE_FORCES)}")
     zeta = check_inputs(physics, zeta, implicit_dt)
     n = geometry.n_nodes
     faces = np.asarray(faces)
@@ -164,6 +168,7 @@ def assemble_p1(
         tnormal=tnormal,
         grads=grads,
         pressure_weights=pressure_weights,
+        active_force=active_force,
     )
     terms = terms_for(ctx)
     for term in terms:
@@ -181,6 +186,8 @@ def assemble_p1(
     f = np.zeros(3 * n)
     if ctx.triangle_force is not None:
         f = np.bincount(pattern.dof.ravel(), weights=ctx.triangle_force.ravel(), minlength=3 * n)
+    if ctx.node_force is not None:
+        f = f + ctx.node_force.ravel()
 
     cons = np.concatenate([c.rows for c in ctx.constraints])
     force = None

@@ -31,7 +31,7 @@ from ..dynamics.motion import MESH_MOTIONS
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.fields import FIELDS
-from ..physics.formulations import FORMULATIONS, PRESSURE_WEIGHTS
+from ..physics.formulations import ACTIVE_FORCES, FORMULATIONS, PRESSURE_WEIGHTS
 from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES
@@ -65,6 +65,7 @@ def full_schema() -> dict:
     props["numerics"]["properties"]["fit"]["enum"] = list(FIT_SCHEMES)
     props["numerics"]["properties"]["formulation"]["enum"] = list(FORMULATIONS)
     props["numerics"]["properties"]["pressure_weights"]["enum"] = list(PRESSURE_WEIGHTS)
+    props["numerics"]["properties"]["active_force"]["enum"] = list(ACTIVE_FORCES)
     props["time"]["properties"]["scheme"]["enum"] = list(SCHEMES)
     props["mesh"]["properties"]["motion"]["enum"] = list(MESH_MOTIONS)
     props["solver"]["properties"]["backend"]["enum"] = backend_names()

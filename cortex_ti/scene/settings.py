@@ -79,6 +79,7 @@ class NumericsSettings:
     fit: str
     fit_residual_weight: float
     pressure_weights: str
+    active_force: str = "balanced"
 
     @property
     def formulation_entry(self):
@@ -192,6 +193,7 @@ class RunSettings:
                 fit=num["fit"],
                 fit_residual_weight=float(num["fit_residual_weight"] or 0.0),
                 pressure_weights=num["pressure_weights"],
+                active_force=num["active_force"],
             ),
             solver=SolverSettings(
                 backend=choose_factorization(sol["backend"]).name,
@@ -270,5 +272,6 @@ class RunSettings:
             w = num.fit_residual_weight
             return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}{held}"
         return (
-            f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}{held}"
+            f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
+            f"active force {num.active_force}{held}"
         )

@@ -433,8 +433,9 @@ def test_laplace_relaxation_is_the_limit_of_the_3d_spectrum(bending):
     """The 3D normal spectrum (dynamics.spectrum, rayleigh_p1) of a uniformly tense icosphere:
     after the three translations and the volume mode (|lambda| < 0.1) comes the l = 2 mode, five
     equal eigenvalues (l = 2 stays irreducible under the icosahedral group), converging at second
-    order to laplace_rate(2) (measured: -2.4332, -2.4834 at 162, 642 nodes against -2.5; with the
-    paper's bending -2.3990, -2.4472 against -2.4631). The check: the error falls by 4 +- 0.4 per
+    order to laplace_rate(2) (measured with the balanced active force, the default: -2.3815, -2.4695
+    at 162, 642 nodes against -2.5; with the paper's bending -2.3480, -2.4335 against -2.4631; with
+    active_force: gradient -2.4332, -2.4834 and -2.3990, -2.4472). The check: the error falls by 4 +- 0.4 per
     refinement (h halves), and the Richardson extrapolation removes >= 90 % of it."""
     from cortex_ti.dynamics.spectrum import normal_spectrum
     from cortex_ti.scene import load_scene

@@ -118,6 +118,7 @@ def test_shipped_scene_values(name):
         "fit": "quartic",
         "fit_residual_weight": 0.0,  # not null
         "pressure_weights": "petrov",
+        "active_force": "balanced",
     }
 
 

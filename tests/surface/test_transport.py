@@ -311,7 +311,8 @@ def test_the_translation_gauge_is_a_rigid_translation_of_a_material_cortex(tmp_p
     precision, on a scene without up-down symmetry (zeta = 1 + 0.3 Y_20 + 0.3 Y_30), where the
     translation is not zero. The bound: solver.rtol times the steps times the shape's size.
 
-    With the pressure on the exact volume gradient (numerics.pressure_weights: exact) the discrete
+    With the pressure on the exact volume gradient (numerics.pressure_weights: exact) and the active
+    force the exact gradient of the energy (numerics.active_force: gradient) the discrete
     forces sum to zero exactly (the energy and the volume are translation invariant), so the gauge
     rows' multipliers vanish and the two systems have the same solution up to U; with petrov the
     pressure pushes on the Meyer areas, whose net force is O(h^2) and is taken up differently by
@@ -335,6 +336,7 @@ def test_the_translation_gauge_is_a_rigid_translation_of_a_material_cortex(tmp_p
                 "mesh.motion=lagrangian",
                 "time.implicit_tension=false",
                 "numerics.pressure_weights=exact",
+                "numerics.active_force=gradient",
             ],
         ).data
     )

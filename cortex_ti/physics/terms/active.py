@@ -17,6 +17,13 @@ import numpy as np
 
 from .base import ROW_NORMAL, P1Context, PaperContext, Term, register
 
+#: The choices of ``numerics.active_force`` (formulation ``rayleigh_p1``, module docstring).
+ACTIVE_FORCES = {
+    "balanced": "the gradient of the discrete energy without the tangential part of zeta_k dA/dx_k at each node: "
+    "a uniform tension pushes only normally",
+    "gradient": "minus the exact gradient of the discrete energy sum_T zeta_T A_T",
+}
+
 
 @register
 class ActiveStress(Term):
@@ -32,4 +39,31 @@ class ActiveStress(Term):
 
     def rayleigh_p1(self, ctx: P1Context) -> None:
         # -A_T zeta_T grad tr U on the triangle's nine velocity components
-        ctx.add_triangle_force(-(ctx.area * ctx.zeta[ctx.faces].mean(axis=1))[:, None] * ctx.grads.reshape(-1, 9))
+        zeta = ctx.zeta[ctx.faces]  # (T, 3)
+        ctx.add_triangle_force(-(ctx.area * zeta.mean(axis=1))[:, None] * ctx.grads.reshape(-1, 9))
+        if ctx.active_force == "balanced":
+            ctx.add_node_force(
+                tangential_area_force(
+                    ctx.geometry.points,
+                    ctx.faces,
+                    ctx.area,
+                    ctx.grads,
+                    ctx.zeta,
+                    ctx.geometry.normal,
+                )
+            )
+
+
+def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarray:
+    r"""``zeta_k P_k dA/dx_k`` (N, 3): the tangential part of the area gradient at each node
+    (``P_k = I - n_k n_k^T``) times the node's tension; local (node k and its triangles).
+
+    Unlike ``-dE/dX`` it has a net force and torque, O(h^2) (zero on a mesh with the
+    icosahedron's symmetry): the mean-velocity gauge's multipliers take them up as a uniform force
+    density, the centroid gauge as a rigid motion plus an O(h^2) flow, so the two gauges' flows
+    differ by a rigid translation only to O(h^2) (with ``gradient``: exactly)."""
+    n = points.shape[0]
+    grad_area = (area[:, None, None] * grads).reshape(-1, 3)  # dA_T/dx_k, (T*3, 3)
+    idx = faces.ravel()
+    ga = np.stack([np.bincount(idx, weights=grad_area[:, c], minlength=n) for c in range(3)], axis=1)
+    return zeta[:, None] * (ga - np.einsum("nc,nc->n", ga, normal)[:, None] * normal)

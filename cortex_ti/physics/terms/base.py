@@ -155,19 +155,22 @@ class P1Context(Context):
 
     ``faces`` (T, 3); ``area`` (T,), ``tnormal`` (T, 3) and ``grads`` (T, 3, 3) (corner, xyz) the
     triangles' areas, unit normals and the in-plane gradients of their barycentric functions;
-    ``pressure_weights`` the scene's ``numerics.pressure_weights``."""
+    ``pressure_weights`` and ``active_force`` the scene's ``numerics.pressure_weights`` and
+    ``numerics.active_force``."""
 
     faces: np.ndarray = None
     area: np.ndarray = None
     tnormal: np.ndarray = None
     grads: np.ndarray = None
     pressure_weights: str = "petrov"
+    active_force: str = "balanced"
     shear: float = 0.0  # eta_s of A_T eta_s |U~_T|^2
     bulk: float = 0.0  # eta_b of A_T eta_b / 2 (tr U_T)^2
     normal_form: np.ndarray | None = None  # B^cd (N, 2, 2) of 1/2 int B^cd d_c v_n d_d v_n dA
     normal_drag: np.ndarray | None = None  # beta (N,) of 1/2 sum_k A_k beta_k v_n,k^2
     blocks: np.ndarray | None = None  # (T, 9, 9) second derivatives of further dissipation
     triangle_force: np.ndarray | None = None  # (T, 9): the power sum_T f_T . (v_a, v_b, v_c)
+    node_force: np.ndarray | None = None  # (N, 3): the power sum_k f_k . v_k
 
     formulation = "rayleigh_p1"
 
@@ -182,6 +185,9 @@ class P1Context(Context):
 
     def add_triangle_force(self, force: np.ndarray) -> None:
         self.triangle_force = _plus(self.triangle_force, force)
+
+    def add_node_force(self, force: np.ndarray) -> None:
+        self.node_force = _plus(self.node_force, force)
 
 
 class Term:
