@@ -145,7 +145,7 @@ class Scheme:
         self.evaluate = evaluate
 
     @classmethod
-    def implicit_tension(cls, setting) -> bool:
+    def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
         """Resolve ``time.implicit_tension`` (``auto``, true, false) for this scheme: ``auto`` is on
         for the schemes whose order it keeps (the first-order ones and ``bdf2``), off for the
         explicit second-order ones, which it would spoil (the scene rules refuse ``true`` with
@@ -340,6 +340,15 @@ class BDF2(Scheme):
     semi_implicit = True
     dense = True
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
+
+    @classmethod
+    def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
+        """``auto``: on with ``rayleigh_p1``, the one formulation with the tension centred on a rate;
+        with ``paper`` the scheme runs explicit (extrapolated BDF2, the step then also bounded by the
+        explicit limit through the error estimate). ``true`` with ``paper`` is refused by the scene rules."""
+        if setting == "auto":
+            return formulation == "rayleigh_p1"
+        return bool(setting)
 
     def __init__(
         self, evaluate, tol: float = 1e-4, dt_max: float = 0.05, dt_min: float = 1e-8, implicit: bool = True, **_

@@ -169,22 +169,19 @@ def _check_time(time: dict) -> None:
 
 
 def _check_multistep(data: dict) -> None:
-    """``bdf2`` (a scheme with a tolerance and a one-step start): a formulation it runs with, a
-    tolerance the solves can honour, a start step within the largest step. Only for a 3D run that
-    evolves its shape (the axisymmetric model has its own integrator)."""
+    """``bdf2`` (a scheme with a tolerance and a one-step start): its semi-implicit tension only with
+    the formulation that implements it, a tolerance the solves can honour, a start step within the
+    largest step. Only for a 3D run that evolves its shape (the axisymmetric model has its own
+    integrator)."""
     time = data.get("time") or {}
     if time.get("scheme") != "bdf2" or data.get("model", "3d") != "3d" or "shape_evolution" not in data["effects"]:
         return
     formulation = data["numerics"]["formulation"]
-    if (
-        formulation != "rayleigh_p1"
-        and "normal_balance" in data["effects"]
-        and time.get("implicit_tension") is not False
-    ):
+    if formulation != "rayleigh_p1" and time.get("implicit_tension") is True:
         raise SceneError(
-            f"time.scheme = bdf2 centres the semi-implicit tension on the last step's rate, which only "
-            f"numerics.formulation = rayleigh_p1 implements (not {formulation}): use rayleigh_p1, or "
-            "time.scheme = euler"
+            f"time.scheme = bdf2 with time.implicit_tension = true centres the semi-implicit tension on the last "
+            f"step's rate, which only numerics.formulation = rayleigh_p1 implements (not {formulation}): use "
+            "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]
     if time["tol"] < 10.0 * rtol:

@@ -164,7 +164,11 @@ class RunSettings:
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
         dynamic = "shape_evolution" in effects
         scheme = SCHEMES[tim["scheme"]]
-        implicit = dynamic and "normal_balance" in effects and scheme.implicit_tension(tim["implicit_tension"])
+        implicit = (
+            dynamic
+            and "normal_balance" in effects
+            and scheme.implicit_tension(tim["implicit_tension"], num["formulation"])
+        )
         transform = mesh["transform"]
         ax = data["axisymmetric"]
         return cls(
