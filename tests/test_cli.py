@@ -250,7 +250,7 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     assert rc == 0
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov",
-        "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension",
+        "  time: bdf2 from dt = 0.001 to t = 3.5, semi-implicit tension",
     ]
     rc, stdout, _ = run(
         [
@@ -269,7 +269,7 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     )
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation paper, quadratic fit; fit-residual rows at 0.001",
-        "  time: heun from dt = 0.005 to t = 3.5, explicit tension",
+        "  time: heun from dt = 0.001 to t = 3.5, explicit tension",
     ]
 
 

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SceneError, StabilityError
+from ..surface.transport import DENSITY, dual_areas
 from .state import Rates, State
 
 log = logging.getLogger(__name__)
@@ -415,24 +416,29 @@ class BDF2(Scheme):
 
     def interpolate(self, t: float) -> Evaluation:
         """The state and the flow at ``t`` between the last two accepted states: positions and
-        field values on the quadratic through the last three states (the line through two after
-        the start), velocity, normal and pressure linear in time between the two latest solves
-        (the start's solve taken at its own time); the solve's diagnostics those of the last
-        step."""
+        field values (a density's content ``c A``, so that its total is kept) on the quadratic
+        through the last three states (the line through two after the start); velocity, normal
+        and pressure linear in time between the two latest solves (the start's solve taken at its
+        own time); the solve's diagnostics those of the last step."""
         times = [h[0] for h in self.history]
         states = [h[1] for h in self.history]
         t_new, newest, _ = self.history[-1]
+        transport = self.last_evaluation.transport
         if abs(t - t_new) <= 1e-12 * max(1.0, abs(t_new)):
             points, fields = newest.points, dict(newest.fields)
         else:
             w = _lagrange_at(times, t)
             points = sum(wi * st.points for wi, st in zip(w, states, strict=True))
-            fields = {
-                k: v
-                if all(st.fields.get(k) is v for st in states)
-                else sum(wi * st.fields[k] for wi, st in zip(w, states, strict=True))
-                for k, v in newest.fields.items()
-            }
+            fields = {}
+            for k, v in newest.fields.items():
+                tr = transport.get(k)
+                if all(st.fields.get(k) is v for st in states):
+                    fields[k] = v  # glued to the nodes
+                elif tr is not None and tr.kind == DENSITY:  # the content c A: its total is kept
+                    content = sum(wi * st.stored(k, tr.kind) for wi, st in zip(w, states, strict=True))
+                    fields[k] = content / dual_areas(points, newest.faces)
+                else:
+                    fields[k] = sum(wi * st.fields[k] for wi, st in zip(w, states, strict=True))
         solved = [(ti, ev) for ti, _, ev in self.history if ev is not None]
         (t0, e0), (t1, e1) = (solved[-1], solved[-1]) if len(solved) == 1 else (solved[-2], solved[-1])
         th = 0.0 if t1 == t0 else (t - t0) / (t1 - t0)
