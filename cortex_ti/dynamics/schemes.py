@@ -141,6 +141,17 @@ class Scheme:
     semi_implicit = True  # the semi-implicit tension keeps the scheme's order
     dense = False  # steps on its own and interpolates the frames (bdf2)
     dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
+    default_tol = 1e-4  # time.tol: null (an adaptive scheme's local error per step, R0)
+    default_dt_max = 0.05  # time.dt_max: null
+
+    @classmethod
+    def resolve_step_control(cls, tol, dt_max) -> tuple[float, float]:
+        """``time.tol`` and ``time.dt_max`` for this scheme: the scene's values, or the scheme's
+        defaults where they are null."""
+        return (
+            float(cls.default_tol if tol is None else tol),
+            float(cls.default_dt_max if dt_max is None else dt_max),
+        )
 
     def __init__(self, evaluate, **_):
         self.evaluate = evaluate
@@ -341,6 +352,8 @@ class BDF2(Scheme):
     semi_implicit = True
     dense = True
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
+    default_tol = 4e-6  # furrow_p4_a1, 2562 nodes: time error 4.4e-5 in 113 steps (Euler at 5e-3: 4.6e-4)
+    default_dt_max = 0.2
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:

@@ -184,15 +184,16 @@ def _check_multistep(data: dict) -> None:
             "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]
-    if time["tol"] < 10.0 * rtol:
+    tol, dt_max = SCHEMES["bdf2"].resolve_step_control(time.get("tol"), time.get("dt_max"))
+    if tol < 10.0 * rtol:
         raise SceneError(
-            f"time.tol = {fmt_value(time['tol'])} is below what bdf2 can honour: each solve leaves a relative "
+            f"time.tol = {fmt_value(tol)} is below what bdf2 can honour: each solve leaves a relative "
             f"error solver.rtol = {fmt_value(rtol)} in the velocity; set time.tol >= {fmt_value(10.0 * rtol)}"
         )
-    if time["dt"] > time["dt_max"]:
+    if time["dt"] > dt_max:
         raise SceneError(
             f"time.dt = {fmt_value(time['dt'])} (bdf2's first, one-step Euler step) is larger than time.dt_max = "
-            f"{fmt_value(time['dt_max'])}: set time.dt <= time.dt_max"
+            f"{fmt_value(dt_max)}: set time.dt <= time.dt_max"
         )
 
 
