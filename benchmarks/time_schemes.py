@@ -28,9 +28,9 @@ Usage::
     python benchmarks/time_schemes.py --smoke                      # 162 nodes, t_end = 0.05 (seconds)
     python benchmarks/time_schemes.py ... --write docs/validation/time_schemes.md
 
-``--write`` replaces the block between ``<!-- time_schemes:begin -->`` and ``<!-- time_schemes:end -->``
-(date, commit, machine in its header). Expected cost on 2 cores: ~1 min per scene at 642 nodes
-(all configurations), 2-3 min at 2562.
+``--write`` replaces the block between ``<!-- NAME:begin -->`` and ``<!-- NAME:end -->`` of that page,
+NAME given by ``--block`` (default ``time_schemes``), with the table (date, commit, machine in its
+header). Expected cost on 2 cores: ~1 min per scene at 642 nodes (all configurations), 2-3 min at 2562.
 """
 
 from __future__ import annotations
@@ -70,7 +70,6 @@ CONFIGS = {
     "adaptive_euler": ("time.scheme=adaptive_euler", "time.dt=5e-3"),
     "bdf2": ("time.scheme=bdf2", "time.dt=1e-3", "time.tol=4e-6", "time.dt_max=0.2"),
 }
-BEGIN, END = "<!-- time_schemes:begin -->", "<!-- time_schemes:end -->"
 
 
 def run_one(scene: str, nodes: int, config: str, t_end: float | None, workdir: Path) -> dict:
@@ -166,6 +165,7 @@ def main(argv=None) -> int:
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose time_schemes block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
+    p.add_argument("--block", default="time_schemes", help="name of the page's block to replace (default time_schemes)")
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.t_end, args.scenes = [162], 0.05, ["furrow_p4_a1"]
@@ -184,7 +184,7 @@ def main(argv=None) -> int:
     text = table(rows, ref, args.t_end, command.strip())
     print(text)
     if args.write:
-        write_block(args.write, text)
+        write_block(args.write, text, args.block)
     return 0
 
 
