@@ -426,6 +426,28 @@ def test_an_impossible_solve_is_one_line(tmp_path, capsys, overrides, words):
     assert words in stderr
 
 
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        (["time.tol=1e-12"], "time.tol = 1e-12 is below what bdf2 can honour"),
+        (["time.dt=0.5", "time.dt_max=0.1"], "time.dt = 0.5 (bdf2's first"),
+        (["numerics.formulation=paper", "time.implicit_tension=true"], "only numerics.formulation = rayleigh_p1"),
+    ],
+)
+def test_what_bdf2_cannot_honour_is_one_line(tmp_path, capsys, overrides, words):
+    """bdf2 (the dynamic scenes' default): a tolerance below the solves' own error, a first step
+    above the largest step, its semi-implicit tension with a formulation that has no such term:
+    one line naming the keys, exit 2, no output file."""
+    out = tmp_path / "y.h5"
+    args = ["run", "furrow_p4_a1", "-o", str(out), "--set", "mesh.nodes=162"]
+    for o in overrides:
+        args += ["--set", o]
+    rc, _, stderr = run(args, capsys)
+    assert rc == 2
+    assert stderr.strip().count("\n") == 0 and words in stderr
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("model", ["3d", "axisymmetric"])
 def test_frames_land_on_the_extra_save_times(tmp_path, capsys, model):
     """``time.save_times`` adds frames at exactly those times (a figure's snapshot times), the

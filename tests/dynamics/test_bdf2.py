@@ -319,3 +319,34 @@ def test_a_resumed_run_restarts_and_stays_within_its_time_error(tmp_path):
     np.testing.assert_allclose(b.time.values, c.time.values, atol=1e-12)
     error = float(np.abs(c.points.values - d.points.values).max())
     assert 0 < float(np.abs(b.points.values - c.points.values).max()) <= 2 * error
+
+
+def test_a_run_whose_step_cannot_be_made_small_enough_keeps_its_frames(tmp_path):
+    """A furrow run (162 nodes, the scene's bdf2) whose solves turn non-finite after the 12th:
+    every later step is rejected and halved down to the smallest step, and the run stops with one
+    line naming t and dt; the frames written so far stay in the partial file (for --resume)."""
+    from cortex_ti.io import load_trajectory
+    from cortex_ti.io.trajectory import partial_path
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sim = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=162", "time.t_end=0.5"]))
+    solve, calls = sim.evaluate, []
+
+    def breaking(state, dt=0.0, implicit_rate=None):
+        ev = solve(state, dt, implicit_rate)
+        calls.append(1)
+        if len(calls) > 12:
+            ev.velocity = np.full_like(ev.velocity, np.nan)
+        return ev
+
+    sim.evaluate = breaking
+    out = tmp_path / "x.h5"
+    with pytest.raises(
+        StabilityError, match=r"bdf2: the step cannot be made small enough at t = [0-9.]+: dt = "
+    ) as err:
+        sim.run(out, progress=False)
+    assert "\n" not in str(err.value)
+    assert not out.exists()
+    kept = load_trajectory(partial_path(out))
+    assert kept.sizes["time"] >= 2 and np.all(np.isfinite(kept.points.values))
