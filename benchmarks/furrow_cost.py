@@ -43,7 +43,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from accuracy_cost import machine  # noqa: E402  (a sibling script)
 
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
-BEGIN, END = "<!-- furrow_cost:begin -->", "<!-- furrow_cost:end -->"
 
 
 def reference_seconds(repeats: int = 5) -> float:
@@ -150,14 +149,16 @@ def table(rows: list[dict], ref: float, t_end: float | None) -> str:
     return head + "\n".join(lines) + "\n"
 
 
-def write_block(page: Path, text: str) -> None:
-    body = page.read_text() if page.exists() else f"{BEGIN}\n{END}\n"
-    if BEGIN not in body or END not in body:
-        body += f"\n{BEGIN}\n{END}\n"
-    pre, rest = body.split(BEGIN, 1)
-    _, post = rest.split(END, 1)
+def write_block(page: Path, text: str, name: str = "furrow_cost") -> None:
+    """Replace the block between ``<!-- name:begin -->`` and ``<!-- name:end -->`` of ``page`` with ``text``."""
+    begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+    body = page.read_text() if page.exists() else f"{begin}\n{end}\n"
+    if begin not in body or end not in body:
+        body += f"\n{begin}\n{end}\n"
+    pre, rest = body.split(begin, 1)
+    _, post = rest.split(end, 1)
     tmp = page.with_suffix(".tmp")
-    tmp.write_text(f"{pre}{BEGIN}\n{text}{END}{post}")
+    tmp.write_text(f"{pre}{begin}\n{text}{end}{post}")
     os.replace(tmp, page)
 
 

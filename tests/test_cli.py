@@ -251,7 +251,7 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation rayleigh_p1, quadratic fit (normals, curvature); pressure petrov, "
         "active force balanced",
-        "  time: euler from dt = 0.005 to t = 3.5, semi-implicit tension",
+        "  time: bdf2 from dt = 0.001 to t = 3.5, semi-implicit tension",
     ]
     rc, stdout, _ = run(
         [
@@ -270,7 +270,7 @@ def test_check_says_how_a_dynamic_scene_steps(capsys):
     )
     assert stdout.strip().splitlines()[-2:] == [
         "  numerics: formulation paper, quadratic fit; fit-residual rows at 0.001",
-        "  time: heun from dt = 0.005 to t = 3.5, explicit tension",
+        "  time: heun from dt = 0.001 to t = 3.5, explicit tension",
     ]
 
 
@@ -425,6 +425,28 @@ def test_an_impossible_solve_is_one_line(tmp_path, capsys, overrides, words):
     assert rc == 2
     assert stderr.strip().count("\n") == 0 and stderr.startswith("cortex-ti: error: the solve at t = 0")
     assert words in stderr
+
+
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        (["time.tol=1e-12"], "time.tol = 1e-12 is below what bdf2 can honour"),
+        (["time.dt=0.5", "time.dt_max=0.1"], "time.dt = 0.5 (bdf2's first"),
+        (["numerics.formulation=paper", "time.implicit_tension=true"], "only numerics.formulation = rayleigh_p1"),
+    ],
+)
+def test_what_bdf2_cannot_honour_is_one_line(tmp_path, capsys, overrides, words):
+    """bdf2 (the dynamic scenes' default): a tolerance below the solves' own error, a first step
+    above the largest step, its semi-implicit tension with a formulation that has no such term:
+    one line naming the keys, exit 2, no output file."""
+    out = tmp_path / "y.h5"
+    args = ["run", "furrow_p4_a1", "-o", str(out), "--set", "mesh.nodes=162"]
+    for o in overrides:
+        args += ["--set", o]
+    rc, _, stderr = run(args, capsys)
+    assert rc == 2
+    assert stderr.strip().count("\n") == 0 and words in stderr
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("model", ["3d", "axisymmetric"])

@@ -9,6 +9,11 @@ end of the step (:mod:`cortex_ti.physics.terms.implicit_tension`), which holds d
 high-frequency normal modes, so the step is set by accuracy rather than by the explicit
 stability limit (a sheared cortex whose explicit limit falls to 1e-5 runs at 1e-3). The
 velocity written with a frame is then the one the shape moves with over the next step.
+
+A scheme that steps on its own (``scheme.dense``: ``bdf2``, which solves at its own
+extrapolated states) is not shortened to land on the frames: its frames are interpolated between
+its steps (:meth:`~cortex_ti.dynamics.schemes.BDF2.interpolate`), and only the last step lands on
+``t_end``.
 """
 
 from __future__ import annotations
@@ -68,6 +73,25 @@ def integrate(
     x = state0 if isinstance(state0, State) else State(np.asarray(state0))
     eps = 1e-9 * max(save_every, 1e-12)
     extra = sorted(float(s) for s in save_times)
+    if getattr(scheme, "dense", False):
+        return _integrate_dense(
+            evaluate,
+            x,
+            t0,
+            t_end,
+            dt0,
+            scheme,
+            save_every,
+            on_frame,
+            steady_tol,
+            progress,
+            guard,
+            write_first,
+            implicit,
+            extra,
+            stats,
+            start,
+        )
 
     def next_frame(t_now):
         """The first frame time after ``t_now``: a multiple of ``save_every`` (counted from 0, so
@@ -124,6 +148,80 @@ def integrate(
         if t >= next_save - eps or t >= t_end - eps:
             on_frame(t, ev, dt, final=t >= t_end - eps)
             next_save = next_frame(t)
+    stats.wall = _time.perf_counter() - start
+    stats.t = t
+    return stats
+
+
+def _integrate_dense(
+    evaluate,
+    x,
+    t0,
+    t_end,
+    dt0,
+    scheme,
+    save_every,
+    on_frame,
+    steady_tol,
+    progress,
+    guard,
+    write_first,
+    implicit,
+    extra,
+    stats,
+    start,
+) -> RunStats:
+    """:func:`integrate` for a scheme that steps on its own and interpolates its frames (module
+    docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
+    on the way written from the scheme's ``interpolate``."""
+    t, dt = t0, dt0
+    eps = 1e-9 * max(save_every, 1e-12)
+
+    def next_frame(t_now):
+        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
+        return min([regular] + [s for s in extra if s > t_now + eps])
+
+    try:
+        ev = evaluate(x, dt if implicit else 0.0)
+    except SolverError as exc:
+        raise _which_solve(exc, t, dt, implicit) from None
+    stats.solves += 1
+    scheme.start(t, ev)
+    if write_first:
+        on_frame(t, ev, dt, final=False)
+    next_save = next_frame(t0)
+    while True:
+        if progress is not None:
+            progress(t, ev, dt, stats)
+        if t >= t_end - eps:
+            break
+        if steady_tol > 0 and float(np.max(np.abs(ev.normal_speed))) < steady_tol:
+            stats.stopped = "steady"
+            break
+        h = min(dt, t_end - t)
+        try:
+            res = scheme.step(ev, h)
+        except SolverError as exc:
+            raise _which_solve(exc, t, h, True) from None
+        stats.solves += res.solves
+        if not res.accepted:
+            stats.rejected += 1
+            dt = res.dt_next
+            continue
+        ev_step = scheme.last_evaluation
+        guard.check(t + res.dt, res.dt, x.points, res.points, ev_step, ev_step.edge_length)
+        t_new = t + res.dt
+        dt = res.dt_next if res.dt_next is not None else dt
+        final = t_new >= t_end - eps
+        while next_save <= t_new + eps or (final and next_save < math.inf):
+            tf = min(next_save, t_new)
+            on_frame(tf, scheme.interpolate(tf), dt, final=final and tf >= t_new - eps)
+            if tf >= t_new - eps:
+                break
+            next_save = next_frame(tf)
+        next_save = next_frame(t_new) if next_save <= t_new + eps else next_save
+        x, t, ev = res.state, t_new, ev_step
+        stats.steps += 1
     stats.wall = _time.perf_counter() - start
     stats.t = t
     return stats

@@ -90,20 +90,41 @@ class State:
         """The state after a step ``dt`` with the (combined) ``rates``: explicit update of the
         positions and of the stored quantities, then each field's implicit diffusion and turnover on
         the new shape."""
-        points = self.points + dt * rates.points
+        return State.combined([(1.0, self)], dt, rates, transport)
+
+    @staticmethod
+    def combined(parts, dt: float, rates: Rates, transport: Mapping[str, FieldTransport]) -> State:
+        """``sum_k a_k S_k + dt rates`` for ``parts = [(a_k, S_k), ...]`` (the ``a_k`` summing to 1,
+        the last state the newest), then each field's implicit diffusion and turnover of a step
+        ``dt`` on the new shape: the update of a multistep scheme (``bdf2``: the states ``n`` and
+        ``n - 1`` and ``dt`` its ``gamma``); :meth:`advanced` is the one-step case. The stored
+        quantities are combined (a density's content ``c A`` on each state's own shape), a field glued
+        to the nodes keeps the newest state's values."""
+        newest = parts[-1][1]
+        points = sum(a * st.points for a, st in parts) + dt * rates.points
         fields = {}
-        for name, values in self.fields.items():
+        for name, values in newest.fields.items():
             rate = rates.fields.get(name)
             tr = transport.get(name)
             if tr is None or (rate is None and tr.kind != DENSITY and tr.diffusion == 0.0 and tr.turnover == 0.0):
                 fields[name] = values  # glued to the nodes: unchanged
                 continue
-            stored = self.stored(name, tr.kind)
+            stored = sum(a * st.stored(name, tr.kind) for a, st in parts)
             if rate is not None:
                 stored = stored + dt * rate
             fields[name] = implicit_diffusion_reaction(
-                stored, tr.kind, points, self.faces, dt, tr.diffusion, tr.turnover, tr.target
+                stored, tr.kind, points, newest.faces, dt, tr.diffusion, tr.turnover, tr.target
             )
+        return State(points, fields, newest.faces)
+
+    def extrapolated(self, older: State, factor: float) -> State:
+        """``self + factor (self - older)``, positions and field values: the linear extrapolation a
+        multistep scheme evaluates its explicit part at (``factor`` = the step ratio)."""
+        points = (1.0 + factor) * self.points - factor * older.points
+        fields = {
+            k: v if older.fields.get(k) is v else (1.0 + factor) * v - factor * older.fields[k]
+            for k, v in self.fields.items()
+        }
         return State(points, fields, self.faces)
 
     def total(self, name: str) -> float:

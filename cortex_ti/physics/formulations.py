@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..errors import SolverError
 from .model import Physics
 from .terms.active import ACTIVE_FORCES
 from .terms.constraints import PRESSURE_WEIGHTS
@@ -45,25 +46,35 @@ class Formulation:
 
     name: str
     description: str
-    build: Callable  # (geometry, physics, zeta, faces, numerics, dt) -> system
+    build: Callable  # (geometry, physics, zeta, faces, numerics, dt, implicit_rate) -> system
     keys: tuple[str, ...]  # the numerics keys only this formulation reads
     uses_fit_residual: Callable = staticmethod(lambda numerics: False)
 
     def system(
-        self, geometry: Geometry, physics: Physics, zeta: np.ndarray, faces: np.ndarray, numerics, dt: float = 0.0
+        self,
+        geometry: Geometry,
+        physics: Physics,
+        zeta: np.ndarray,
+        faces: np.ndarray,
+        numerics,
+        dt: float = 0.0,
+        implicit_rate: np.ndarray | None = None,
     ):
-        """The linear system on one shape (``dt > 0``: the semi-implicit step of that length)."""
-        return self.build(geometry, physics, zeta, faces, numerics, dt)
+        """The linear system on one shape (``dt > 0``: the semi-implicit step of that length, centred
+        on the nodes' rate ``implicit_rate`` when given)."""
+        return self.build(geometry, physics, zeta, faces, numerics, dt, implicit_rate)
 
 
-def _paper(geometry, physics, zeta, faces, numerics, dt):
+def _paper(geometry, physics, zeta, faces, numerics, dt, implicit_rate=None):
     # Taichi kernels: loaded with the first system, not with the registry
     from .assembly import assemble
 
+    if implicit_rate is not None:
+        raise SolverError("formulation 'paper' has no semi-implicit tension centred on a rate (time.scheme = bdf2)")
     return assemble(geometry, physics, zeta, numerics.fit_residual_weight, implicit_dt=dt)
 
 
-def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
+def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt, implicit_rate=None):
     from .galerkin import assemble_p1
 
     return assemble_p1(
@@ -74,6 +85,7 @@ def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt):
         implicit_dt=dt,
         pressure_weights=numerics.pressure_weights,
         active_force=numerics.active_force,
+        implicit_rate=implicit_rate,
     )
 
 

@@ -52,7 +52,14 @@ from .terms.active import ACTIVE_FORCES
 from .terms.base import check_inputs, constraint_names, velocity_basis
 from .terms.constraints import PRESSURE_WEIGHTS
 
-__all__ = ["PRESSURE_WEIGHTS", "assemble_p1", "normal_blocks", "triangle_gradients", "viscous_blocks"]
+__all__ = [
+    "PRESSURE_WEIGHTS",
+    "assemble_p1",
+    "normal_blocks",
+    "normal_form_force",
+    "triangle_gradients",
+    "viscous_blocks",
+]
 
 
 class _Pattern:
@@ -108,10 +115,9 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
         return area[:, None, None] * blk.reshape(-1, 9, 9)
 
 
-def normal_blocks(
-    geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray, grads: np.ndarray, area: np.ndarray
-) -> np.ndarray:
-    """Per-triangle 9x9 blocks of ``int B^cd d_c v_n d_d v_n dA`` with ``v_n = n_k . v_k`` linear."""
+def _triangle_form(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray) -> np.ndarray:
+    """``B^cd e_c e_d`` per triangle (T, 3, 3): the corner mean, projected on the triangle, clipped
+    to its positive semidefinite part."""
     e = geometry.tangents
     bt = (e.transpose(0, 2, 1) @ bform @ e)[faces].mean(axis=1)  # B^cd e_c e_d, corner mean
     proj = np.eye(3)[None] - tnormal[:, :, None] * tnormal[:, None, :]
@@ -125,9 +131,40 @@ def normal_blocks(
     if bad.any():
         w, vec = np.linalg.eigh(bt[bad])
         bt[bad] = np.einsum("tia,ta,tja->tij", vec, np.clip(w, 0.0, None), vec)
+    return bt
+
+
+def _normal_gradient_rows(geometry: Geometry, faces: np.ndarray, grads: np.ndarray) -> np.ndarray:
+    """(T, 3, 9): the in-plane gradient of ``v_n = n_k . v_k`` on each triangle from its corners' velocities."""
     nrm = geometry.normal
-    gn = (grads.transpose(0, 2, 1)[:, :, :, None] * nrm[faces][:, None, :, :]).reshape(-1, 3, 9)  # grad v_n rows
+    return (grads.transpose(0, 2, 1)[:, :, :, None] * nrm[faces][:, None, :, :]).reshape(-1, 3, 9)
+
+
+def normal_blocks(
+    geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray, grads: np.ndarray, area: np.ndarray
+) -> np.ndarray:
+    """Per-triangle 9x9 blocks of ``int B^cd d_c v_n d_d v_n dA`` with ``v_n = n_k . v_k`` linear."""
+    bt = _triangle_form(geometry, faces, bform, tnormal)
+    gn = _normal_gradient_rows(geometry, faces, grads)
     return area[:, None, None] * (gn.transpose(0, 2, 1) @ bt @ gn)
+
+
+def normal_form_force(
+    geometry: Geometry,
+    faces: np.ndarray,
+    bform: np.ndarray,
+    tnormal: np.ndarray,
+    grads: np.ndarray,
+    area: np.ndarray,
+    rate: np.ndarray,
+) -> np.ndarray:
+    """(T, 9): the blocks of :func:`normal_blocks` applied to the nodal vectors ``rate`` (N, 3),
+    without forming them: the force of ``1/2 int B^cd d_c (v_n - r_n) d_d (v_n - r_n) dA`` that
+    moves its minimum from ``v_n = 0`` to ``v_n = r_n``."""
+    bt = _triangle_form(geometry, faces, bform, tnormal)
+    gn = _normal_gradient_rows(geometry, faces, grads)
+    grad_r = gn @ rate[faces].reshape(-1, 9, 1)  # (T, 3, 1): grad r_n on the triangle
+    return area[:, None] * (gn.transpose(0, 2, 1) @ (bt @ grad_r))[:, :, 0]
 
 
 def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
@@ -146,10 +183,13 @@ def assemble_p1(
     implicit_dt: float = 0.0,
     pressure_weights: str = "petrov",
     active_force: str = "balanced",
+    implicit_rate: np.ndarray | None = None,
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the shape ``geometry`` (module
     docstring): the ``rayleigh_p1`` method of each of their terms, then one matrix;
-    ``implicit_dt > 0``: the semi-implicit tension of a step of that length."""
+    ``implicit_dt > 0``: the semi-implicit tension of a step of that length, acting on the change
+    of the normal velocity from the nodes' rate ``implicit_rate`` (N, 3) when given
+    (:mod:`cortex_ti.physics.terms.implicit_tension`)."""
     if pressure_weights not in PRESSURE_WEIGHTS:
         raise SolverError(f"unknown pressure_weights {pressure_weights!r}: choose one of {', '.join(PRESSURE_WEIGHTS)}")
     if active_force not in ACTIVE_FORCES:
@@ -163,6 +203,7 @@ def assemble_p1(
         physics,
         zeta,
         implicit_dt=float(implicit_dt),
+        implicit_rate=implicit_rate,
         faces=faces,
         area=area,
         tnormal=tnormal,

@@ -29,6 +29,7 @@ def check_rules(data: dict) -> None:
     _check_effect_combinations(effects)
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
+    _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
     _check_translation(data["translation"], effects)
@@ -159,13 +160,42 @@ def _check_coefficients(visc: dict, seen: set[str]) -> None:
 
 
 def _check_time(time: dict) -> None:
-    """The semi-implicit tension is first order: refused with a second-order scheme."""
+    """The semi-implicit tension is first order: refused with an explicit second-order scheme."""
     scheme = SCHEMES.get(time.get("scheme", "euler"))
-    if time.get("implicit_tension") is True and scheme is not None and not scheme.first_order:
+    if time.get("implicit_tension") is True and scheme is not None and not scheme.semi_implicit:
         raise SceneError(
             f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
-            f"second-order scheme time.scheme = {time['scheme']}: use euler or adaptive_euler, or set "
+            f"second-order scheme time.scheme = {time['scheme']}: use euler, adaptive_euler or bdf2, or set "
             "time.implicit_tension: auto"
+        )
+
+
+def _check_multistep(data: dict) -> None:
+    """``bdf2`` (a scheme with a tolerance and a one-step start): its semi-implicit tension only with
+    the formulation that implements it, a tolerance the solves can honour, a start step within the
+    largest step. Only for a 3D run that evolves its shape (the axisymmetric model has its own
+    integrator)."""
+    time = data.get("time") or {}
+    if time.get("scheme") != "bdf2" or data.get("model", "3d") != "3d" or "shape_evolution" not in data["effects"]:
+        return
+    formulation = data["numerics"]["formulation"]
+    if formulation != "rayleigh_p1" and time.get("implicit_tension") is True:
+        raise SceneError(
+            f"time.scheme = bdf2 with time.implicit_tension = true centres the semi-implicit tension on the last "
+            f"step's rate, which only numerics.formulation = rayleigh_p1 implements (not {formulation}): use "
+            "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
+        )
+    rtol = data["solver"]["rtol"]
+    tol, dt_max = SCHEMES["bdf2"].resolve_step_control(time.get("tol"), time.get("dt_max"))
+    if tol < 10.0 * rtol:
+        raise SceneError(
+            f"time.tol = {fmt_value(tol)} is below what bdf2 can honour: each solve leaves a relative "
+            f"error solver.rtol = {fmt_value(rtol)} in the velocity; set time.tol >= {fmt_value(10.0 * rtol)}"
+        )
+    if time["dt"] > dt_max:
+        raise SceneError(
+            f"time.dt = {fmt_value(time['dt'])} (bdf2's first, one-step Euler step) is larger than time.dt_max = "
+            f"{fmt_value(dt_max)}: set time.dt <= time.dt_max"
         )
 
 

@@ -166,7 +166,12 @@ class RunSettings:
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
         dynamic = "shape_evolution" in effects
         scheme = SCHEMES[tim["scheme"]]
-        implicit = dynamic and "normal_balance" in effects and scheme.implicit_tension(tim["implicit_tension"])
+        tol, dt_max = scheme.resolve_step_control(tim["tol"], tim["dt_max"])
+        implicit = (
+            dynamic
+            and "normal_balance" in effects
+            and scheme.implicit_tension(tim["implicit_tension"], num["formulation"])
+        )
         transform = mesh["transform"]
         ax = data["axisymmetric"]
         return cls(
@@ -208,8 +213,8 @@ class RunSettings:
                 save_every=float(tim["save_every"]),
                 save_times=tuple(sorted(float(x) for x in tim["save_times"])),
                 steady_tol=float(tim["steady_tol"]),
-                tol=float(tim["tol"]),
-                dt_max=float(tim["dt_max"]),
+                tol=tol,
+                dt_max=dt_max,
                 implicit_tension=bool(implicit),
             ),
             axisymmetric=AxisymmetricSettings(

@@ -128,24 +128,32 @@ class Simulation:
         """Frames, areas and fit operators of the shape ``points`` (what the formulation needs)."""
         return compute_geometry(points, self.topology, self.stencils, residual=self.settings.numerics.uses_fit_residual)
 
-    def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None):
-        """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step) with the
-        tension ``zeta`` (default: the initial state's)."""
+    def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None, implicit_rate=None):
+        """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step, centred on
+        the nodes' rate ``implicit_rate`` if given) with the tension ``zeta`` (default: the initial
+        state's)."""
         num = self.settings.numerics
         zeta = self.zeta if zeta is None else zeta
-        return num.formulation_entry.system(geometry, self.physics, zeta, self.mesh.faces, num, dt)
+        return num.formulation_entry.system(geometry, self.physics, zeta, self.mesh.faces, num, dt, implicit_rate)
 
-    def solve(self, points: np.ndarray | None = None, dt: float = 0.0, zeta: np.ndarray | None = None) -> Solution:
+    def solve(
+        self,
+        points: np.ndarray | None = None,
+        dt: float = 0.0,
+        zeta: np.ndarray | None = None,
+        implicit_rate: np.ndarray | None = None,
+    ) -> Solution:
         """Velocity and pressure on the shape ``points`` (default: the initial shape) with the
         tension ``zeta`` (default: the initial state's).
 
         ``dt > 0``: the velocity of a step of that length with the semi-implicit tension
-        (:mod:`cortex_ti.physics.terms.implicit_tension`); 0 is the instantaneous velocity."""
+        (:mod:`cortex_ti.physics.terms.implicit_tension`), centred on the nodes' rate
+        ``implicit_rate`` (N, 3) if given (the ``bdf2`` scheme); 0 is the instantaneous velocity."""
         x = self.mesh.points if points is None else points
         t0 = time.perf_counter()
         geometry = self.shape_geometry(x)
         t1 = time.perf_counter()
-        system = self.system(geometry, dt, zeta)
+        system = self.system(geometry, dt, zeta, implicit_rate)
         t2 = time.perf_counter()
         unknowns, pressure, info = self.solver.solve(system, x)
         t3 = time.perf_counter()
@@ -159,15 +167,15 @@ class Simulation:
             seconds={"geometry": t1 - t0, "assembly": t2 - t1, "solve": t3 - t2},
         )
 
-    def evaluate(self, state: State | np.ndarray, dt: float = 0.0) -> Evaluation:
+    def evaluate(self, state: State | np.ndarray, dt: float = 0.0, implicit_rate=None) -> Evaluation:
         """The dynamics on a state (positions: the initial state's fields on them): the solve with
-        the state's tension (for a step ``dt``, see :meth:`solve`), the mesh velocity of
+        the state's tension (for a step ``dt``, centred on ``implicit_rate``, see :meth:`solve`), the mesh velocity of
         ``mesh.motion`` and the transport rates of the moving fields; counts the time per stage."""
         if not isinstance(state, State):
             state = self.state_at(state)
         points = state.points
         zeta = tension_of(state.fields, state.n_nodes, self.settings) if state.fields else None
-        sol = self.solve(points, dt, zeta)
+        sol = self.solve(points, dt, zeta, implicit_rate)
         t0 = time.perf_counter()
         mesh_velocity, rates = None, {}
         if self.motion.name != "normal":

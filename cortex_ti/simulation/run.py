@@ -262,14 +262,16 @@ def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool) ->
 
 def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
     st = sim.settings.time
-    scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max)
+    scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
     start, t0, dt = sim.state0, 0.0, st.dt
     if resume:
         extend_finished(output)
     state = ResumeState.read(output) if resume else None
     if state is not None:
         t0 = state.time
-        if scheme.adaptive and state.dt is not None:
+        if scheme.dense:
+            pass  # a multistep scheme restarts with its one-step start of time.dt (the file holds one state)
+        elif scheme.adaptive and state.dt is not None:
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
             dt = min(state.dt, st.dt_max)

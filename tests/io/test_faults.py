@@ -37,6 +37,10 @@ ARGS = [
     "--set",
     "mesh.nodes=162",
     "--set",
+    "time.scheme=euler",  # a one-step scheme: a resumed run reproduces the uninterrupted one to round-off
+    "--set",
+    "time.dt=5e-3",
+    "--set",
     "time.t_end=0.6",
     "--set",
     "solver.reuse=false",

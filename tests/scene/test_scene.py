@@ -108,10 +108,11 @@ def test_shipped_scene_values(name):
         "save_every": 0.01,
         "save_times": [],
         "steady_tol": 0.0,
-        "tol": 1e-4,
-        "dt_max": 0.05,
+        "tol": None,  # the scheme's own default, resolved in the settings
+        "dt_max": None,
         "implicit_tension": "auto",
     }
+    assert (scene.settings.time.tol, scene.settings.time.dt_max) == (1e-4, 0.05)
     # the scene's own method (the paper's, quartic), the other keys filled from the schema
     assert scene["numerics"] == {
         "formulation": "paper",
@@ -321,7 +322,7 @@ def test_error_names_the_scene_file(tmp_path):
         ("active_stress.0.terms.0.coeff=.inf", "active_stress.0.terms.0.coeff must be a finite number, got inf"),
         # enums
         ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso, cholmod; got 'mkl'"),
-        ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler; got 'rk4'"),
+        ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler, bdf2; got 'rk4'"),
     ],
 )
 def test_schema_errors_name_the_key(override, expected):
@@ -640,8 +641,9 @@ def test_furrow_scenes_carry_the_paper_parameters(name, p, amp, bend, bend_b):
     assert scene["viscosity.shear"] == scene["viscosity.bulk"] == 1.0
     assert (scene["viscosity.bending"], scene["viscosity.bending_bulk"]) == (bend, bend_b)
     assert scene["mesh.nodes"] == 2562 and scene["time.t_end"] == 3.0
-    # the paper's Euler step was 5e-4; the scenes step 5e-3 with the semi-implicit tension
-    assert scene["time.scheme"] == "euler" and scene["time.dt"] == 5e-3
+    # the paper's Euler step was 5e-4; the scenes step with bdf2 (its first step 1e-3, local error 4e-6 per
+    # step) and the semi-implicit tension (docs/derivations/time_schemes.md)
+    assert scene["time.scheme"] == "bdf2" and scene["time.dt"] == 1e-3 and scene.settings.time.tol == 4e-6
     assert scene.settings.time.implicit_tension and scene.settings.numerics.formulation == "rayleigh_p1"
     assert {"shape_evolution", "bending_viscosity", "incompressibility"} <= scene.effects
 

@@ -109,6 +109,7 @@ class Context:
     zeta: np.ndarray
     implicit_dt: float = 0.0
     constraints: list = field(default_factory=list)
+    implicit_rate: np.ndarray | None = None  # (N, 3) nodes' rate the semi-implicit tension is centred on
 
     #: the formulation whose terms' method of this name is called
     formulation = ""

@@ -28,12 +28,20 @@ Formulation ``rayleigh_p1`` adds the dissipation ``dt zeta |grad v_n|^2`` (``zet
 integrated as the bending viscosity's: the leading part of the tension's Hessian (the
 ``-zeta dt Lap v_n`` above, without its indefinite ``-zeta dt C~ v_n``), so the step's matrix stays
 definite whatever ``dt``.
+
+**Centred on a rate** (``implicit_rate``, the second-order scheme ``bdf2``,
+``docs/derivations/time_schemes.md``): the dissipation becomes ``dt zeta |grad (v_n - r_n)|^2``
+with ``r`` the nodes' rate over the last step, i.e. the drag acts on the *change* of the normal
+velocity, ``O(dt^2)`` on a smooth flow, and still holds down every stiff mode. Only
+``rayleigh_p1`` implements it (the scene rules refuse ``bdf2`` with ``numerics.formulation:
+paper``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ...errors import SolverError
 from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
 from .bending import curvature_invariants, hessian_weights
 
@@ -54,10 +62,24 @@ class ImplicitTension(Term):
         return ctx.implicit_dt > 0.0 and ctx.physics.normal_balance
 
     def paper(self, ctx: PaperContext) -> None:
+        if ctx.implicit_rate is not None:
+            raise SolverError(
+                "the semi-implicit tension centred on a rate (time.scheme = bdf2) is implemented for "
+                "numerics.formulation = rayleigh_p1 only"
+            )
         w, w0 = implicit_tension_weights(ctx.geometry, ctx.zeta, ctx.implicit_dt)
         ctx.Wn[:, ROW_NORMAL] += w
         ctx.Wn0[:, ROW_NORMAL] += w0
 
     def rayleigh_p1(self, ctx: P1Context) -> None:
         # dt zeta |grad v_n|^2, zeta clipped at 0: positive semidefinite whatever dt
-        ctx.add_normal_form((ctx.implicit_dt * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv)
+        bform = (ctx.implicit_dt * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv
+        ctx.add_normal_form(bform)
+        if ctx.implicit_rate is not None:
+            from ..galerkin import normal_form_force  # the formulation's module imports the terms
+
+            ctx.add_triangle_force(
+                normal_form_force(
+                    ctx.geometry, ctx.faces, bform, ctx.tnormal, ctx.grads, ctx.area, np.asarray(ctx.implicit_rate)
+                )
+            )
