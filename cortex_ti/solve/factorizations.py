@@ -61,7 +61,8 @@ class Factorization:
 
     ``factorize(a)`` factors a new matrix; backends that can reuse the symbolic
     analysis (ordering, elimination tree) do so while the sparsity pattern is
-    unchanged, which is the case over a whole run because the topology is fixed.
+    unchanged, which is the case over a whole run unless it remeshes (then the analysis is redone
+    once for the new mesh); they count their analyses in ``analyses``.
     """
 
     name = "base"
@@ -133,12 +134,14 @@ class PardisoFactor(Factorization):
             self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None
+        self.analyses = 0  # symbolic analyses (phase 11) done
 
     def factorize(self, a):
         upper = sp.triu(a, format="csr")
         upper.sort_indices()
         dummy = np.zeros(upper.shape[0])
         if not same_pattern(self._pattern, upper):
+            self.analyses += 1
             self._solver.set_phase(11)
             self._solver._call_pardiso(upper, dummy)
             self._solver.set_iparm(8, 0)  # after phase 11, which fills in the defaults (2 steps)
@@ -181,6 +184,7 @@ class CholmodFactor(Factorization):
     def __init__(self):
         self._factor = None
         self._pattern = None
+        self.analyses = 0  # symbolic analyses done
 
     def factorize(self, a):
         from sksparse.cholmod import analyze
@@ -188,6 +192,7 @@ class CholmodFactor(Factorization):
         a = a.tocsc()
         a.sort_indices()
         if self._factor is None or not same_pattern(self._pattern, a):
+            self.analyses += 1
             self._factor = analyze(a, mode="supernodal")
             self._pattern = a
         self._factor.cholesky_inplace(a)
