@@ -39,6 +39,9 @@ __all__ = ["Simulation", "Solution"]
 
 log = logging.getLogger(__name__)
 
+#: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
+RETRIGGER = 0.9
+
 
 @dataclass
 class Solution:
@@ -98,6 +101,7 @@ class Simulation:
         self.on_remesh = None  # called with the new state after a remeshing (the run's writer)
         rem = self.settings.mesh.remesh
         self.remesh_options = None
+        self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
         if rem is not None:
             if not remesh_available():
                 raise CortexError(f"scene '{self.settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
@@ -116,6 +120,15 @@ class Simulation:
         self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
         self.solver.new_mesh()
 
+    def continue_segment(self, points, triangles, reference, segment: int) -> None:
+        """Resume on the mesh of segment ``segment`` of a remeshed run: its triangles, its ALE
+        reference (the nodes right after that remeshing) and the trigger it had then."""
+        self.use_mesh(points, triangles, reference)
+        self.segment = segment
+        if self.remesh_below is not None:
+            after = float(min_angles(reference, triangles).min())
+            self.remesh_below = min(self.settings.mesh.remesh.min_angle, RETRIGGER * after)
+
     def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
         """The state on a new mesh when its smallest triangle angle fell below
         ``mesh.remesh.min_angle`` (:func:`cortex_ti.surface.remesh.remesh`: sized by curvature, the
@@ -124,21 +137,34 @@ class Simulation:
         if rem is None:
             return None
         angle = float(min_angles(state.points, state.faces).min())
-        if angle >= rem.min_angle:
+        if angle >= self.remesh_below:
             return None
         kinds = {spec.name: spec.kind for spec in self.fields}
         res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
+        after = float(min_angles(res.points, res.faces).min())
         log.info(
-            "t = %.4g: smallest angle %.2f deg < %g: remeshed %d -> %d nodes (smallest angle %.1f deg, volume "
+            "t = %.4g: smallest angle %.2f deg < %.3g: remeshed %d -> %d nodes (smallest angle %.1f deg, volume "
             "offset %.2e)",
             t,
             angle,
-            rem.min_angle,
+            self.remesh_below,
             res.n_before,
             res.n_after,
-            float(min_angles(res.points, res.faces).min()),
+            after,
             res.offset,
         )
+        # a new mesh that misses the trigger itself would be remeshed at every step: its own trigger
+        # is then RETRIGGER times its smallest angle (said in the log; the run's min_angle_deg shows it)
+        self.remesh_below = min(rem.min_angle, RETRIGGER * after)
+        if after < rem.min_angle:
+            log.warning(
+                "t = %.4g: the remeshed surface's smallest angle %.1f deg is below mesh.remesh.min_angle = %g; "
+                "this mesh is remeshed below %.3g deg",
+                t,
+                after,
+                rem.min_angle,
+                self.remesh_below,
+            )
         self.use_mesh(res.points, res.faces)
         self.segment += 1
         new = State(self.mesh.points, res.fields, self.mesh.faces)

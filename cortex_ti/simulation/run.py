@@ -398,8 +398,7 @@ def resumed_state(sim: Simulation, resume: ResumeState) -> State:
             raise CortexError(f"cannot resume {resume.path}: it holds no values of the field {spec.var!r}")
     points = np.asarray(resume.points, dtype=float)
     if resume.segment > 0:  # the run had remeshed: continue on the frame's mesh
-        sim.use_mesh(points, resume.triangles, resume.reference)
-        sim.segment = resume.segment
+        sim.continue_segment(points, resume.triangles, resume.reference, resume.segment)
     return State(points, fields, sim.mesh.faces)
 
 

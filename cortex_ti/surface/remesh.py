@@ -237,7 +237,7 @@ def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nda
     return np.stack([u, v, w], axis=-1)
 
 
-def closest_points(points: np.ndarray, faces: np.ndarray, queries: np.ndarray, k: int = 8):
+def closest_points(points: np.ndarray, faces: np.ndarray, queries: np.ndarray, k: int = 4):
     """The closest point of the triangulated surface ``(points, faces)`` to each query ``(Q, 3)``:
     its triangle ``(Q,)`` and barycentric coordinates ``(Q, 3)``.
 
