@@ -59,10 +59,10 @@ def _writer(path, resume=False):
 PLAN = [0, 0, 1, 1, 1, 2]
 
 
-def _write_plan(path, upto=len(PLAN), finish=True):
+def _write_plan(path, upto=None, finish=True):
     w = _writer(path)
     seg = 0
-    for k in range(upto):
+    for k in range(len(PLAN) if upto is None else upto):
         if PLAN[k] != seg:
             seg = PLAN[k]
             w.start_segment(MESHES[seg].faces, MESHES[seg].n_nodes, MESHES[seg].points * 0.9)
