@@ -25,6 +25,7 @@ from cortex_ti.surface.mesh import icosphere
 
 SCENE = "name: t\nmesh: {nodes: 42}\n"
 EXTRA = {
+    "normal": (("time", "node", "xyz"), {"units": "1", "long_name": "normal"}),
     "dt": (("time",), {"units": "t_a", "long_name": "step"}),
     "c": (("time", "node"), {"units": "1", "long_name": "c"}),
 }
@@ -41,6 +42,7 @@ def _frame(mesh, k):
         "pressure": float(k),
         "dt": 0.1 * k,
         "c": rng.standard_normal(n),
+        "normal": mesh.points / np.linalg.norm(mesh.points, axis=1, keepdims=True),
     }
 
 
@@ -158,3 +160,41 @@ def test_a_segment_checks_its_frames(tmp_path):
     with pytest.raises(ValueError, match="outside"):
         w.start_segment(MESHES[1].faces, 12)
     w.abort()
+
+
+def test_export_and_plot_give_each_frame_its_mesh(tmp_path):
+    """VTKHDF (read back by VTK's own reader when installed) and PVD: every step has its frame's
+    points, triangles and point data; the matplotlib picture draws the frame's triangles."""
+    from cortex_ti.io.export import export_trajectory
+    from cortex_ti.plotting import plot_frame
+
+    path = tmp_path / "r.h5"
+    _write_plan(path)
+    tr = Trajectory(path)
+    pvd = export_trajectory(path, tmp_path / "pvd", fmt="pvd")
+    import meshio
+
+    for k, seg in enumerate(PLAN):
+        mesh = meshio.read(pvd.parent / f"r_{k:05d}.vtu")
+        np.testing.assert_array_equal(mesh.points, tr.mesh(k)[0])
+        np.testing.assert_array_equal(mesh.cells_dict["triangle"], MESHES[seg].faces)
+        np.testing.assert_array_equal(mesh.point_data["active_stress"], tr.nodal("active_stress", k))
+    out = export_trajectory(path, tmp_path / "hdf", fmt="vtkhdf")
+    for k, seg in enumerate(PLAN):
+        _, surface = plot_frame(tr.ds, k)
+        assert len(surface.get_array()) == MESHES[seg].n_faces
+    vtk = pytest.importorskip("vtk", reason="VTK not installed (the viz extra): the VTKHDF file is not read back")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    reader = vtk.vtkHDFReader()
+    reader.SetFileName(str(out))
+    reader.UpdateInformation()
+    assert reader.GetNumberOfSteps() == len(PLAN)
+    for k, seg in enumerate(PLAN):
+        reader.SetStep(k)
+        reader.Update()
+        grid = reader.GetOutput()
+        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPoints().GetData()), tr.mesh(k)[0])
+        cells = vtk_to_numpy(grid.GetCells().GetConnectivityArray()).reshape(-1, 3)
+        np.testing.assert_array_equal(cells, MESHES[seg].faces)
+        np.testing.assert_array_equal(vtk_to_numpy(grid.GetPointData().GetArray("velocity")), tr.nodal("velocity", k))
