@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import argparse
 import logging
+import tempfile
 import time
+from pathlib import Path
 
 import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
@@ -114,7 +116,7 @@ def main(argv=None) -> int:
     if args.smoke:  # the code path only: too short to remesh
         args.nodes, args.amplitudes, args.t_end = [162], [6.0], 0.03
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
-    where = _smoke.folder()
+    where = _smoke.folder() if args.smoke else Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
     rows = [
         one(a, n, m, args.t_end, args.min_angle, where) for a in args.amplitudes for n in args.nodes for m in MOTIONS
     ]
