@@ -296,7 +296,7 @@ def _plot(args) -> int:
     from .plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
     from .viz.commands import announce, parse_view
     from .viz.figure import frame_figure
-    from .viz.render import choose_renderer
+    from .viz.render import Renderer, choose_renderer
 
     # the arguments first, so that a typo costs no reading
     figure_format(args.output)
@@ -320,7 +320,10 @@ def _plot(args) -> int:
             )
     frame = args.frame if args.frame is not None else args.time if args.time is not None else -1
     frame = frame_index(ds, frame)  # refused before anything is said or drawn
-    renderer = choose_renderer(args.renderer)
+    if "mesh_id" in ds and args.renderer == "auto":  # the PyVista pictures keep one mesh
+        renderer = Renderer("matplotlib", "a remeshed run (frames on several meshes)")
+    else:
+        renderer = choose_renderer(args.renderer)
     announce(renderer)
     fig = frame_figure(ds, frame, args.color, not args.no_arrows, series, view=view, dpi=args.dpi, renderer=renderer)
     print(save_figure(fig, args.output))

@@ -54,6 +54,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d import art3d  # also registers the "3d" projection
 
 from .errors import CortexError
+from .io.trajectory import frame_mesh
 from .surface.mesh import vertex_normals
 
 __all__ = [
@@ -155,18 +156,19 @@ def node_values(ds, k: int, color: str) -> np.ndarray:
     """The per-node values of the colour quantity ``color`` (a key of :data:`COLORS`) at frame ``k``."""
     if color not in COLORS:
         raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
+    pts, tri = frame_mesh(ds, k)  # a remeshed run's frame: its own nodes and triangles
+    n = pts.shape[0]
     if color == "active_stress":
         _require(ds, ["active_stress"])
-        return np.asarray(ds["active_stress"][k].values, dtype=float)
+        return np.asarray(ds["active_stress"][k].values, dtype=float)[:n]
     _require(ds, ["velocity"])
-    vel = np.asarray(ds["velocity"][k].values, dtype=float)
+    vel = np.asarray(ds["velocity"][k].values, dtype=float)[:n]
     if color == "speed":
         return np.linalg.norm(vel, axis=1)
     if "normal" in ds:  # the solver's normals, stored with each frame
-        normals = np.asarray(ds["normal"][k].values, dtype=float)
+        normals = np.asarray(ds["normal"][k].values, dtype=float)[:n]
     else:
-        pts = np.asarray(ds["points"][k].values, dtype=float)
-        normals = vertex_normals(pts, np.asarray(ds["triangles"].values, dtype=np.int64))
+        normals = vertex_normals(pts, np.asarray(tri, dtype=np.int64))
     return np.einsum("nc,nc->n", vel, normals)
 
 
@@ -248,15 +250,15 @@ def plot_frame(
     if color not in COLORS:
         raise CortexError(f"unknown colour {color!r}; choose one of: {', '.join(COLORS)}")
     k = frame_index(ds, frame)
-    pts = np.asarray(ds["points"][k].values, dtype=float)
-    tri = np.asarray(ds["triangles"].values, dtype=np.int64)
+    pts, tri = frame_mesh(ds, k)
+    tri = np.asarray(tri, dtype=np.int64)
     face_values = node_values(ds, k, color)[tri].mean(axis=1)
     ax = _axes_3d(ax, view)
     surface = _surface(ax, pts, tri, face_values, color, cmap, clim)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre, half = 0.5 * (lo + hi), 0.5 * float(np.max(hi - lo))
     if arrows:
-        _velocity_arrows(ax, pts, tri, np.asarray(ds["velocity"][k].values, dtype=float), half, max_arrows)
+        _velocity_arrows(ax, pts, tri, np.asarray(ds["velocity"][k].values, dtype=float)[: len(pts)], half, max_arrows)
     _frame_axes(ax, centre, half * (1.0 + 2.0 * ARROW_FRACTION if arrows else 1.02))
     if not axes:
         ax.set_axis_off()

@@ -69,6 +69,11 @@ class StabilityGuard:
     _history: list = field(default_factory=list)
     _angle0: float | None = None
 
+    def new_mesh(self, faces: np.ndarray) -> None:
+        """The run remeshed: judge the mesh by its new triangles (against the smallest angle at the
+        start of the run, as before)."""
+        self.faces = faces
+
     def _min_angle(self, points) -> float:
         return mesh_quality(points, self.faces)["min_angle_deg"]
 

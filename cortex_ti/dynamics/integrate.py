@@ -39,6 +39,8 @@ class RunStats:
     wall: float = 0.0
     t: float = 0.0  # the time reached
     stopped: str = "t_end"  # why the run ended: t_end or steady
+    remeshes: int = 0  # remeshings done (mesh.remesh)
+    remesh_wall: float = 0.0  # seconds spent remeshing (the new mesh's set-up included)
 
 
 def integrate(
@@ -56,6 +58,7 @@ def integrate(
     write_first: bool = True,
     implicit: bool = False,
     save_times: tuple[float, ...] = (),
+    remesh=None,
 ) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
@@ -65,6 +68,9 @@ def integrate(
     ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
     resumed run has that frame already), at every multiple of ``save_every`` and at each of
     ``save_times`` (extra frame times, e.g. a figure's) between ``t0`` and ``t_end``.
+    ``remesh(state, t) -> State | None`` is asked after every accepted step: a new state (on a new
+    mesh) replaces the step's, the scheme forgets its history (:meth:`Scheme.restart`) and the
+    guard follows the new triangles; None: the mesh stays.
     """
     stats = RunStats()
     start = _time.perf_counter()
@@ -139,6 +145,15 @@ def integrate(
         guard.check(t + res.dt, res.dt, x.points, res.points, ev, ev.edge_length)
         x, t = res.state, t + res.dt  # the scheme may take a shorter step than offered
         stats.steps += 1
+        if remesh is not None:
+            started = _time.perf_counter()
+            new = remesh(x, t)
+            if new is not None:
+                x = new
+                scheme.restart()
+                guard.new_mesh(new.faces)
+                stats.remeshes += 1
+            stats.remesh_wall += _time.perf_counter() - started
         if scheme.adaptive and res.dt_next is not None:
             # keep the controller's proposal, not the step shortened to reach a frame time
             dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)

@@ -167,6 +167,10 @@ class Scheme:
     def step(self, ev: Evaluation, dt: float) -> StepResult:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def restart(self) -> None:
+        """Forget the history of earlier steps: the mesh changed (a remeshing), so rates and states
+        of earlier steps live on other nodes. A one-step scheme has none."""
+
 
 @register_scheme("euler")
 class Euler(Scheme):
@@ -276,6 +280,12 @@ class AdaptiveEuler(Euler):
             dt = min(dt, dt_next)
         self._prev = (rate, dt)
         return StepResult(advance(ev, dt, ev.rates), dt, err, dt_next=dt_next, solves=0)
+
+    def restart(self) -> None:
+        """The rate history lives on the old nodes: start the accuracy estimate afresh (the learned
+        stability cap stays, a property of the dynamics rather than of the nodes)."""
+        self._prev = None
+        self._change = None
 
 
 def _lagrange_at(times, t):

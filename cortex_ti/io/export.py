@@ -14,6 +14,9 @@ Two formats (:data:`EXPORT_FORMATS`):
 ``pvd``
     ``<stem>.pvd`` and one ``<stem>_<k>.vtu`` per frame (meshio), all named after the run.
 
+A remeshed run's frames each carry their own mesh (in VTKHDF each mesh is a part stored once, the
+steps pointing at theirs; in a PVD series each ``.vtu`` has its frame's mesh).
+
 Point data of every frame: ``velocity`` (3-vector), ``speed`` ``|v|``, ``normal_speed``
 ``v . n`` (n the solver's normal of the frame, :meth:`Trajectory.normals`) and
 ``active_stress``.
@@ -58,13 +61,12 @@ def _frames(path, every: int):
 
 
 def _point_data(tr: Trajectory, k: int) -> dict[str, np.ndarray]:
-    ds = tr.ds
-    vel = np.asarray(ds["velocity"].isel(time=k).values, dtype=float)
+    vel = np.asarray(tr.nodal("velocity", k), dtype=float)
     return {
         "velocity": vel,
         "speed": np.linalg.norm(vel, axis=1),
         "normal_speed": np.einsum("nc,nc->n", vel, tr.normals(k)),
-        "active_stress": np.asarray(ds["active_stress"].isel(time=k).values, dtype=float),
+        "active_stress": np.asarray(tr.nodal("active_stress", k), dtype=float),
     }
 
 
@@ -98,41 +100,53 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
     out = export_path(path, output, "vtkhdf")
     tr, ks, times = _frames(path, every)
     with tr:
-        tri = np.asarray(tr.triangles, dtype=np.int64)
-        n, f, m = tr.ds.sizes["node"], len(tri), len(ks)
+        # the distinct meshes of the exported frames, each stored once as one "part"
+        segment = np.asarray(tr.ds["mesh_id"].values)[ks] if tr.remeshed else np.zeros(len(ks), dtype=np.int64)
+        used = sorted(set(segment.tolist()))
+        part = {s: i for i, s in enumerate(used)}
+        first = [tr.mesh(ks[int(np.argmax(segment == s))]) for s in used]
+        tris = [np.asarray(tri, dtype=np.int64) for _, tri in first]
+        faces = np.array([len(t) for t in tris], dtype=np.int64)
+        nodes = np.array([p.shape[0] for p, _ in first], dtype=np.int64)
+        step_part = np.array([part[s] for s in segment.tolist()], dtype=np.int64)
+        step_nodes = nodes[step_part]
+        point_offsets = np.concatenate([[0], np.cumsum(step_nodes)[:-1]]).astype(np.int64)
+        cell_start = np.concatenate([[0], np.cumsum(faces)[:-1]]).astype(np.int64)
+        m, total = len(ks), int(step_nodes.sum())
         out, tmp = atomic_path(out)
         try:
             with h5py.File(tmp, "w") as h5:
                 root = h5.create_group("VTKHDF")
                 root.attrs["Version"] = np.array(_VTKHDF_VERSION, dtype=np.int64)
                 root.attrs.create("Type", np.bytes_("UnstructuredGrid"))
-                # one part, its sizes and its triangles stored once: every step points at them
-                # (PartOffsets, CellOffsets and ConnectivityIdOffsets 0); the points and the point
-                # data of step j begin at row j * n
-                root["NumberOfPoints"] = np.array([n], dtype=np.int64)
-                root["NumberOfCells"] = np.array([f], dtype=np.int64)
-                root["NumberOfConnectivityIds"] = np.array([3 * f], dtype=np.int64)
-                root["Types"] = np.full(f, VTK_TRIANGLE, dtype=np.uint8)
-                root["Offsets"] = np.arange(0, 3 * f + 1, 3, dtype=np.int64)
-                root["Connectivity"] = tri.reshape(-1)
-                points = root.create_dataset("Points", (m * n, 3), dtype=np.float64)
+                # each mesh is one part, its sizes and triangles stored once; step j points at its
+                # mesh's part (PartOffsets), cells (CellOffsets; its Offsets begin one entry later per
+                # earlier part) and connectivity, and at its own points and point data (PointOffsets)
+                root["NumberOfPoints"] = nodes
+                root["NumberOfCells"] = faces
+                root["NumberOfConnectivityIds"] = 3 * faces
+                root["Types"] = np.full(int(faces.sum()), VTK_TRIANGLE, dtype=np.uint8)
+                root["Offsets"] = np.concatenate([np.arange(0, 3 * f + 1, 3, dtype=np.int64) for f in faces])
+                root["Connectivity"] = np.concatenate([t.reshape(-1) for t in tris])
+                points = root.create_dataset("Points", (total, 3), dtype=np.float64)
                 pdata = root.create_group("PointData")
                 steps = root.create_group("Steps")
                 steps.attrs["NSteps"] = np.int64(m)
                 steps["Values"] = times[ks]
-                steps["PartOffsets"] = np.zeros(m, dtype=np.int64)
+                steps["PartOffsets"] = step_part
                 steps["NumberOfParts"] = np.ones(m, dtype=np.int64)
-                steps["PointOffsets"] = np.arange(m, dtype=np.int64) * n
-                steps["CellOffsets"] = np.zeros((m, 1), dtype=np.int64)
-                steps["ConnectivityIdOffsets"] = np.zeros((m, 1), dtype=np.int64)
+                steps["PointOffsets"] = point_offsets
+                steps["CellOffsets"] = cell_start[step_part][:, None]
+                steps["ConnectivityIdOffsets"] = 3 * cell_start[step_part][:, None]
                 offsets = steps.create_group("PointDataOffsets")
                 for j, k in enumerate(ks):
-                    points[j * n : (j + 1) * n] = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
+                    lo, hi = point_offsets[j], point_offsets[j] + step_nodes[j]
+                    points[lo:hi] = tr.mesh(k)[0]
                     for name, values in _point_data(tr, k).items():
                         if name not in pdata:
-                            pdata.create_dataset(name, (m * n, *values.shape[1:]), dtype=np.float64)
-                            offsets[name] = np.arange(m, dtype=np.int64) * n
-                        pdata[name][j * n : (j + 1) * n] = values
+                            pdata.create_dataset(name, (total, *values.shape[1:]), dtype=np.float64)
+                            offsets[name] = point_offsets
+                        pdata[name][lo:hi] = values
             os.replace(tmp, out)
         finally:
             tmp.unlink(missing_ok=True)
@@ -153,9 +167,9 @@ def export_vtu_series(path, output=None, every: int = 1) -> Path:
     out_dir.mkdir(parents=True, exist_ok=True)
     entries = []
     with tr:
-        tri = np.asarray(tr.triangles, dtype=np.int64)
         for k in ks:
-            pts = np.asarray(tr.ds["points"].isel(time=k).values, dtype=float)
+            pts, tri = tr.mesh(k)
+            tri = tri.astype(np.int64)
             name = f"{pvd.stem}_{k:05d}.vtu"
             tmp = out_dir / f".{name}.tmp.vtu"
             try:

@@ -15,6 +15,17 @@ engine="h5netcdf")`` or :func:`open_trajectory`)::
 
 Every variable carries ``units`` and ``long_name``.
 
+A run that remeshes (``mesh.remesh``) writes each later mesh as a *segment*: the HDF5 group
+``mesh_<k>`` (k = 1, 2, ...) with the same layout (its own ``node``/``face`` dimensions, ``triangles``,
+``time`` and the per-frame variables, its own ``committed_frames``) plus ``reference_points(node, xyz)``
+(the nodes right after the remeshing, what the ALE motion relaxes toward). The root holds segment 0
+unchanged, and its attribute ``mesh_segments`` counts the segments whose first frame is committed
+(absent: one segment). A file without remeshing is the layout above, as before.
+:func:`open_trajectory` and :func:`load_trajectory` give one dataset either way; for several
+segments (:func:`merge_segments`) the node and face dimensions are padded to the largest mesh
+(NaN, triangles -1) and ``mesh_id(time)``, ``n_nodes(mesh)``, ``n_faces(mesh)``,
+``triangles(mesh, face, corner)`` say which mesh each frame has (:func:`frame_mesh`).
+
 Crash safety: frames go to ``<path>.partial`` and are flushed to disk one by
 one, so a killed run leaves a readable partial file of the frames written so
 far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
@@ -70,6 +81,9 @@ __all__ = [
     "committed_frames",
     "COMMIT_ATTR",
     "FIELD_PREFIX",
+    "SEGMENTS_ATTR",
+    "merge_segments",
+    "frame_mesh",
 ]
 
 #: The per-frame variables every trajectory has: name -> (dims, attrs).
@@ -94,6 +108,11 @@ _TIME_CHUNK = 1024
 FIELD_PREFIX = "field_values_"
 #: Global attribute: the number of complete frames (written after each frame's values are on disk).
 COMMIT_ATTR = "committed_frames"
+#: Global attribute: the number of mesh segments (root + groups ``mesh_<k>``) with a committed frame.
+SEGMENTS_ATTR = "mesh_segments"
+#: Group of segment k >= 1.
+SEGMENT_GROUP = "mesh_{}"
+_REFERENCE_ATTRS = {"units": "R0", "long_name": "node positions right after the remeshing (the ALE reference)"}
 #: Room reserved for HDF5's metadata on top of a frame's chunks (object headers, chunk index nodes).
 _METADATA_RESERVE = 1 << 16
 _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
@@ -180,15 +199,27 @@ def _open_h5(file: Path):
         return h5py.File(file, "r")
 
 
+def _segments(h5) -> list:
+    """The committed segments of an open file: ``[(group, committed frames), ...]``, the root first."""
+    count = int(np.asarray(h5.attrs.get(SEGMENTS_ATTR, 1)).reshape(-1)[0])
+    out = [(h5, _committed(h5))]
+    for k in range(1, count):
+        group = h5[SEGMENT_GROUP.format(k)]
+        out.append((group, _committed(group)))
+    return out
+
+
 def committed_frames(path: str | os.PathLike) -> tuple[int, float | None]:
-    """``(number of complete frames, time of the last)`` of a trajectory file (``None``: no frame)."""
+    """``(number of complete frames, time of the last)`` of a trajectory file (``None``: no frame),
+    over all its mesh segments."""
     file = Path(os.fspath(path))
     try:
         with _open_h5(file) as h5:
             if "time" not in h5 or "points" not in h5:
                 raise CortexError(f"'{file}' is not a trajectory (no time and points)")
-            n = _committed(h5)
-            return n, (float(h5["time"][n - 1]) if n else None)
+            segs = [(g, n) for g, n in _segments(h5) if n]
+            total = sum(n for _, n in segs)
+            return total, (float(segs[-1][0]["time"][segs[-1][1] - 1]) if segs else None)
     except (OSError, KeyError, ValueError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
 
@@ -445,7 +476,10 @@ class TrajectoryWriter:
         self._h5: h5py.File | None = None
         self._nc: h5netcdf.File | None = None
         self._h5data: dict | None = None
-        self._n = 0
+        self._n = 0  # frames over all segments
+        self._k = 0  # frames of the current segment
+        self._segment = 0  # the current segment (0: the root)
+        self._pending = None  # (triangles, n_nodes, reference) of a segment to start at the next append
         self._last_t = -math.inf
         self._state = "open"
         self._fd = -1  # a descriptor of the partial file, to reserve space with
@@ -486,10 +520,50 @@ class TrajectoryWriter:
 
     def _open_fd(self) -> None:
         self._fd = os.open(self.partial, os.O_RDWR | os.O_CLOEXEC)
+        self._size_reserve()
+
+    def _size_reserve(self) -> None:
         data = self._datasets()
         self._reserve = _METADATA_RESERVE + sum(
             int(np.prod(d.chunks)) * d.dtype.itemsize for d in data.values() if d.chunks is not None
         )
+
+    @property
+    def _where(self) -> str:
+        """The HDF5 path prefix of the current segment's variables."""
+        return "" if self._segment == 0 else SEGMENT_GROUP.format(self._segment) + "/"
+
+    def _segment_node(self):
+        """The HDF5 object (root or group) of the current segment."""
+        return self._h5 if self._segment == 0 else self._h5[SEGMENT_GROUP.format(self._segment)]
+
+    def _segment_nc(self):
+        return self._nc if self._segment == 0 else self._nc.groups[SEGMENT_GROUP.format(self._segment)]
+
+    def start_segment(self, triangles: np.ndarray, n_nodes: int, reference: np.ndarray | None = None) -> None:
+        """The mesh changed (a remeshing): the next frame starts segment ``mesh_<k>`` with these
+        triangles and node count (``reference``: the ALE reference nodes, default the next frame's
+        points). The segment becomes visible to readers with its first committed frame."""
+        n_nodes = int(n_nodes)
+        ref = None if reference is None else _array("reference_points", reference, (n_nodes, 3))
+        self._pending = (_triangles(triangles, n_nodes), n_nodes, ref)
+
+    def _open_segment(self, points) -> None:
+        """Create the pending segment's group (layout of :func:`_layout`) and write to it from now on."""
+        triangles, n_nodes, ref = self._pending
+        k = self._segment + 1
+        name = SEGMENT_GROUP.format(k)
+        if name in self._h5:  # left over from a segment whose first frame was never committed
+            del self._h5[name]
+        group = self._nc.create_group(name)
+        sizes = {**self._sizes, "node": n_nodes}
+        _layout(group, sizes, triangles, self._variables(), {})
+        var = group.create_variable("reference_points", ("node", "xyz"), "f8", data=points if ref is None else ref)
+        var.attrs.update(_REFERENCE_ATTRS)
+        self._h5[name].attrs[COMMIT_ATTR] = np.int64(0)
+        self._segment, self._k, self._sizes, self._h5data = k, 0, sizes, None
+        self.n_nodes, self.triangles, self._pending = n_nodes, triangles, None
+        self._size_reserve()
 
     def _reopen(self) -> None:
         where = f"cannot resume '{self.partial}'"
@@ -511,12 +585,23 @@ class TrajectoryWriter:
                     f"{where}: {'; '.join(problems)}; pass --force (or delete it) to start over, or "
                     "choose another output"
                 )
-            self._n = _committed(self._h5)
-            if int(nc.dimensions["time"].size) != self._n:  # drop a frame written but not committed
-                nc.resize_dimension("time", self._n)
-            self._h5.attrs[COMMIT_ATTR] = np.int64(self._n)
-            if self._n:
-                self._last_t = float(nc["time"][self._n - 1])
+            segments = _segments(self._h5)
+            for name in [g for g in self._h5 if g.startswith("mesh_") and g[5:].isdigit()]:
+                if int(name[5:]) >= len(segments):  # a segment whose first frame was never committed
+                    del self._h5[name]
+            self._segment = len(segments) - 1
+            self._n = sum(n for _, n in segments)
+            self._k = segments[-1][1]
+            seg_nc = self._segment_nc()
+            if self._segment:
+                self.n_nodes = int(seg_nc.dimensions["node"].size)
+                self.triangles = np.asarray(seg_nc["triangles"][...], dtype=np.int32)
+                self._sizes = {**self._sizes, "node": self.n_nodes}
+            if int(seg_nc.dimensions["time"].size) != self._k:  # drop a frame written but not committed
+                seg_nc.resize_dimension("time", self._k)
+            self._segment_node().attrs[COMMIT_ATTR] = np.int64(self._k)
+            if self._k:
+                self._last_t = float(seg_nc["time"][self._k - 1])
             resumed = nc.attrs.get("resumed", "")
             nc.attrs.update({k: v for k, v in self._attrs.items() if k != "created"})
             nc.attrs["resumed"] = f"{resumed},{_now()}" if resumed else _now()
@@ -545,7 +630,7 @@ class TrajectoryWriter:
         """The HDF5 datasets of the per-frame variables (written directly: h5netcdf's item
         assignment looks up the variable's metadata on every call, 25 ms a frame)."""
         if self._h5data is None:
-            self._h5data = {name: self._h5[name] for name in ["time", *self._variables()]}
+            self._h5data = {name: self._h5[self._where + name] for name in ["time", *self._variables()]}
         return self._h5data
 
     def _flush(self) -> None:
@@ -574,23 +659,30 @@ class TrajectoryWriter:
         t = float(t)
         if not math.isfinite(t) or t <= self._last_t:
             raise ValueError(f"frame time must be finite and increase: got t = {t} after t = {self._last_t}")
-        values = _frame_values(self._sizes, self._extra, points, velocity, active_stress, pressure, extra)
-        k = self._n
+        sizes = self._sizes if self._pending is None else {**self._sizes, "node": self._pending[1]}
+        values = _frame_values(sizes, self._extra, points, velocity, active_stress, pressure, extra)
         with _signals_held():
             try:
+                new_segment = self._pending is not None
+                if new_segment:
+                    self._open_segment(values["points"])
+                k = self._k
                 self._make_room()
-                self._nc.resize_dimension("time", k + 1)
+                self._segment_nc().resize_dimension("time", k + 1)
                 data = self._datasets()
                 for name, value in values.items():
                     data[name][k, ...] = value
                 data["time"][k] = t
                 self._flush()
-                self._h5.attrs.modify(COMMIT_ATTR, np.int64(k + 1))  # last: the frame is complete
+                self._segment_node().attrs.modify(COMMIT_ATTR, np.int64(k + 1))  # last: the frame is complete
+                if new_segment:
+                    self._h5.attrs[SEGMENTS_ATTR] = np.int64(self._segment + 1)
                 self._flush()
             except OSError as exc:
                 self._state = "failed"
-                raise self._write_error(f"writing frame {k} (t = {t:.6g})", exc) from None
-            self._n = k + 1
+                raise self._write_error(f"writing frame {self._n} (t = {t:.6g})", exc) from None
+            self._k = k + 1
+            self._n += 1
             self._last_t = t
 
     def _make_room(self) -> None:
@@ -754,7 +846,15 @@ def open_trajectory(path: str | os.PathLike):
     """
     import xarray as xr  # local import: writing does not need xarray
 
-    return _current_names(xr.open_dataset(_existing(path), engine="h5netcdf"))
+    file = _existing(path)
+    try:
+        with _open_h5(file) as h5:
+            remeshed = "time" in h5 and len(_segments(h5)) > 1
+    except (OSError, KeyError) as exc:
+        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
+    if remeshed:  # several meshes: one merged dataset, in memory
+        return load_trajectory(file)
+    return _current_names(xr.open_dataset(file, engine="h5netcdf"))
 
 
 def load_trajectory(path: str | os.PathLike):
@@ -789,14 +889,59 @@ def load_trajectory(path: str | os.PathLike):
     file = _existing(path)
     try:
         with _open_h5(file) as h5, h5netcdf.File(h5, "r") as nc:
-            n = _committed(h5) if "time" in h5 else None
-            ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc))
-            if n is not None and ds.sizes.get("time", n) != n:
-                ds = ds.isel(time=slice(0, n))
-            ds = ds.load()
+            segments = _segments(h5) if "time" in h5 else [(h5, None)]
+            parts = []
+            for k, (_, n) in enumerate(segments):
+                group = None if k == 0 else SEGMENT_GROUP.format(k)
+                ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc, group=group))
+                if n is not None and ds.sizes.get("time", n) != n:
+                    ds = ds.isel(time=slice(0, n))
+                parts.append(ds.load())
     except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
-    return _current_names(ds)
+    return _current_names(parts[0] if len(parts) == 1 else merge_segments(parts))
+
+
+def merge_segments(parts: list):
+    """One dataset of the segments of a remeshed run (module docstring): frames along ``time``, the
+    ``node`` and ``face`` dimensions padded to the largest mesh (NaN; triangles -1), with
+    ``mesh_id(time)``, ``n_nodes(mesh)``, ``n_faces(mesh)`` and ``triangles(mesh, face, corner)``."""
+    import xarray as xr
+
+    nodes = [p.sizes["node"] for p in parts]
+    faces = [p.sizes["face"] for p in parts]
+    n_max, f_max = max(nodes), max(faces)
+    tri = np.full((len(parts), f_max, 3), -1, dtype=np.int32)
+    frames, mesh_id = [], []
+    for k, p in enumerate(parts):
+        tri[k, : faces[k]] = p["triangles"].values
+        per_frame = p.drop_vars(["triangles", "reference_points"], errors="ignore")
+        per_frame = per_frame[[v for v in per_frame.data_vars if "time" in per_frame[v].dims]]
+        frames.append(per_frame.pad(node=(0, n_max - nodes[k])) if nodes[k] < n_max else per_frame)
+        mesh_id.append(np.full(p.sizes["time"], k, dtype=np.int32))
+    out = xr.concat(frames, dim="time", data_vars="all", coords="minimal", join="outer", combine_attrs="override")
+    constants = parts[0][[v for v in parts[0].data_vars if "time" not in parts[0][v].dims and v != "triangles"]]
+    out = out.assign(
+        mesh_id=("time", np.concatenate(mesh_id), {"units": "1", "long_name": "the mesh segment of each frame"}),
+        n_nodes=("mesh", np.asarray(nodes, dtype=np.int32), {"units": "1", "long_name": "nodes of each mesh"}),
+        n_faces=("mesh", np.asarray(faces, dtype=np.int32), {"units": "1", "long_name": "triangles of each mesh"}),
+        triangles=(("mesh", "face", "corner"), tri, {**_TRIANGLE_ATTRS, "padding": -1}),
+    )
+    for name in constants.data_vars:  # per-node constants of the first mesh (field pattern values)
+        out[name] = constants[name].rename(node="node0")
+    out.attrs = dict(parts[0].attrs)
+    return out
+
+
+def frame_mesh(ds, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(points (N, 3), triangles (F, 3))`` of frame ``k`` of a trajectory dataset, a remeshed run's
+    (:func:`merge_segments`) or one of a fixed mesh."""
+    points = np.asarray(ds["points"].isel(time=k).values, dtype=float)
+    if "mesh_id" not in ds:
+        return points, np.asarray(ds["triangles"].values)
+    m = int(ds["mesh_id"].values[k])
+    n, f = int(ds["n_nodes"].values[m]), int(ds["n_faces"].values[m])
+    return points[:n], np.asarray(ds["triangles"].values[m, :f])
 
 
 def _open_lazily(file: Path):
@@ -807,6 +952,10 @@ def _open_lazily(file: Path):
     h5 = nc = None
     try:
         h5 = _open_h5(file)
+        if "time" in h5 and len(_segments(h5)) > 1:  # a remeshed run: merged in memory
+            h5.close()
+            h5 = None
+            return load_trajectory(file), ()
         n = _committed(h5) if "time" in h5 else None
         nc = h5netcdf.File(h5, "r")
         ds = xr.open_dataset(xr.backends.H5NetCDFStore(nc))
@@ -835,17 +984,28 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
         ``n_frames`` (int), ``time`` (float), ``points`` and ``velocity``
         ((n_nodes, 3) arrays), ``active_stress`` ((n_nodes,) array),
         ``pressure`` (float), ``extra`` (dict name -> value of each extra
-        per-frame variable) and ``path`` (the file read).  With no frames,
-        ``n_frames`` is 0 and the other values are None (``extra`` is empty).
+        per-frame variable), ``path`` (the file read), ``segment`` (the mesh segment of the frame,
+        0 without remeshing), ``triangles`` (its mesh) and ``reference_points`` (the segment's ALE
+        reference; None in segment 0).  With no frames, ``n_frames`` is 0 and the other values are
+        None (``extra`` is empty).
     """
     file = _existing(path)
     try:
         with _open_h5(file) as h5, h5netcdf.File(h5, "r") as nc:
-            n = _committed(h5)
-            out: dict[str, Any] = {"path": file, "n_frames": n}
-            if n == 0:
+            segments = _segments(h5)
+            total = sum(n for _, n in segments)
+            out: dict[str, Any] = {"path": file, "n_frames": total, "segment": len(segments) - 1}
+            if total == 0:
                 out.update(time=None, points=None, velocity=None, active_stress=None, pressure=None, extra={})
+                out.update(triangles=None, reference_points=None)
                 return out
+            n = segments[-1][1]
+            if len(segments) > 1:
+                nc = nc.groups[SEGMENT_GROUP.format(len(segments) - 1)]
+            out["triangles"] = np.asarray(nc["triangles"][...])
+            out["reference_points"] = (
+                np.asarray(nc["reference_points"][...]) if "reference_points" in nc.variables else None
+            )
             out["time"] = float(nc["time"][n - 1])
             for name in FRAME_VARIABLES:
                 out[name] = np.asarray(nc[name][n - 1, ...])
@@ -853,7 +1013,7 @@ def last_frame(path: str | os.PathLike) -> dict[str, Any]:
             out["extra"] = {
                 RENAMED_VARIABLES.get(name, name): np.asarray(var[n - 1, ...])
                 for name, var in nc.variables.items()
-                if name not in _RESERVED and var.dimensions[:1] == ("time",)
+                if name not in _RESERVED and name != "reference_points" and var.dimensions[:1] == ("time",)
             }
             return out
     except (OSError, KeyError, ValueError, RuntimeError) as exc:
@@ -871,6 +1031,9 @@ class ResumeState:
     active_stress: np.ndarray  # (N,) the tension carried by the nodes
     dt: float | None  # the step the integrator was about to take (None if not stored)
     fields: dict = field(default_factory=dict)  # every other (time, node) variable of the frame
+    segment: int = 0  # the mesh segment of the frame (0: the initial mesh)
+    triangles: np.ndarray | None = None  # the frame's mesh
+    reference: np.ndarray | None = None  # the segment's ALE reference nodes (None in segment 0)
 
     @classmethod
     def read(cls, output: str | os.PathLike) -> ResumeState | None:
@@ -892,6 +1055,9 @@ class ResumeState:
             active_stress=np.asarray(last["active_stress"], dtype=float),
             dt=None if dt is None else float(dt),
             fields=nodal,
+            segment=int(last["segment"]),
+            triangles=last["triangles"],
+            reference=last["reference_points"],
         )
 
 
@@ -972,7 +1138,23 @@ class Trajectory:
 
     @property
     def triangles(self) -> np.ndarray:
-        return np.asarray(self.ds["triangles"].values)
+        """The triangles of the first frame's mesh (of every frame's, without remeshing; see
+        :meth:`mesh`)."""
+        return self.mesh(0)[1] if self.remeshed else np.asarray(self.ds["triangles"].values)
+
+    @property
+    def remeshed(self) -> bool:
+        """Whether the frames have more than one mesh (a run that remeshed)."""
+        return "mesh_id" in self.ds
+
+    def mesh(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(points (N, 3), triangles (F, 3))`` of frame ``k`` (:func:`frame_mesh`)."""
+        return frame_mesh(self.ds, k)
+
+    def nodal(self, name: str, k: int) -> np.ndarray:
+        """A per-node variable of frame ``k`` on that frame's nodes (padding dropped)."""
+        values = np.asarray(self.ds[name].isel(time=k).values)
+        return values[: self.mesh(k)[0].shape[0]] if self.remeshed else values
 
     def frame_at(self, t: float) -> int:
         """Index of the frame nearest to time ``t`` (the earlier one on a tie)."""
@@ -983,12 +1165,9 @@ class Trajectory:
         variable runs write); for files written before it existed, the normal of the fitted
         surface is computed again with the file's fit scheme."""
         if "normal" in self.ds:
-            return np.asarray(self.ds["normal"].isel(time=k).values, dtype=float)
-        return _fitted_normals(
-            np.asarray(self.ds["points"].isel(time=k).values, dtype=float),
-            self.triangles,
-            self.ds.attrs.get("fit_scheme", "quadratic"),
-        )
+            return np.asarray(self.nodal("normal", k), dtype=float)
+        points, triangles = self.mesh(k)
+        return _fitted_normals(points, triangles, self.ds.attrs.get("fit_scheme", "quadratic"))
 
 
 def _fitted_normals(points: np.ndarray, triangles: np.ndarray, fit: str) -> np.ndarray:

@@ -34,6 +34,7 @@ def check_rules(data: dict) -> None:
     _check_formulation_keys(data["numerics"])
     _check_translation(data["translation"], effects)
     _check_motion(data)
+    _check_remesh(data)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
 
@@ -82,6 +83,35 @@ def _check_motion(data: dict) -> None:
         raise SceneError(
             "mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
             "(tension_transport = nodes) would move by that rule: set tension_transport: material"
+        )
+
+
+def _check_remesh(data: dict) -> None:
+    """Remeshing (``mesh.remesh.min_angle`` set) needs a 3D run that moves its shape, a repair goal
+    above the trigger and consistent length bounds."""
+    rem = data["mesh"].get("remesh") or {}
+    trigger = rem.get("min_angle")
+    if trigger is None:
+        return
+    if data["model"] != "3d":
+        raise SceneError(
+            f"mesh.remesh.min_angle = {fmt_value(trigger)}: model = {data['model']} has no triangle mesh to "
+            "remesh (it places its own points; see axisymmetric.neck_resolution): remove mesh.remesh"
+        )
+    if "shape_evolution" not in data["effects"]:
+        raise SceneError(
+            f"mesh.remesh.min_angle = {fmt_value(trigger)} needs a moving shape (effect 'shape_evolution'): "
+            "a static scene solves once on its mesh"
+        )
+    if rem["quality"] <= trigger:
+        raise SceneError(
+            f"mesh.remesh.quality = {fmt_value(rem['quality'])} must be above mesh.remesh.min_angle = "
+            f"{fmt_value(trigger)}: a remeshed surface would trigger the next remeshing at once"
+        )
+    if rem.get("h_max") is not None and rem["h_max"] <= rem["h_min"]:
+        raise SceneError(
+            f"mesh.remesh.h_max = {fmt_value(rem['h_max'])} must be larger than mesh.remesh.h_min = "
+            f"{fmt_value(rem['h_min'])}"
         )
 
 

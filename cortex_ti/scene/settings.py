@@ -23,16 +23,27 @@ from ..physics.formulations import FORMULATIONS
 from ..physics.model import Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
+from ..surface.remesh import RemeshOptions
 
 __all__ = [
     "RunSettings",
     "MeshSettings",
+    "RemeshSettings",
     "ViscositySettings",
     "NumericsSettings",
     "SolverSettings",
     "TimeSettings",
     "AxisymmetricSettings",
 ]
+
+
+@dataclass(frozen=True)
+class RemeshSettings:
+    """Remeshing in a run (``mesh.remesh``): below ``min_angle`` (deg) the surface is remeshed
+    with ``options`` (:class:`cortex_ti.surface.remesh.RemeshOptions`)."""
+
+    min_angle: float
+    options: RemeshOptions
 
 
 @dataclass(frozen=True)
@@ -48,6 +59,7 @@ class MeshSettings:
     motion: str = "normal"  # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
     ale_time: float = 0.05  # relaxation time of the ALE mesh velocity (motion: ale)
     relax_start: bool = False  # mend the triangles the initial shear/transform distorts (icosphere only)
+    remesh: RemeshSettings | None = None  # None: never remeshed
 
     def initial_map(self) -> np.ndarray | None:
         """The 3x3 matrix of ``transform`` followed by ``shear`` (None for the identity)."""
@@ -189,6 +201,7 @@ class RunSettings:
                 motion=mesh["motion"],
                 ale_time=float(mesh["ale_time"]),
                 relax_start=bool(mesh["relax_start"]),
+                remesh=_remesh_settings(mesh.get("remesh") or {}),
                 transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform),
             ),
             viscosity=ViscositySettings(*(float(visc[k]) for k in ("shear", "bulk", "bending", "bending_bulk"))),
@@ -280,3 +293,22 @@ class RunSettings:
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
             f"active force {num.active_force}{held}"
         )
+
+
+def _remesh_settings(data: dict) -> RemeshSettings | None:
+    """``mesh.remesh`` resolved: None while its ``min_angle`` is null (off)."""
+    if data.get("min_angle") is None:
+        return None
+
+    def opt(key):
+        return None if data.get(key) is None else float(data[key])
+
+    options = RemeshOptions(
+        edge_angle=float(data["edge_angle"]),
+        h_min=float(data["h_min"]),
+        h_max=opt("h_max"),
+        hausd=opt("hausd"),
+        hgrad=float(data["hgrad"]),
+        quality=float(data["quality"]),
+    )
+    return RemeshSettings(min_angle=float(data["min_angle"]), options=options)

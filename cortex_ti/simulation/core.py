@@ -11,6 +11,8 @@ and writes one frame; it never enters a time loop.
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,18 +22,25 @@ import numpy as np
 from ..dynamics.motion import MESH_MOTIONS, MotionContext
 from ..dynamics.schemes import Evaluation
 from ..dynamics.state import FieldTransport, State
+from ..errors import CortexError
 from ..physics.fields import scene_fields, tension_of
 from ..scene.loader import Scene
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
+from ..surface.remesh import REMESH_EXTRA_HINT, mean_edge_length, min_angles, remesh, remesh_available
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import advective_rate, triangle_gradients
 from .run import run_scene, run_summary
 from .setup import initial_fields, initial_mesh, initial_shape
 
 __all__ = ["Simulation", "Solution"]
+
+log = logging.getLogger(__name__)
+
+#: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
+RETRIGGER = 0.9
 
 
 @dataclass
@@ -88,6 +97,80 @@ class Simulation:
         self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
         self.report = None  # what the last run() did (cortex_ti.simulation.run.RunReport)
+        self.segment = 0  # how many times the mesh was replaced (remeshing)
+        self.on_remesh = None  # called with the new state after a remeshing (the run's writer)
+        rem = self.settings.mesh.remesh
+        self.remesh_options = None
+        self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
+        if rem is not None:
+            if not remesh_available():
+                raise CortexError(f"scene '{self.settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
+            h_max = rem.options.h_max or mean_edge_length(self.mesh.points, self.mesh.faces)
+            self.remesh_options = dataclasses.replace(rem.options, h_max=h_max)
+
+    def use_mesh(self, points: np.ndarray, faces: np.ndarray, reference: np.ndarray | None = None) -> None:
+        """Solve on a new triangulation from now on (a remeshing, or resuming after one): the
+        connectivity, fit stencils and ALE reference triangles (``reference``: the nodes the ALE
+        motion relaxes the triangles toward, default ``points``) follow it, and the solver drops
+        what belonged to the old mesh (its symbolic analysis is redone for the new pattern)."""
+        self.mesh = Mesh(points, faces)
+        self.topology = build_topology(self.mesh)
+        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
+        ref = points if reference is None else reference
+        self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
+        self.solver.new_mesh()
+
+    def continue_segment(self, points, triangles, reference, segment: int) -> None:
+        """Resume on the mesh of segment ``segment`` of a remeshed run: its triangles, its ALE
+        reference (the nodes right after that remeshing) and the trigger it had then."""
+        self.use_mesh(points, triangles, reference)
+        self.segment = segment
+        if self.remesh_below is not None:
+            after = float(min_angles(reference, triangles).min())
+            self.remesh_below = min(self.settings.mesh.remesh.min_angle, RETRIGGER * after)
+
+    def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
+        """The state on a new mesh when its smallest triangle angle fell below
+        ``mesh.remesh.min_angle`` (:func:`cortex_ti.surface.remesh.remesh`: sized by curvature, the
+        volume of ``state`` restored, densities conserving their amount); None otherwise."""
+        rem = self.settings.mesh.remesh
+        if rem is None:
+            return None
+        angle = float(min_angles(state.points, state.faces).min())
+        if angle >= self.remesh_below:
+            return None
+        kinds = {spec.name: spec.kind for spec in self.fields}
+        res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
+        after = float(min_angles(res.points, res.faces).min())
+        log.info(
+            "t = %.4g: smallest angle %.2f deg < %.3g: remeshed %d -> %d nodes (smallest angle %.1f deg, volume "
+            "offset %.2e)",
+            t,
+            angle,
+            self.remesh_below,
+            res.n_before,
+            res.n_after,
+            after,
+            res.offset,
+        )
+        # a new mesh that misses the trigger itself would be remeshed at every step: its own trigger
+        # is then RETRIGGER times its smallest angle (said in the log; the run's min_angle_deg shows it)
+        self.remesh_below = min(rem.min_angle, RETRIGGER * after)
+        if after < rem.min_angle:
+            log.warning(
+                "t = %.4g: the remeshed surface's smallest angle %.1f deg is below mesh.remesh.min_angle = %g; "
+                "this mesh is remeshed below %.3g deg",
+                t,
+                after,
+                rem.min_angle,
+                self.remesh_below,
+            )
+        self.use_mesh(res.points, res.faces)
+        self.segment += 1
+        new = State(self.mesh.points, res.fields, self.mesh.faces)
+        if self.on_remesh is not None:
+            self.on_remesh(new)
+        return new
 
     def _moves(self, spec) -> bool:
         """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""

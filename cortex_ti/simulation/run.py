@@ -284,13 +284,13 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         log.warning(
             "scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name, physical
         )
-    faces, axis = sim.mesh.faces, sim.settings.pattern_axis
+    axis = sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
     stored = stored_fields(sim)
     writer = TrajectoryWriter(
         output,
-        faces,
-        sim.mesh.n_nodes,
+        sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
+        sim.state0.n_nodes,
         output_attrs(sim),
         extra_vars={
             **FRAME_EXTRAS,
@@ -302,7 +302,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     )
 
     def on_frame(t, ev, dt_next, final=False):
-        diag = frame_diagnostics(ev.points, faces, ev.velocity, ev.normal, axis=axis)
+        diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=axis)
         fields = ev.state.fields
         writer.append(
             t,
@@ -322,6 +322,10 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         seen["stats"] = RunStats(t=state.time)
         return RunReport(path=writer.finish(), stats=seen["stats"], stopped="t_end")
     bar = _ProgressBar(t0, st.t_end) if progress else None
+    remesh = None
+    if sim.settings.mesh.remesh is not None:
+        remesh = sim.remesh_state
+        sim.on_remesh = lambda new: writer.start_segment(new.faces, new.n_nodes, new.points)
 
     def watch(t, ev, dt, stats):
         check_interrupted()
@@ -343,10 +347,12 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             progress=watch,
             write_first=state is None,
             implicit=st.implicit_tension,
-            guard=StabilityGuard(faces=faces, zeta=sim.zeta),
+            guard=StabilityGuard(faces=sim.mesh.faces, zeta=sim.zeta),
             save_times=st.save_times,
+            remesh=remesh,
         )
     except BaseException:
+        sim.on_remesh = None
         writer.close_partial()
         if seen.get("stats") is not None and writer.n_frames:
             seen["stats"].t = writer.last_time
@@ -355,6 +361,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         if bar is not None:
             bar.close()
     seen["stats"] = stats
+    sim.on_remesh = None
     path = writer.finish()
     per = {k: v / max(stats.solves, 1) * 1e3 for k, v in sim.seconds.items()}
     log.info(
@@ -391,7 +398,10 @@ def resumed_state(sim: Simulation, resume: ResumeState) -> State:
             fields[spec.name] = np.asarray(resume.active_stress, dtype=float)
         else:
             raise CortexError(f"cannot resume {resume.path}: it holds no values of the field {spec.var!r}")
-    return State(np.asarray(resume.points, dtype=float), fields, sim.mesh.faces)
+    points = np.asarray(resume.points, dtype=float)
+    if resume.segment > 0:  # the run had remeshed: continue on the frame's mesh
+        sim.continue_segment(points, resume.triangles, resume.reference, resume.segment)
+    return State(points, fields, sim.mesh.faces)
 
 
 def run_summary(sim: Simulation) -> dict:
@@ -419,6 +429,13 @@ def run_summary(sim: Simulation) -> dict:
     }
     out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
     out.update(factorizations=sim.solver.n_factorizations, krylov_iterations=sim.solver.n_iterations)
+    if s.mesh.remesh is not None:
+        out.update(
+            remeshes=st.remeshes if st is not None else 0,
+            remesh_seconds=st.remesh_wall if st is not None else 0.0,
+            symbolic_analyses=sim.solver.n_analyses,
+            final_nodes=sim.mesh.n_nodes,
+        )
     return out
 
 

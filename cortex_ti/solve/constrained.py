@@ -291,6 +291,22 @@ class ConstrainedSolver:
     def backend(self) -> str:
         return self.factor_cls.name
 
+    @property
+    def n_analyses(self) -> int:
+        """Symbolic analyses (orderings) the factorisation did: one per sparsity pattern met
+        (None for a backend that does not keep its analysis)."""
+        return getattr(self._factor, "analyses", None)
+
+    def new_mesh(self) -> None:
+        """The mesh changed (a remeshing): drop what belongs to the old one (the factorisation used
+        as preconditioner, the pinned nodes, the earlier solutions). The factorisation object stays:
+        it redoes its symbolic analysis because the sparsity pattern changed, and only then."""
+        self._pre = None
+        self._pin_nodes = None
+        self._last = None
+        self._previous = []
+        self.rule = RefactorRule(self.factor_cls.refactor_cost)
+
     def solve(self, system: System, points: np.ndarray) -> tuple[np.ndarray, float, SolveInfo]:
         """Return velocity unknowns ``x``, pressure ``P`` (0 without it) and diagnostics."""
         t0 = time.perf_counter()

@@ -61,7 +61,8 @@ class Factorization:
 
     ``factorize(a)`` factors a new matrix; backends that can reuse the symbolic
     analysis (ordering, elimination tree) do so while the sparsity pattern is
-    unchanged, which is the case over a whole run because the topology is fixed.
+    unchanged, which is the case over a whole run unless it remeshes (then the analysis is redone
+    once for the new mesh); they count their analyses in ``analyses``.
     """
 
     name = "base"
@@ -133,16 +134,25 @@ class PardisoFactor(Factorization):
             self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None
+        self.analyses = 0  # symbolic analyses (phase 11) done
 
     def factorize(self, a):
         upper = sp.triu(a, format="csr")
         upper.sort_indices()
         dummy = np.zeros(upper.shape[0])
         if not same_pattern(self._pattern, upper):
-            self._solver.set_phase(11)
-            self._solver._call_pardiso(upper, dummy)
-            self._solver.set_iparm(8, 0)  # after phase 11, which fills in the defaults (2 steps)
-            self._pattern = upper
+            inside = embed_in_pattern(self._pattern, upper)
+            if inside is not None:  # entries that are exactly zero now: the analysed pattern holds them
+                upper = inside
+            else:  # analyse the union, so that entries that come and go do not trigger it again
+                if self._pattern is not None and self._pattern.shape != upper.shape:
+                    self._solver.free_memory(everything=True)  # a new mesh: PARDISO starts afresh
+                upper = pattern_union(self._pattern, upper)
+                self.analyses += 1
+                self._solver.set_phase(11)
+                self._solver._call_pardiso(upper, dummy)
+                self._solver.set_iparm(8, 0)  # after phase 11, which fills in the defaults (2 steps)
+                self._pattern = upper
         self._solver.set_phase(22)
         self._solver._call_pardiso(upper, dummy)
         self._a = upper
@@ -181,6 +191,7 @@ class CholmodFactor(Factorization):
     def __init__(self):
         self._factor = None
         self._pattern = None
+        self.analyses = 0  # symbolic analyses done
 
     def factorize(self, a):
         from sksparse.cholmod import analyze
@@ -188,8 +199,16 @@ class CholmodFactor(Factorization):
         a = a.tocsc()
         a.sort_indices()
         if self._factor is None or not same_pattern(self._pattern, a):
-            self._factor = analyze(a, mode="supernodal")
-            self._pattern = a
+            # CSC of a symmetric matrix is the CSR of its transpose: the same keys, transposed
+            inside = embed_in_pattern(None if self._pattern is None else self._pattern.T.tocsr(), a.T.tocsr())
+            if inside is not None:
+                a = inside.T.tocsc()
+            else:
+                a = pattern_union(None if self._pattern is None else self._pattern.T.tocsr(), a.T.tocsr()).T.tocsc()
+                a.sort_indices()
+                self.analyses += 1
+                self._factor = analyze(a, mode="supernodal")
+                self._pattern = a
         self._factor.cholesky_inplace(a)
 
     def solve(self, b):
@@ -226,6 +245,47 @@ def _mkl_runtime() -> str | None:
         if hits:
             return min(hits, key=len)
     return None
+
+
+def _keys(a: sp.csr_matrix) -> np.ndarray:
+    """Row-major linear indices of the stored entries of a canonical CSR matrix (sorted)."""
+    rows = np.repeat(np.arange(a.shape[0], dtype=np.int64), np.diff(a.indptr))
+    return rows * a.shape[1] + a.indices
+
+
+def embed_in_pattern(pattern: sp.csr_matrix | None, a: sp.csr_matrix) -> sp.csr_matrix | None:
+    """``a`` stored on the (larger) sparsity pattern ``pattern``, explicit zeros where ``a`` has no
+    entry; None if ``a`` has an entry outside it. SciPy's sparse products drop entries that come out
+    exactly zero (a symmetric shape gives such zeros), so the pattern of the same mesh's matrix can
+    shrink and grow by a few entries from one solve to the next: a factorisation keeps its symbolic
+    analysis for any matrix that fits the analysed pattern.
+
+    >>> p = sp.csr_matrix(np.array([[1.0, 2.0], [2.0, 3.0]]))
+    >>> embed_in_pattern(p, sp.csr_matrix(np.array([[4.0, 0.0], [0.0, 5.0]]))).nnz
+    4
+    >>> embed_in_pattern(sp.csr_matrix(np.eye(2)), p) is None
+    True
+    """
+    if pattern is None or pattern.shape != a.shape:
+        return None
+    kp, ka = _keys(pattern), _keys(a)
+    pos = np.searchsorted(kp, ka)
+    if pos.size and (pos.max() >= kp.size or not np.array_equal(kp[pos], ka)):
+        return None
+    data = np.zeros(kp.size)
+    data[pos] = a.data
+    return sp.csr_matrix((data, pattern.indices.copy(), pattern.indptr.copy()), shape=a.shape)
+
+
+def pattern_union(pattern: sp.csr_matrix | None, a: sp.csr_matrix) -> sp.csr_matrix:
+    """``a`` stored on the union of its pattern and ``pattern`` (the same shape; else ``a``)."""
+    if pattern is None or pattern.shape != a.shape:
+        return a
+    keys = np.union1d(_keys(pattern), _keys(a))
+    n = a.shape[1]
+    union = sp.csr_matrix((np.ones(keys.size), (keys // n, keys % n)), shape=a.shape)
+    union.sort_indices()
+    return embed_in_pattern(union, a)
 
 
 def same_pattern(old: sp.spmatrix | None, new: sp.spmatrix) -> bool:

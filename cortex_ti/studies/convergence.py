@@ -16,8 +16,8 @@ def run_errors(path) -> dict:
     """eps and eps_rel (paper Eqs. 57, 58) of the first frame of one trajectory file."""
     with Trajectory(path, lazy=True) as tr:
         settings = tr.settings
-        points = tr.ds["points"].isel(time=0).values
-        velocity = tr.ds["velocity"].isel(time=0).values
+        points = tr.mesh(0)[0]
+        velocity = tr.nodal("velocity", 0)
     eps, eps_rel = error_measures(velocity, scene_solution(settings, points))
     return {
         "scene": settings.name,

@@ -154,8 +154,8 @@ def _profiles(path, times: Sequence[float]) -> tuple[float, dict]:
                     float(tt[k]),
                 )
                 continue
-            pts = tr.ds["points"].isel(time=k).values
-            vel = tr.ds["velocity"].isel(time=k).values
+            pts = tr.mesh(k)[0]  # the frame's own nodes (a remeshed run)
+            vel = tr.nodal("velocity", k)
             normals = tr.normals(k)
             vn = np.einsum("nc,nc->n", vel, normals)
             vt = np.linalg.norm(vel - vn[:, None] * normals, axis=1)
@@ -511,8 +511,8 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
             colorbar_below(fig, ax, m, r"$|v| / v_a$", fontsize=7)
             ax.set_title(f"{settings.name}, N = {tr.ds.sizes['node']}", fontsize=8)
             ax.tick_params(labelsize=6)
-            x = tr.ds["points"].isel(time=0).values
-            v = tr.ds["velocity"].isel(time=0).values
+            x = tr.mesh(0)[0]
+            v = tr.nodal("velocity", 0)
             n = tr.normals(0)
         theta = np.arccos(np.clip(x[:, 2] / np.linalg.norm(x, axis=1), -1, 1))
         phi = np.arctan2(x[:, 1], x[:, 0])

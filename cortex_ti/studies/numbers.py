@@ -52,7 +52,7 @@ def _sphere_flows(paths) -> pd.DataFrame:
     rows = []
     for path in paths:
         with Trajectory(path, lazy=True) as tr:
-            x, v = tr.ds["points"].isel(time=0).values, tr.ds["velocity"].isel(time=0).values
+            x, v = tr.mesh(0)[0], tr.nodal("velocity", 0)
             eps, eps_rel = error_measures(v, scene_solution(tr.settings, x))
             rows.append(
                 {
@@ -74,7 +74,7 @@ def _furrow_pictures(runs) -> pd.DataFrame:
     for label, path in runs:
         with Trajectory(path, lazy=True) as tr:
             s = tr.settings
-            x0, v0, n0 = tr.ds["points"].isel(time=0).values, tr.ds["velocity"].isel(time=0).values, tr.normals(0)
+            x0, v0, n0 = tr.mesh(0)[0], tr.nodal("velocity", 0), tr.normals(0)
             ring = s.patterns[0]
             vis = s.viscosity
 

@@ -57,9 +57,9 @@ def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
     """Equatorial radii across and beside the fold's stripe and the fold depth, per frame."""
     ds = tr.ds
     axis = tr.settings.pattern_axis
-    faces = ds["triangles"].values
     on, off = [], []
-    for pts in ds["points"].values:
+    for k in range(ds.sizes["time"]):
+        pts, faces = tr.mesh(k)  # each frame's own mesh (a remeshed run)
         a, b = fold_radii(pts, faces, axis)
         on.append(a)
         off.append(b)

@@ -228,6 +228,11 @@ class PyVistaFrames:
     ):
         import pyvista as pv
 
+        if "mesh_id" in ds:
+            raise CortexError(
+                "pictures and movies of a remeshed run (frames on several meshes) are not drawn yet: "
+                "plot one frame (cortex-ti plot) or export it to ParaView (cortex-ti export)"
+            )
         self.ds, self.frames, self.arrows, self.max_arrows = ds, list(frames), arrows, int(max_arrows)
         self.time_label, self.font_size, self.scalar_bar, self.edges = time_label, font_size, scalar_bar, edges
         self.lighting = lighting

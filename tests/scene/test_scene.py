@@ -205,7 +205,17 @@ def test_defaults_and_canonical_numbers():
         "motion": "normal",
         "ale_time": 0.05,
         "relax_start": False,
+        "remesh": {
+            "min_angle": None,
+            "quality": 30.0,
+            "edge_angle": 0.25,
+            "h_min": 0.01,
+            "h_max": None,
+            "hausd": None,
+            "hgrad": 1.3,
+        },
     }
+    assert scene.settings.mesh.remesh is None  # off by default
     assert scene["viscosity"] == {"shear": 2.0, "bulk": 0.0, "bending": 0.0, "bending_bulk": 0.0}
     assert type(scene["viscosity.shear"]) is float
     assert scene["active_stress"] == [

@@ -1,0 +1,157 @@
+"""Deep furrows with remeshing (mesh.remesh): the ring furrow p = 4 at amplitudes 6 and 12 with the
+mesh moving normally (tension glued to the nodes, the paper's) or by ALE (tension carried by the
+material), each with remeshing below 25 deg, to t = 5 or until the run stops.
+
+Per run: the time reached and why it stopped, the smallest triangle angle over the run, the
+smallest neck (furrow radius), the largest volume drift |V/V0 - 1|, the remeshings, their share
+of the run's wall time, the node count at the end and the symbolic analyses of the factorisation;
+then the neck radius over time against the axisymmetric twin (model: axisymmetric, the same
+scene) while that runs. Usage::
+
+    python benchmarks/remesh.py --nodes 642 2562                  # the table (minutes on 2 cores)
+    python benchmarks/page.py remesh --title "Deep furrows with remeshing" -- remesh --nodes 642 2562
+    python benchmarks/remesh.py --smoke                           # 162 nodes, a few steps
+
+Each run is in this process (its summary holds the remeshing counts); a run the guard stops is a
+row saying so, its frames up to the stop still measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import tempfile
+import time
+from pathlib import Path
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import numpy as np
+
+MOTIONS = {
+    "normal (glued)": [],
+    "ale (material)": ["mesh.motion=ale", "tension_transport=material"],
+}
+TIMES = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
+
+
+def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: float, where) -> dict:
+    from cortex_ti.io.trajectory import Trajectory
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sets = [
+        f"mesh.nodes={nodes}",
+        f"active_stress.0.amplitude={amplitude}",
+        f"time.t_end={t_end}",
+        "time.save_every=0.05",
+        f"mesh.remesh.min_angle={min_angle}",
+        f"mesh.remesh.quality={max(30.0, min_angle + 5.0)}",
+        *MOTIONS[motion],
+    ]
+    sim = Simulation(load_scene("furrow_p4_a1", sets))
+    out = where / f"a{amplitude:g}_{nodes}_{motion.split()[0]}.h5"
+    start = time.perf_counter()
+    why = ""
+    try:
+        sim.run(out, progress=False)
+    except Exception as exc:  # the guard or a failed solve: the frames so far are measured
+        why = str(exc).split(";")[0]
+    wall = time.perf_counter() - start
+    stats = sim.report.stats if sim.report is not None else None
+    tr = Trajectory(out)
+    ds = tr.ds
+    volume = ds["volume"].values
+    return {
+        "amplitude": amplitude,
+        "nodes": nodes,
+        "motion": motion,
+        "t": float(ds["time"].values[-1]),
+        "stopped": sim.report.stopped if sim.report is not None else "?",
+        "why": why,
+        "min_angle": float(np.min(ds["min_angle_deg"].values)),
+        "neck": float(np.min(ds["furrow_radius"].values)),
+        "drift": float(np.max(np.abs(volume / volume[0] - 1.0))),
+        "remeshes": stats.remeshes if stats is not None else 0,
+        "share": (stats.remesh_wall / wall) if stats is not None and wall > 0 else float("nan"),
+        "wall": wall,
+        "final_nodes": sim.mesh.n_nodes,
+        "analyses": sim.solver.n_analyses,
+        "times": ds["time"].values,
+        "furrow": ds["furrow_radius"].values,
+    }
+
+
+def twin(amplitude: float, t_end: float, where) -> dict:
+    """The axisymmetric model of the same scene: its furrow radius over time and why it stopped."""
+    from cortex_ti.io.trajectory import load_trajectory
+    from cortex_ti.models import MODELS
+    from cortex_ti.scene import load_scene
+
+    scene = load_scene(
+        "furrow_p4_a1",
+        ["model=axisymmetric", f"active_stress.0.amplitude={amplitude}", f"time.t_end={t_end}", "time.save_every=0.05"],
+    )
+    runner = MODELS["axisymmetric"].build(scene, "cpu", 1)
+    out = where / f"axisym_a{amplitude:g}.h5"
+    runner.run(out, progress=False)
+    ds = load_trajectory(out)
+    return {"times": ds["time"].values, "furrow": ds["furrow_radius"].values, "stopped": runner.summary()["stopped"]}
+
+
+def at(times, values, t):
+    """The value at the frame nearest ``t`` (NaN past the last frame)."""
+    if t > times[-1] + 1e-9:
+        return float("nan")
+    return float(values[int(np.argmin(np.abs(times - t)))])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
+    ap.add_argument("--amplitudes", type=float, nargs="+", default=[6.0, 12.0])
+    ap.add_argument("--t-end", type=float, default=5.0)
+    ap.add_argument("--min-angle", type=float, default=25.0)
+    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    args = ap.parse_args(argv)
+    if args.smoke:  # the code path only: too short to remesh
+        args.nodes, args.amplitudes, args.t_end = [162], [6.0], 0.03
+    logging.getLogger("cortex_ti").setLevel(logging.ERROR)
+    where = _smoke.folder() if args.smoke else Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
+    rows = [
+        one(a, n, m, args.t_end, args.min_angle, where) for a in args.amplitudes for n in args.nodes for m in MOTIONS
+    ]
+    twins = {a: twin(a, args.t_end, where) for a in args.amplitudes}
+    print(f"# Furrow p = 4 with remeshing below {args.min_angle:g} deg, to t = {args.t_end:g}\n")
+    print(
+        "| amplitude | nodes | motion | t reached | stopped | smallest angle (deg) | smallest neck (R0) | "
+        "volume drift | remeshings | remeshing share of wall | wall (s) | nodes at the end | symbolic analyses |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(
+            f"| {r['amplitude']:g} | {r['nodes']} | {r['motion']} | {r['t']:.3g} | {r['stopped']} | "
+            f"{r['min_angle']:.1f} | {r['neck']:.3f} | {r['drift']:.1e} | {r['remeshes']} | "
+            f"{100 * r['share']:.1f} % | {r['wall']:.0f} | {r['final_nodes']} | {r['analyses']} |"
+        )
+    stops = [r for r in rows if r["why"]]
+    if stops:
+        print("\nWhy runs stopped early:\n")
+        for r in stops:
+            print(f"- amplitude {r['amplitude']:g}, {r['nodes']} nodes, {r['motion']}: {r['why']}")
+    for a in args.amplitudes:
+        tw = twins[a]
+        print(f"\n## Neck radius (R0) over time, amplitude {a:g}\n")
+        print(f"The axisymmetric twin stopped: {tw['stopped']} (at t = {tw['times'][-1]:.3g}).\n")
+        shown = [t for t in TIMES if t <= args.t_end + 1e-9] or [args.t_end]
+        print("| run | " + " | ".join(f"t = {t:g}" for t in shown) + " |")
+        print("|---|" + "---|" * len(shown))
+        for r in (r for r in rows if r["amplitude"] == a):
+            cells = " | ".join(f"{at(r['times'], r['furrow'], t):.4f}" for t in shown)
+            print(f"| {r['nodes']} {r['motion']} | {cells} |")
+        cells = " | ".join(f"{at(tw['times'], tw['furrow'], t):.4f}" for t in shown)
+        print(f"| axisymmetric | {cells} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,154 @@
+"""Remeshing inside a run (mesh.remesh; cortex_ti.simulation.core.Simulation.remesh_state, the
+integrator's hook, the trajectory's segments) against invariants: a state remeshed below the trigger
+keeps its enclosed volume and a density's amount to round-off and is solved on at once; a whole run
+that remeshes keeps the myosin amount to round-off across every remeshing, writes one segment per
+mesh and redoes the factorisation's symbolic analysis once per new mesh; --resume inside a later
+segment continues as the uninterrupted run does (to the solver's tolerance until the next remeshing,
+to the remesher's geometric tolerance after it). Bad remeshing settings: one line, exit 2."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cortex_ti.cli import main
+from cortex_ti.dynamics.state import State
+from cortex_ti.io.trajectory import Trajectory, partial_path
+from cortex_ti.scene import load_scene
+from cortex_ti.simulation import Simulation
+from cortex_ti.surface.remesh import enclosed_volume, min_angles, remesh_available
+from cortex_ti.surface.transport import dual_areas
+from cortex_ti.surface.validation import validate_mesh
+
+EPS = np.finfo(float).eps
+needs_mmg = pytest.mark.skipif(not remesh_available(), reason="mmgpy not installed (the remesh extra)")
+
+#: a 162-node furrow with a myosin density whose angles fall below 40 deg by t = 0.4
+RUN = [
+    "mesh.nodes=162",
+    "active_stress.0.amplitude=6",
+    "mesh.remesh.min_angle=40",
+    "mesh.remesh.quality=45",
+    "mesh.remesh.edge_angle=0.6",
+    "time.save_every=0.1",
+    "tension_transport=material",
+    "fields.myosin.initial=[{type: ring, zeta0: 0.0, amplitude: 0.5}]",
+]
+
+
+def _cli(argv, capsys):
+    rc = main(argv)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+BAD = {
+    "trigger out of range": (["--set", "mesh.remesh.min_angle=50"], ["mesh.remesh.min_angle", "50"]),
+    "negative length": (["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.h_min=-1"], ["mesh.remesh.h_min"]),
+    "grading below one": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.hgrad=0.5"],
+        ["mesh.remesh.hgrad"],
+    ),
+    "quality not above trigger": (
+        ["--set", "mesh.remesh.min_angle=30", "--set", "mesh.remesh.quality=30"],
+        ["mesh.remesh.quality", "above mesh.remesh.min_angle"],
+    ),
+    "h_max below h_min": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.h_max=0.005"],
+        ["mesh.remesh.h_max", "mesh.remesh.h_min"],
+    ),
+    "axisymmetric model": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "model=axisymmetric"],
+        ["model = axisymmetric", "mesh.remesh"],
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_remeshing_settings_are_one_line_exit_2(tmp_path, capsys, case):
+    args, words = BAD[case]
+    out = tmp_path / "out.h5"
+    rc, stdout, stderr = _cli(["run", "furrow_p4_a1", "--set", "mesh.nodes=162", *args, "-o", str(out)], capsys)
+    lines = stderr.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("cortex-ti: error:"), stderr
+    assert "Traceback" not in stderr
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    assert not out.exists() and not partial_path(out).exists()
+
+
+def test_a_static_scene_cannot_remesh(tmp_path, capsys):
+    rc, _, stderr = _cli(
+        ["check", "sphere_y20_full", "--set", "mesh.nodes=162", "--set", "mesh.remesh.min_angle=25"], capsys
+    )
+    assert rc == 2 and "shape_evolution" in stderr and len(stderr.strip().splitlines()) == 1
+
+
+def test_missing_remesher_is_one_line(tmp_path, capsys, monkeypatch):
+    import cortex_ti.simulation.core as core
+
+    monkeypatch.setattr(core, "remesh_available", lambda: False)
+    out = tmp_path / "out.h5"
+    rc, _, stderr = _cli(
+        ["run", "furrow_p4_a1", "--set", "mesh.nodes=162", "--set", "mesh.remesh.min_angle=25", "-o", str(out)], capsys
+    )
+    assert rc == 2 and "cortex-ti[remesh]" in stderr and len(stderr.strip().splitlines()) == 1
+
+
+@needs_mmg
+def test_remesh_state_keeps_volume_and_amount_and_solves():
+    sim = Simulation(load_scene("furrow_p4_a1", [*RUN, "mesh.nodes=642", "time.t_end=0.1"]))
+    s0 = sim.state0
+    assert sim.remesh_state(s0) is None  # the icosphere is far above 40 deg
+    # squeeze the equator (smoothly, resolved by the mesh): angles fall below the trigger
+    p = s0.points.copy()
+    p[:, :2] *= (1.0 - 0.4 * np.exp(-((p[:, 2] / 0.4) ** 2)))[:, None]
+    state = State(p, s0.fields, s0.faces)
+    assert min_angles(p, s0.faces).min() < 40
+    analyses = sim.solver.n_analyses
+    sim.evaluate(state)
+    assert sim.solver.n_analyses == analyses + (analyses == 0)  # same mesh: no new analysis
+    new = sim.remesh_state(state, 0.0)
+    assert new is not None and sim.segment == 1
+    validate_mesh(new.points, new.faces)
+    assert abs(enclosed_volume(new.points, new.faces) / enclosed_volume(p, s0.faces) - 1) < 1e-13
+    before = np.dot(state.fields["myosin"], dual_areas(p, s0.faces))
+    assert abs(np.dot(new.fields["myosin"], dual_areas(new.points, new.faces)) / before - 1) < 50 * EPS
+    before_analyses = sim.solver.n_analyses
+    ev = sim.evaluate(new)
+    assert ev.velocity.shape == new.points.shape and ev.solution.info.relative_residual < 1e-8
+    if before_analyses is not None:
+        assert sim.solver.n_analyses == before_analyses + 1  # the new pattern, once
+
+
+@needs_mmg
+@pytest.mark.slow
+def test_a_remeshing_run_keeps_the_amount_and_resumes(tmp_path):
+    out = tmp_path / "run.h5"
+    sim = Simulation(load_scene("furrow_p4_a1", [*RUN, "time.t_end=1.0"]))
+    sim.run(out, progress=False)
+    summary = sim.summary()
+    assert summary["remeshes"] >= 1 and summary["symbolic_analyses"] in (None, summary["remeshes"] + 3)
+    tr = Trajectory(out)
+    mesh_id = tr.ds["mesh_id"].values
+    assert tr.remeshed and mesh_id[-1] == summary["remeshes"] and np.all(np.diff(mesh_id) >= 0)
+    amounts = []
+    for k in range(tr.ds.sizes["time"]):
+        points, faces = tr.mesh(k)
+        amounts.append(np.dot(tr.nodal("myosin", k), dual_areas(points, faces)))
+    assert np.ptp(amounts) < 100 * EPS * amounts[0]  # transport and remeshing both conserve it
+    # stopped at the first frame of the second mesh, then resumed: the same trajectory
+    t1 = float(tr.ds["time"].values[np.argmax(mesh_id == 1)])
+    assert t1 < 1.0
+    short = tmp_path / "short.h5"
+    Simulation(load_scene("furrow_p4_a1", [*RUN, f"time.t_end={t1}"])).run(short, progress=False)
+    Simulation(load_scene("furrow_p4_a1", [*RUN, "time.t_end=1.0"])).run(short, resume=True, progress=False)
+    a, b = Trajectory(short).ds, tr.ds
+    assert a.sizes["time"] == b.sizes["time"] and np.array_equal(a["mesh_id"].values, mesh_id)
+    same = mesh_id <= 1  # up to the next remeshing: the same computation, up to the solver's tolerance
+    assert np.nanmax(np.abs(a["points"].values[same] - b["points"].values[same])) < 1e-9
+    # a later remeshing is not continuous in its input (MMG's choices): both runs' surfaces lie within
+    # hausd (0.05 h_max) of the one surface, so their diagnostics agree to that
+    hausd = 0.05 * sim.remesh_options.h_max
+    for name in ("furrow_radius", "pole_radius"):
+        assert np.abs(a[name].values - b[name].values).max() < hausd
