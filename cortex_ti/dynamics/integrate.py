@@ -97,6 +97,7 @@ def integrate(
             extra,
             stats,
             start,
+            remesh,
         )
 
     def next_frame(t_now):
@@ -185,10 +186,13 @@ def _integrate_dense(
     extra,
     stats,
     start,
+    remesh=None,
 ) -> RunStats:
     """:func:`integrate` for a scheme that steps on its own and interpolates its frames (module
     docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
-    on the way written from the scheme's ``interpolate``."""
+    on the way written from the scheme's ``interpolate``. A remeshing comes after the frames of
+    the step (interpolated on the mesh they were computed on); the scheme then starts again from a
+    solve on the new mesh, with its one-step start of the first ``dt0``."""
     t, dt = t0, dt0
     eps = 1e-9 * max(save_every, 1e-12)
 
@@ -237,6 +241,20 @@ def _integrate_dense(
         next_save = next_frame(t_new) if next_save <= t_new + eps else next_save
         x, t, ev = res.state, t_new, ev_step
         stats.steps += 1
+        if remesh is not None and not final:
+            started = _time.perf_counter()
+            new = remesh(x, t)
+            if new is not None:
+                x, dt = new, min(dt, dt0)
+                try:
+                    ev = evaluate(x, dt if implicit else 0.0)
+                except SolverError as exc:
+                    raise _which_solve(exc, t, dt, implicit) from None
+                stats.solves += 1
+                scheme.start(t, ev)
+                guard.new_mesh(new.faces)
+                stats.remeshes += 1
+            stats.remesh_wall += _time.perf_counter() - started
     stats.wall = _time.perf_counter() - start
     stats.t = t
     return stats
