@@ -668,8 +668,9 @@ class TrajectoryWriter:
                     self._open_segment(values["points"])
                 k = self._k
                 self._make_room()
-                self._segment_nc().resize_dimension("time", k + 1)
                 data = self._datasets()
+                for dataset in data.values():  # the time dimension's scale and every variable along it
+                    dataset.resize(k + 1, axis=0)  # (h5netcdf's resize_dimension: 7 ms a frame)
                 for name, value in values.items():
                     data[name][k, ...] = value
                 data["time"][k] = t
