@@ -79,6 +79,13 @@ def integrate(
     x = state0 if isinstance(state0, State) else State(np.asarray(state0))
     eps = 1e-9 * max(save_every, 1e-12)
     extra = sorted(float(s) for s in save_times)
+
+    def next_frame(t_now):
+        """The first frame time after ``t_now``: a multiple of ``save_every`` (counted from 0, so
+        a run resumed from an extra frame keeps the same grid) or an extra time."""
+        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
+        return min([regular] + [s for s in extra if s > t_now + eps])
+
     if getattr(scheme, "dense", False):
         return _integrate_dense(
             evaluate,
@@ -94,17 +101,11 @@ def integrate(
             guard,
             write_first,
             implicit,
-            extra,
+            next_frame,
             stats,
             start,
             remesh,
         )
-
-    def next_frame(t_now):
-        """The first frame time after ``t_now``: a multiple of ``save_every`` (counted from 0, so
-        a run resumed from an extra frame keeps the same grid) or an extra time."""
-        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
-        return min([regular] + [s for s in extra if s > t_now + eps])
 
     next_save = next_frame(t0)
 
@@ -183,7 +184,7 @@ def _integrate_dense(
     guard,
     write_first,
     implicit,
-    extra,
+    next_frame,
     stats,
     start,
     remesh=None,
@@ -195,11 +196,6 @@ def _integrate_dense(
     solve on the new mesh, with its one-step start of the first ``dt0``."""
     t, dt = t0, dt0
     eps = 1e-9 * max(save_every, 1e-12)
-
-    def next_frame(t_now):
-        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
-        return min([regular] + [s for s in extra if s > t_now + eps])
-
     try:
         ev = evaluate(x, dt if implicit else 0.0)
     except SolverError as exc:
