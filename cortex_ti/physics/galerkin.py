@@ -103,16 +103,22 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
     With ``G = sum_k v_k g_k^T`` and ``U = (P G + G^T P)/2``: ``|U|^2 = 1/2 sum_km [v_k^T P v_m
     (g_k . g_m) + (g_k . v_m)(g_m . v_k)]`` (the ``g_k`` lie in the plane), ``tr U = sum_k g_k . v_k``,
     so the (k, m) block of ``d^2/dv^2 A [eta_s |U|^2 + (eta_b - eta_s)/2 (tr U)^2]`` is
-    ``A [eta_s (P (g_k . g_m) + g_m g_k^T) + (eta_b - eta_s) g_k g_m^T]``.
+    ``A [eta_s (P (g_k . g_m) + g_m g_k^T) + (eta_b - eta_s) g_k g_m^T]``, written by one Taichi
+    kernel (:mod:`.galerkin_kernel`).
     """
-    proj = np.eye(3)[None] - normal[:, :, None] * normal[:, None, :]  # (T, 3, 3)
-    gg = grads @ grads.transpose(0, 2, 1)  # g_k . g_m
-    outer = grads[:, :, :, None, None] * grads[:, None, None, :, :]  # [t,k,i,m,j] = g_ki g_mj
-    # absurd viscosities (1e308) overflow here; the solver then refuses the matrix in one line
-    with np.errstate(over="ignore", invalid="ignore"):
-        blk = eta_s * (gg[:, :, None, :, None] * proj[:, None, :, None, :] + outer.transpose(0, 3, 2, 1, 4))
-        blk += (eta_b - eta_s) * outer
-        return area[:, None, None] * blk.reshape(-1, 9, 9)
+    from .galerkin_kernel import viscous_blocks_kernel  # starts Taichi
+
+    out = np.empty((len(area), 9, 9))
+    # absurd viscosities (1e308) overflow to inf here; the solver then refuses the matrix in one line
+    viscous_blocks_kernel(
+        np.ascontiguousarray(area, dtype=float),
+        np.ascontiguousarray(normal, dtype=float),
+        np.ascontiguousarray(grads, dtype=float),
+        float(eta_s),
+        float(eta_b),
+        out,
+    )
+    return out
 
 
 def _triangle_form(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray) -> np.ndarray:
