@@ -150,9 +150,18 @@ def normal_blocks(
     geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray, grads: np.ndarray, area: np.ndarray
 ) -> np.ndarray:
     """Per-triangle 9x9 blocks of ``int B^cd d_c v_n d_d v_n dA`` with ``v_n = n_k . v_k`` linear."""
+    from .galerkin_kernel import normal_blocks_kernel  # starts Taichi
+
     bt = _triangle_form(geometry, faces, bform, tnormal)
-    gn = _normal_gradient_rows(geometry, faces, grads)
-    return area[:, None, None] * (gn.transpose(0, 2, 1) @ bt @ gn)
+    out = np.empty((len(area), 9, 9))
+    normal_blocks_kernel(
+        np.ascontiguousarray(area, dtype=float),
+        np.ascontiguousarray(geometry.normal[faces], dtype=float),
+        np.ascontiguousarray(grads, dtype=float),
+        np.ascontiguousarray(bt, dtype=float),
+        out,
+    )
+    return out
 
 
 def normal_form_force(
