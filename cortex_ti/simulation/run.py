@@ -270,7 +270,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     if state is not None:
         t0 = state.time
         if scheme.dense:
-            pass  # a multistep scheme restarts with its one-step start of time.dt (the file holds one state)
+            pass  # a multistep scheme restarts with its Euler start of time.dt (the file holds one state)
         elif scheme.adaptive and state.dt is not None:
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
