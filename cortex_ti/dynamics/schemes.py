@@ -143,6 +143,10 @@ class Scheme:
     dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
     default_tol = 1e-4  # time.tol: null (an adaptive scheme's local error per step, R0)
     default_dt_max = 0.05  # time.dt_max: null
+    #: largest ``dt * lam`` for which a term the scheme treats explicitly, decaying at the rate
+    #: ``lam``, stays stable (its stability interval on the negative real axis): 2 for forward Euler
+    #: and Heun; bdf2 lowers it (the ALE mesh velocity is such a term, :data:`ALE_STIFFEST`)
+    explicit_interval = 2.0
 
     @classmethod
     def resolve_step_control(cls, tol, dt_max) -> tuple[float, float]:
@@ -366,6 +370,9 @@ class BDF2(Scheme):
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
     default_tol = 4e-6  # furrow_p4_a1, 2562 nodes: time error 4.4e-5 in 113 steps (Euler at 5e-3: 4.6e-4)
     default_dt_max = 0.2
+    # extrapolated BDF2 on x' = -lam x (x* = 2 x_n - x_(n-1)): roots of 3/2 r^2 - 2 r + 1/2 = -z (2 r - 1)
+    # stay in the unit disc for 0 <= z = lam dt < 4/3 (docs/derivations/time_schemes.md)
+    explicit_interval = 4.0 / 3.0
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
