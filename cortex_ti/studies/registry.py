@@ -88,8 +88,8 @@ _STUDIES = (
     ),
     Study(
         "accuracy",
-        ("scene", "nodes", "formulation", "fit", "residual", "scheme", "implicit", "dt", "t_end"),
-        "What accuracy costs: one furrow scene over resolutions, fits, time schemes and steps; each run's "
+        ("scene", "nodes", "formulation", "fit", "residual", "scheme", "implicit", "dt", "tol", "t_end"),
+        "What accuracy costs: one furrow scene over resolutions, fits, time schemes, steps and tolerances; each run's "
         "error against the reference and its wall time go into the cost store.",
         failures_are_data=True,
     ),

@@ -23,6 +23,7 @@ implicit     ``time.implicit_tension``          true / false: semi-implicit tens
                                                 is resolved for the row's scheme)
 residual     ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)
 dt           ``time.dt``                        (first) time step, t_a
+tol          ``time.tol``                       local error per step of an adaptive scheme, R0
 t_end        ``time.t_end``                     end time, t_a
 zeta_hat     ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
 p            ``active_stress.0.p``              exponent of Eq. 59
@@ -64,6 +65,7 @@ PARAMETERS: dict[str, str] = {
     "implicit": "time.implicit_tension",
     "residual": "numerics.fit_residual_weight",
     "dt": "time.dt",
+    "tol": "time.tol",
     "t_end": "time.t_end",
     "zeta_hat": "active_stress.0.amplitude",
     "p": "active_stress.0.p",
@@ -124,6 +126,7 @@ def _settings_value(settings, column: str):
         "implicit": ("time", "implicit_tension"),
         "residual": ("numerics", "fit_residual_weight"),
         "dt": ("time", "dt"),
+        "tol": ("time", "tol"),
         "t_end": ("time", "t_end"),
         "gamma": ("mesh", "shear"),
     }[column]
