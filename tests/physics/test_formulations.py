@@ -360,8 +360,9 @@ def test_balanced_force_gauges_differ_by_a_translation_to_second_order():
     """The balanced active force (the default) adds zeta_k P_k dA/dx_k, whose net force and torque
     are O(h^2), not zero: the two translation gauges then differ by a rigid translation plus an
     O(h^2) flow. Measured on the odd pattern of the test above (non-rigid part / max |v|): 4.7e-3,
-    1.28e-3, 3.3e-4 at 162, 642, 2562 nodes (orders 1.89, 1.94). Bound: at least order 1.7 from 162
-    to 642 (ratio > 3.2), and the 642 value within 10 % of the measurement."""
+    1.28e-3, 3.3e-4 at 162, 642, 2562 nodes (orders 1.89, 1.94). Truth: at least order 1.7 from 162
+    to 642 (ratio > 3.2), the order of the net force. Regression check: the 642 value within 10 % of
+    its measurement."""
     odd = [
         "active_stress=[{type: harmonics, terms: [{l: 0, m: 0, coeff: 3.5}, {l: 1, m: 0, coeff: 1.0}, "
         "{l: 2, m: 1, coeff: 1.0}]}]"
