@@ -72,10 +72,14 @@ CONFIGS = {
 }
 
 
-def run_one(scene: str, nodes: int, config: str, t_end: float | None, workdir: Path) -> dict:
-    """One run in a child process: its summary, CPU time and (furrows) radius errors."""
+def run_one(scene: str, nodes: int, config: str, t_end: float | None, workdir: Path, reuse: bool = False) -> dict:
+    """One run in a child process: its summary, CPU time and (furrows) radius errors. A run that
+    fails is a row too (``stopped``: its one-line error; nothing to compare). ``reuse``: take a run
+    kept in ``workdir`` by an earlier call (its wall time from its summary, no CPU time)."""
     out = workdir / f"{scene}_{nodes}_{config}.h5"
     summary = out.with_suffix(".json")
+    if reuse and summary.exists() and (out.exists() or json.loads(summary.read_text()).get("status") != "ok"):
+        return _row(scene, nodes, config, out, json.loads(summary.read_text()), None, float("nan"))
     cmd = [sys.executable, "-m", "cortex_ti", "run", scene, "-o", str(out), "--threads", "1"]
     cmd += ["--summary", str(summary), "--set", f"mesh.nodes={nodes}"]
     for s in CONFIGS[config] + ((f"time.t_end={t_end}",) if t_end is not None else ()):
@@ -87,24 +91,29 @@ def run_one(scene: str, nodes: int, config: str, t_end: float | None, workdir: P
     proc = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=workdir)
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"time_schemes: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
-    s = json.loads(summary.read_text())
+    if not summary.exists():
+        raise SystemExit(f"time_schemes: {' '.join(cmd)} wrote no summary:\n{proc.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return _row(scene, nodes, config, out, json.loads(summary.read_text()), wall, cpu)
+
+
+def _row(scene: str, nodes: int, config: str, out: Path, s: dict, wall: float | None, cpu: float) -> dict:
+    failed = s.get("status") != "ok"
     row = dict(
         scene=scene,
         nodes=nodes,
         config=config,
-        path=out,
-        wall_s=wall,
-        cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
-        steps=s["steps"],
-        rejected=s["rejected"],
-        solves=s["solves"],
-        t_reached=s["t_reached"],
-        stopped=s["stopped"],
+        path=None if failed else out,
+        wall_s=s.get("wall_s", float("nan")) if wall is None else wall,
+        cpu_s=cpu,
+        steps=s.get("steps", 0),
+        rejected=s.get("rejected", 0),
+        solves=s.get("solves", 0),
+        t_reached=s.get("t_reached", float("nan")),
+        stopped=f"failed ({s.get('stopped')})" if failed else s["stopped"],
         err=float("nan"),
     )
-    if scene in AXISYMMETRIC:
+    if scene in AXISYMMETRIC and not failed:
         from cortex_ti.axisymmetric.compare import compare
 
         c = compare(str(out), times=())
@@ -128,7 +137,9 @@ def end_differences(rows: list[dict]) -> None:
         half = by.get((r["scene"], r["nodes"], "euler_half"))
         r["d_euler"] = float("nan")
         r["euler_error"] = float("nan")
-        if base is not None:
+        if r["path"] is None or (half is not None and half["path"] is None):
+            continue
+        if base is not None and base["path"] is not None:
             x = end_points(base["path"])
             r["d_euler"] = float(np.max(np.linalg.norm(end_points(r["path"]) - x, axis=1)))
             if half is not None:
@@ -150,7 +161,8 @@ def table(rows: list[dict], ref: float, t_end: float | None, command: str) -> st
     for r in rows:
         lines.append(
             f"| {r['scene']} | {r['nodes']} | {r['config']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
-            f"{r['wall_s'] / ref:.0f} | {r['steps']} ({r['rejected']}) | {r['solves']} | {r['t_reached']:.4g} | "
+            f"{r['wall_s'] / ref:.0f} | {r['steps']} ({r['rejected']}) | {r['solves']} | {r['t_reached']:.4g}"
+            f"{'' if r['stopped'] in ('t_end', 'steady') else ', ' + r['stopped']} | "
             f"{r['err']:.2e} | {r['d_euler']:.2e} | {r['euler_error']:.2e} |"
         )
     return head + "\n".join(lines).replace("nan", "-") + "\n"
@@ -166,6 +178,7 @@ def main(argv=None) -> int:
     p.add_argument("--write", type=Path, default=None, help="markdown page whose time_schemes block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
     p.add_argument("--block", default="time_schemes", help="name of the page's block to replace (default time_schemes)")
+    p.add_argument("--reuse", action="store_true", help="with --keep: take the runs kept there by an earlier call")
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.t_end, args.scenes = [162], 0.05, ["furrow_p4_a1"]
@@ -177,7 +190,7 @@ def main(argv=None) -> int:
         for n in args.nodes:
             for scene in args.scenes:
                 for config in args.configs:
-                    rows.append(run_one(scene, n, config, args.t_end, work))
+                    rows.append(run_one(scene, n, config, args.t_end, work, args.reuse and args.keep is not None))
                     print(f"{scene} {n} {config}: {rows[-1]['wall_s']:.1f} s", file=sys.stderr, flush=True)
         end_differences(rows)
     command = "python benchmarks/time_schemes.py " + " ".join(argv if argv is not None else sys.argv[1:])
