@@ -610,9 +610,15 @@ def simulate(
     if stop_ill_posed and phys.bending:
         stops["bending"] = lambda y: _bending_margin(phys, sp, y)
     t0 = time.perf_counter()
-    saved, nsteps, nlu, stopped = _integrate(
-        dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF, rtol, atol, interpolate, max_steps, stops
-    )
+    failure = None
+    try:
+        saved, nsteps, nlu, stopped = _integrate(
+            dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF, rtol, atol, interpolate, max_steps, stops
+        )
+    except _Failed as exc:
+        if not exc.saved:
+            raise ValueError(str(exc)) from None
+        (failure, saved, nsteps, nlu), stopped = exc.args, f"failed: {exc.args[0]}"
     stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
     params = dict(
         eta_s=phys.eta_s,
@@ -636,7 +642,26 @@ def simulate(
     )
     out = _result(dyn, saved, R, stats, params)
     out.stopped = stopped
+    if failure is not None:
+        raise StepFailed(failure, out)
     return out
+
+
+class StepFailed(ValueError):
+    """The integrator failed at a step (one-line message); ``result`` holds the frames saved
+    before it (``stopped``: ``'failed: ...'``), so a run can keep them."""
+
+    def __init__(self, message: str, result: SimulationResult):
+        super().__init__(message)
+        self.result = result
+
+
+class _Failed(Exception):
+    """Inside :func:`_integrate`: a step failed; args ``(message, saved, steps, LU factorisations)``."""
+
+    @property
+    def saved(self):
+        return self.args[1]
 
 
 def full_meridian_dynamics(
@@ -798,7 +823,10 @@ def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, s
             raise ValueError(f"integrator start failed at t={t:.6g}: {err}") from None
         while solver.status == "running":
             t_old = solver.t
-            nsteps = _step(solver, nsteps, max_steps)
+            try:
+                nsteps = _step(solver, nsteps, max_steps)
+            except ValueError as err:
+                raise _Failed(str(err), saved, nsteps, nlu + solver.nlu) from None
             hit = [(*_crossing(solver, t_old, f), name) for name, f in stops.items() if f(solver.y) <= 0.0]
             if hit:
                 tc, yc, name = min(hit, key=lambda h: h[0])

@@ -23,13 +23,13 @@ import numpy as np
 
 from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
-from ..errors import CortexError, SceneError
+from ..errors import CortexError, SceneError, SolverError
 from ..io.trajectory import TrajectoryWriter
 from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
-from .evolve import revolve, simulate
+from .evolve import StepFailed, revolve, simulate
 from .myosin import Myosin
 
 log = logging.getLogger(__name__)
@@ -204,6 +204,9 @@ class AxisymmetricRun:
                 myosin=self.myosin,
                 **evolution_options(s),
             )
+        except StepFailed as exc:
+            self.result = exc.result  # its frames are written, then the run fails (run)
+            return exc.result
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         if res.stopped != "t_end":
@@ -233,6 +236,13 @@ class AxisymmetricRun:
             for t, f in frames:
                 writer.append(
                     t, f["points"], f["velocity"], f["zeta"], f["pressure"], **{k: f[k] for k in self._extra_vars()}
+                )
+            failed = self.result is not None and getattr(self.result, "stopped", "").startswith("failed: ")
+            if failed:  # the frames before the failed step are kept, in the partial file
+                kept = writer.close_partial()
+                raise SolverError(
+                    f"scene '{self.settings.name}', axisymmetric model: {self.result.stopped[8:]}; the "
+                    f"{len(frames)} frames to t = {frames[-1][0]:.6g} before it are kept in {kept}"
                 )
         log.info(
             "%s (axisymmetric): %d frames to t = %.4g in %.2f s",

@@ -193,11 +193,11 @@ def _integrate_dense(
     docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
     on the way written from the scheme's ``interpolate``. A remeshing comes after the frames of
     the step (interpolated on the mesh they were computed on); the scheme then starts again from a
-    solve on the new mesh, with its one-step start of the first ``dt0``."""
+    solve on the new mesh, with its Euler start of the first ``dt0``."""
     t, dt = t0, dt0
     eps = 1e-9 * max(save_every, 1e-12)
     try:
-        ev = evaluate(x, dt if implicit else 0.0)
+        ev = evaluate(x, scheme.start_step(dt) if implicit else 0.0)  # the solve the start steps with
     except SolverError as exc:
         raise _which_solve(exc, t, dt, implicit) from None
     stats.solves += 1
@@ -243,7 +243,7 @@ def _integrate_dense(
             if new is not None:
                 x, dt = new, min(dt, dt0)
                 try:
-                    ev = evaluate(x, dt if implicit else 0.0)
+                    ev = evaluate(x, scheme.start_step(dt) if implicit else 0.0)
                 except SolverError as exc:
                     raise _which_solve(exc, t, dt, implicit) from None
                 stats.solves += 1

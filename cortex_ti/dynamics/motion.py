@@ -121,6 +121,36 @@ def conformal_distortion(points: np.ndarray, context: MotionContext, gradient: b
     return energy, g
 
 
+#: the stiffest rate of the ALE mesh velocity is at most ``ALE_STIFFNESS / (tau sin^2 a)``, ``a`` the
+#: smallest angle of the reference triangles and ``tau = mesh.ale_time``: its linearisation (finite
+#: differences of :func:`ale_velocity` at zero material flow) has its most negative eigenvalue at
+#: -2.16 / tau on the 162-node icosphere (a = 54.4 deg; -2.23 / tau at 642 nodes), -2.50, -3.90,
+#: -5.37 and -10.3 / tau on it sheared by 0.35, 0.75, 1.0 and 1.5 (a = 42.8, 33.6, 28.4, 17.8 deg),
+#: -2.78 and -4.59 / tau at 642 nodes sheared by 0.35 and 0.75: independent of the mesh size (the
+#: mobility h^2 / n_i), growing as the triangles distort (tests/dynamics/test_ale_step.py)
+ALE_STIFFNESS = 1.5
+#: the fraction of the stability limit a step may use
+ALE_STEP_FRACTION = 0.9
+
+
+def ale_stiffest_rate(context: MotionContext) -> float:
+    """An upper estimate of the stiffest decay rate of the ALE mesh velocity about its reference
+    triangles (:data:`ALE_STIFFNESS`)."""
+    x = context.reference[context.faces]
+    e = [x[:, (k + 1) % 3] - x[:, k] for k in range(3)]
+    length = [np.linalg.norm(ek, axis=1) for ek in e]
+    sines = [np.linalg.norm(np.cross(-e[k - 1], e[k]), axis=1) / (length[k - 1] * length[k]) for k in range(3)]
+    smallest = float(np.min(sines))  # sin of the smallest angle (all angles of a triangle are < 180)
+    return ALE_STIFFNESS / (context.ale_time * smallest**2)
+
+
+def ale_step_limit(explicit_interval: float, context: MotionContext) -> float:
+    """The largest step with which a scheme whose stability interval on the negative real axis is
+    ``explicit_interval`` (:attr:`cortex_ti.dynamics.schemes.Scheme.explicit_interval`) keeps the
+    ALE mesh velocity about ``context``'s reference triangles stable (with a 10 % margin)."""
+    return ALE_STEP_FRACTION * explicit_interval / ale_stiffest_rate(context)
+
+
 @register_motion(
     "ale",
     "v_n n plus a tangential mesh velocity relaxing the triangles toward their initial "

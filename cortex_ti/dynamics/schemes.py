@@ -143,6 +143,10 @@ class Scheme:
     dt_cap = math.inf  # largest step the scheme accepts (adaptive_euler learns its own)
     default_tol = 1e-4  # time.tol: null (an adaptive scheme's local error per step, R0)
     default_dt_max = 0.05  # time.dt_max: null
+    #: largest ``dt * lam`` for which a term the scheme treats explicitly, decaying at the rate
+    #: ``lam``, stays stable (its stability interval on the negative real axis): 2 for forward Euler
+    #: and Heun; bdf2 lowers it (the ALE mesh velocity is such a term, :data:`ALE_STIFFEST`)
+    explicit_interval = 2.0
 
     @classmethod
     def resolve_step_control(cls, tol, dt_max) -> tuple[float, float]:
@@ -351,8 +355,10 @@ class BDF2(Scheme):
       step is ``h (tol / err)^(1/3)`` (times 0.9, within [0.2, 2] h: ratios below ``1 + sqrt 2``
       keep variable-step BDF2 zero-stable), at most ``dt_max``.
 
-    The first step (and the first after a resume) is one semi-implicit Euler step of ``time.dt``;
-    the second has no third state to estimate against and is no longer than the first.
+    The start (the first steps, after a resume and after a remeshing) is two semi-implicit Euler
+    steps of ``time.dt / 2`` (the second with its own solve), so that every
+    BDF2 step has the three states its error estimate needs: a BDF2 step from two states would
+    extrapolate a fast transient the first Euler step damped back to its full amplitude, unchecked.
     Frames between steps are interpolated (:meth:`interpolate`): positions and fields on the quadratic
     through the last three states, velocities linearly between the steps' solves.
     """
@@ -364,6 +370,9 @@ class BDF2(Scheme):
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
     default_tol = 4e-6  # furrow_p4_a1, 2562 nodes: time error 4.4e-5 in 113 steps (Euler at 5e-3: 4.6e-4)
     default_dt_max = 0.2
+    # extrapolated BDF2 on x' = -lam x (x* = 2 x_n - x_(n-1)): roots of 3/2 r^2 - 2 r + 1/2 = -z (2 r - 1)
+    # stay in the unit disc for 0 <= z = lam dt < 4/3 (docs/derivations/time_schemes.md)
+    explicit_interval = 4.0 / 3.0
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
@@ -382,9 +391,15 @@ class BDF2(Scheme):
         self.history: list = []  # [(t, state, evaluation or None)], oldest first, at most three
 
     def start(self, t: float, ev: Evaluation) -> None:
-        """Forget the past: the next step is the one-step start from ``ev`` (the solve at ``t``)."""
+        """Forget the past: the next two steps are the Euler start from ``ev`` (the solve at ``t``)."""
         state = ev.state if ev.state is not None else State(ev.points)
         self.history = [(t, state, ev)]
+
+    @staticmethod
+    def start_step(dt: float) -> float:
+        """The step of the start's first semi-implicit Euler step when ``dt`` is offered: the solve
+        that starts the scheme is for that step."""
+        return 0.5 * dt
 
     def _solve(self, state: State, gamma: float, rate: np.ndarray) -> Evaluation:
         if self.implicit:
@@ -395,22 +410,30 @@ class BDF2(Scheme):
         if not self.history:
             self.start(0.0, ev)
         t_n, s_n, ev_n = self.history[-1]
-        if len(self.history) == 1:  # the one-step start: semi-implicit Euler with the solve at t_n
+        if len(self.history) == 1:  # the start: semi-implicit Euler with the solve at t_n, half the step
+            dt = self.start_step(dt)
             new = advance(ev_n, dt, ev_n.rates)
             self._accept(t_n + dt, new, None)
             return StepResult(new, dt, float("nan"), dt_next=min(dt, self.dt_max), solves=0)
         t_p, s_p, _ = self.history[-2]
         h_prev = t_n - t_p
         if len(self.history) == 2:
-            dt = min(dt, h_prev)  # no estimate yet: no larger than the start step
+            # the start's second semi-implicit Euler step (as long as the first), with its own solve
+            # at t_n: then every BDF2 step has the three states its error estimate needs
+            # (docs/derivations/time_schemes.md, "Start"; a BDF2 step taken without one extrapolates a
+            # fast transient the first Euler step has damped back at its full amplitude, unchecked)
+            dt = min(dt, h_prev)
+            ev_n = self.evaluate(s_n, dt) if self.implicit else self.evaluate(s_n)
+            new = advance(ev_n, dt, ev_n.rates)
+            self.history[-1] = (t_n, s_n, ev_n)
+            self._accept(t_n + dt, new, None)
+            return StepResult(new, dt, float("nan"), dt_next=min(dt, self.dt_max), solves=1)
         a, b, gamma = bdf2_coefficients(dt, h_prev)
         rate = (s_n.points - s_p.points) / h_prev
         ev_new = self._solve(s_n.extrapolated(s_p, dt / h_prev), gamma, rate)
         new = State.combined([(b, s_p), (a, s_n)], gamma, ev_new.rates, ev_new.transport)
         if not np.all(np.isfinite(new.points)):
             err = math.inf
-        elif len(self.history) == 2:
-            err = float("nan")
         else:
             t_q, s_q, _ = self.history[-3]
             weights = _lagrange_at([t_q, t_p, t_n], t_n + dt)
@@ -434,7 +457,7 @@ class BDF2(Scheme):
 
     @property
     def last_evaluation(self) -> Evaluation:
-        """The solve of the last step (the start's solve after the one-step start)."""
+        """The solve of the last step (during the start: the Euler step's solve, at its beginning)."""
         return next(ev for _, _, ev in reversed(self.history) if ev is not None)
 
     def interpolate(self, t: float) -> Evaluation:
@@ -464,7 +487,8 @@ class BDF2(Scheme):
                     fields[k] = sum(wi * st.fields[k] for wi, st in zip(w, states, strict=True))
         solved = [(ti, ev) for ti, _, ev in self.history if ev is not None]
         (t0, e0), (t1, e1) = (solved[-1], solved[-1]) if len(solved) == 1 else (solved[-2], solved[-1])
-        th = 0.0 if t1 == t0 else (t - t0) / (t1 - t0)
+        # the start's second step has its solve at its beginning: after it, that solve's flow (no extrapolation)
+        th = 0.0 if t1 == t0 else min(1.0, (t - t0) / (t1 - t0))
 
         def lin(a, b):
             return a if a is b else (1.0 - th) * a + th * b

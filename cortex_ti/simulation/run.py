@@ -29,9 +29,18 @@ from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
 from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
+from ..dynamics.motion import ale_step_limit, ale_stiffest_rate
 from ..dynamics.schemes import make_scheme
 from ..dynamics.state import State
-from ..errors import CortexError, Interrupted, SolverError, StabilityError, check_interrupted, interruptible
+from ..errors import (
+    CortexError,
+    Interrupted,
+    SceneError,
+    SolverError,
+    StabilityError,
+    check_interrupted,
+    interruptible,
+)
 from ..io.claim import OutputClaim
 from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
@@ -260,21 +269,46 @@ def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool) ->
         raise
 
 
+def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
+    """With ``mesh.motion: ale``, keep the scheme's steps within the stability limit of the explicit
+    mesh velocity about the current reference triangles (:func:`cortex_ti.dynamics.motion.ale_step_limit`):
+    an adaptive scheme's largest step is capped there, unless the scene asked for a larger
+    ``time.dt_max``, and a fixed step above it is refused, each with one line naming the keys."""
+    s = sim.settings
+    if s.mesh.motion != "ale":
+        return
+    limit = ale_step_limit(scheme.explicit_interval, sim.motion_context)
+    when = "" if t is None else f" (the mesh remeshed at t = {t:.4g})"
+    asked = sim.scene.data["time"].get("dt_max") if scheme.adaptive else s.time.dt
+    if asked is not None and float(asked) > limit:
+        key = "dt_max" if scheme.adaptive else "dt"
+        raise SceneError(
+            f"scene '{s.name}': time.{key} = {float(asked):g} is above the largest step {limit:.3g} with which "
+            f"time.scheme = {s.time.scheme} keeps the ALE mesh velocity stable on this mesh{when} (its stiffest "
+            f"mode decays at up to {ale_stiffest_rate(sim.motion_context):.3g} per t_a, mesh.ale_time = "
+            f"{s.mesh.ale_time:g}): lower time.{key} or raise mesh.ale_time"
+        )
+    if scheme.adaptive:
+        scheme.dt_max = min(scheme.dt_max, limit)
+        scheme.dt_cap = min(scheme.dt_cap, limit)
+
+
 def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
     st = sim.settings.time
     scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
-    start, t0, dt = sim.state0, 0.0, st.dt
+    cap_ale_step(sim, scheme)
+    start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
     if resume:
         extend_finished(output)
     state = ResumeState.read(output) if resume else None
     if state is not None:
         t0 = state.time
         if scheme.dense:
-            pass  # a multistep scheme restarts with its one-step start of time.dt (the file holds one state)
+            pass  # a multistep scheme restarts with its Euler start of time.dt (the file holds one state)
         elif scheme.adaptive and state.dt is not None:
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
-            dt = min(state.dt, st.dt_max)
+            dt = min(state.dt, scheme.dt_max)
         start = resumed_state(sim, state)
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
@@ -324,7 +358,13 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     bar = _ProgressBar(t0, st.t_end) if progress else None
     remesh = None
     if sim.settings.mesh.remesh is not None:
-        remesh = sim.remesh_state
+
+        def remesh(state, t):
+            new = sim.remesh_state(state, t)
+            if new is not None:
+                cap_ale_step(sim, scheme, t)  # the new reference triangles have their own stiffness
+            return new
+
         sim.on_remesh = lambda new: writer.start_segment(new.faces, new.n_nodes, new.points)
 
     def watch(t, ev, dt, stats):

@@ -233,3 +233,27 @@ def test_3d_furrow_converges_to_the_axisymmetric_solution(tmp_path):
     assert errors[642] <= 1.1 * 2.54e-3 and errors[2562] <= 1.1 * 6.36e-4
     assert errors[642] / errors[2562] >= 3.5
     assert pole[642] <= 1.1 * 1.14e-3 and pole[2562] <= 1.1 * 6.15e-4
+
+
+def test_a_failed_step_keeps_the_frames_before_it(tmp_path, capsys, monkeypatch):
+    """A step the integrator cannot take (here made to fail past t = 0.3) ends the run with one
+    line and exit 2, and the frames before it stay in the partial file, as a 3D run's do."""
+    import cortex_ti.axisymmetric.evolve as evolve
+    from cortex_ti.io.trajectory import committed_frames, partial_path
+
+    step = evolve._step
+
+    def failing(solver, nsteps, max_steps):
+        if solver.t > 0.3:
+            raise ValueError(f"integrator step failed at t={solver.t:.6g}: made to fail")
+        return step(solver, nsteps, max_steps)
+
+    monkeypatch.setattr(evolve, "_step", failing)
+    out = tmp_path / "ax.h5"
+    rc = main(["run", "furrow_p4_a1", "-o", str(out), "--set", "model=axisymmetric", "--set", "time.t_end=1"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and "made to fail" in lines[0], lines
+    n, t = committed_frames(partial_path(out))
+    # every frame (one per 0.01) up to the last step that succeeded, which ends past t = 0.3
+    assert not out.exists() and t >= 0.3 and n == round(t / 0.01) + 1
+    assert f"the {n} frames to t = {t:.6g} before it are kept" in lines[0]

@@ -144,11 +144,23 @@ def test_a_remeshing_run_keeps_the_amount_and_resumes(tmp_path):
     Simulation(load_scene("furrow_p4_a1", [*RUN, f"time.t_end={t1}"])).run(short, progress=False)
     Simulation(load_scene("furrow_p4_a1", [*RUN, "time.t_end=1.0"])).run(short, resume=True, progress=False)
     a, b = Trajectory(short).ds, tr.ds
-    assert a.sizes["time"] == b.sizes["time"] and np.array_equal(a["mesh_id"].values, mesh_id)
-    same = mesh_id <= 1  # up to the next remeshing: the same computation, up to the solver's tolerance
-    assert np.nanmax(np.abs(a["points"].values[same] - b["points"].values[same])) < 1e-9
-    # a later remeshing is not continuous in its input (MMG's choices): both runs' surfaces lie within
-    # hausd (0.05 h_max) of the one surface, so their diagnostics agree to that
+    times = b["time"].values
+    assert a.sizes["time"] == b.sizes["time"] and np.array_equal(a["mesh_id"].values[times <= t1], mesh_id[times <= t1])
+    assert np.all(np.diff(a["mesh_id"].values) >= 0)
+    # before t1: the same computation, up to the solver's tolerance
+    before = times < t1
+    assert np.nanmax(np.abs(a["points"].values[before] - b["points"].values[before])) < 1e-9
+    # at t1 the short run's last step lands on t1 where the whole run interpolates between its steps
+    # (bdf2 is dense): the two differ by the scheme's time error of one step, each side's local error
+    # held to time.tol by the error estimate (the interpolant's error is of the same order)
+    tol = sim.settings.time.tol
+    at = times == t1
+    assert np.nanmax(np.abs(a["points"].values[at] - b["points"].values[at])) < 3 * tol
+    # a later remeshing is not continuous in its input (MMG's choices, and the trigger of each new mesh,
+    # 0.9 times its smallest angle): the resumed run restarts the scheme at t1 (bdf2's Euler start) and
+    # differs from the whole run by its time error, so it may remesh at other times, or once more (with
+    # the one-step schemes it is the same computation); both runs' surfaces lie within hausd
+    # (0.05 h_max) of the one surface, so their diagnostics agree to that
     hausd = 0.05 * sim.remesh_options.h_max
     for name in ("furrow_radius", "pole_radius"):
         assert np.abs(a[name].values - b[name].values).max() < hausd
