@@ -19,6 +19,7 @@ import numpy as np
 import scipy.linalg as sla
 from scipy.integrate import BDF, Radau
 
+from . import myosin as _my
 from .balance import (
     ForceBalance,
     ZetaFn,
@@ -29,6 +30,7 @@ from .balance import (
     _is_symmetric,
     _lu,
 )
+from .myosin import Myosin
 from .spectral import Spectral, geometry
 
 __all__ = ["SimulationResult", "simulate", "revolve", "full_meridian_dynamics", "normal_embedding"]
@@ -72,14 +74,19 @@ class _Dynamics:
         relax: float = 1.0,
         carried: bool = False,
         monitor: float = 0.0,
+        myosin: Myosin | None = None,
     ):
         self.sp, self.system, self.zeta_fn, self.mode = sp, system, zeta, mode
+        self.myosin = myosin
         self.n = sp.n
         self.relax = relax
         self.carried = bool(carried)
         self.monitor = float(monitor)
         # the state carries the material label u(sigma) unless the nodes are the tension's points
         self.labelled = mode != "lagrangian" or self.carried
+        # the myosin amount per unit parameter q = c r h follows (r, z) and the labels u
+        self.iq = (3 if self.labelled else 2) * self.n
+        self.poles = _my.pole_rows(sp) if myosin is not None else None
         self.nrhs = 0
         self.njac = 0
         if not self.labelled:
@@ -93,13 +100,17 @@ class _Dynamics:
         if not self.labelled:
             g["zeta"] = self.zeta_nodes
         else:
-            u = y[..., 2 * n :]
+            u = y[..., 2 * n : 3 * n]
             g["u"] = u
             if np.iscomplexobj(u):  # complex step: zeta(u + i d) = zeta(u) + i d zeta'(u)
                 ur = u.real[0] if u.ndim > 1 else u.real
                 g["zeta"] = _eval_zeta(self.zeta_fn, ur) + 1j * u.imag * self.series.derivative(ur)
             else:
                 g["zeta"] = _eval_zeta(self.zeta_fn, u)
+        if self.myosin is not None:
+            g["q"] = y[..., self.iq : self.iq + n]
+            g["c"] = g["q"] / (g["r"] * g["h"])
+            g["zeta"] = g["zeta"] + self.myosin.tension(g["c"])
         return g
 
     def solve(self, y: ArrayF) -> tuple[dict, ArrayF, tuple]:
@@ -155,6 +166,8 @@ class _Dynamics:
             us = 1.0 + (g["u"] - sp.u) @ sp.D["O"].T
             du = (slip / g["h"] * us) @ sp.FO.T
             out.append(du)
+        if self.myosin is not None:
+            out.append(_my.rate(sp, self.myosin, g, x[..., :n], w, self.poles))
         if sp.FR is not None:
             out[0] = out[0] @ sp.FR.T
         return np.concatenate(out, axis=-1)
@@ -207,8 +220,10 @@ class SimulationResult:
     smallest interior local minimum of r; inf without one), ``bending_margin`` (the smallest over
     the nodes of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C``, i = 1, 2: the bending-viscosity
     normal force damps short waves only while it is > 0, derivation Sec. 12; nan without bending
-    viscosity). ``stopped``: ``'t_end'``, or what ended the run early and when (``stop_neck``
-    reached, or the model ill-posed: ``stop_ill_posed``).
+    viscosity). With a myosin field: ``c`` its density at the nodes (c0 units) and
+    ``myosin_total`` the amount ``oint c dA`` (None without). ``stopped``: ``'t_end'``, or what
+    ended the run early and when (``stop_neck`` reached, or the model ill-posed:
+    ``stop_ill_posed``).
     Run statistics: ``wall_time`` (s, integration only), ``n_rhs`` (force-balance solves),
     ``n_steps`` (accepted steps), ``n_jac``, ``n_lu``.
     """
@@ -240,9 +255,12 @@ class SimulationResult:
     n_lu: int
     params: dict
     stopped: str = "t_end"
+    c: ArrayF | None = None
+    myosin_total: ArrayF | None = None
     _states: list = field(repr=False, default_factory=list)
     _spectral: Spectral | None = field(repr=False, default=None)
     _zeta_fn: ZetaFn | None = field(repr=False, default=None)
+    _myosin: Myosin | None = field(repr=False, default=None)
 
     def index(self, t: float) -> int:
         """Index of the saved time closest to ``t``."""
@@ -271,8 +289,8 @@ class SimulationResult:
         proportional to arc length in the arclength one: best for building a surface).
         Returns a dict of arrays: ``label``, ``sigma``, ``r, z`` (position), ``n_r, n_z`` (outward
         unit normal), ``t_r, t_z`` (unit tangent, north -> south), ``v_s, v_n, v_r, v_z``,
-        ``zeta`` (the user's function at the label), ``k1, k2`` principal curvatures (meridional,
-        azimuthal; sphere 1/R).
+        ``zeta`` (the user's function at the label, plus the myosin's tension), ``k1, k2`` principal
+        curvatures (meridional, azimuthal; sphere 1/R); with a myosin field ``c`` its density.
         """
         sp = self._spectral
         st = self._states[i]
@@ -301,6 +319,11 @@ class SimulationResult:
         vs = sp.evaluate("O", st["v_s"], sig)
         vn = sp.evaluate("E", st["v_n"], sig)
         nr, nz = -tz, tr
+        zeta = _eval_zeta(self._zeta_fn, lab)
+        extra = {}
+        if st.get("c") is not None:
+            extra["c"] = sp.evaluate("E", st["c"], sig)
+            zeta = zeta + self._myosin.tension(extra["c"])
         return dict(
             label=lab,
             sigma=sig,
@@ -316,7 +339,8 @@ class SimulationResult:
             v_n=vn,
             v_r=vs * tr + vn * nr,
             v_z=vs * tz + vn * nz,
-            zeta=_eval_zeta(self._zeta_fn, lab),
+            zeta=zeta,
+            **extra,
         )
 
     def surface(self, i: int, n_u: int = 65, n_phi: int = 64, *, coordinate: str = "sigma") -> tuple[ArrayF, ArrayF]:
@@ -389,12 +413,18 @@ def _diagnostics(dyn: _Dynamics, y: ArrayF, g: dict, x: ArrayF, radius: float) -
         u = sp.u.copy()
         us = np.ones(n)
     else:
-        u = y[2 * n :].copy()
+        u = y[2 * n : 3 * n].copy()
         us = 1.0 + (u - sp.u) @ sp.D["O"].T
     mat = g["h"] / us / radius  # material line element |dX/du| / R0
     margin = _bending_margin(system.ph, sp, y) if system.ph.bending else float("nan")
     stretch = float(mat.max() / mat.min()) if np.all(us > 0) else float("inf")  # inf: label map folded
+    if dyn.myosin is not None:
+        c, total = np.asarray(g["c"]), 2 * np.pi * float(sp.wR @ g["q"])
+    else:
+        c, total = None, float("nan")
     return dict(
+        c=c,
+        myosin_total=total,
         u=u,
         r=g["r"],
         z=z,
@@ -466,6 +496,7 @@ def simulate(
     monitor: float = 0.0,
     stop_neck: float | None = None,
     stop_ill_posed: bool = True,
+    myosin: Myosin | None = None,
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -522,6 +553,10 @@ def simulate(
         eta_bar) C`` (i = 1, 2) falls to 0 at a node: past it the bending-viscosity normal force
         amplifies short waves instead of damping them and the model has no converged solution
         (derivation, Sec. 12). Off, the run goes on until the integrator fails.
+    myosin : Myosin or None
+        A myosin density carried by the full velocity, diffusing and turning over, whose tension
+        ``zeta(c)`` adds to ``zeta`` (:mod:`cortex_ti.axisymmetric.myosin`); the up-down symmetry
+        is used only if its initial density has it too.
 
     Returns
     -------
@@ -547,8 +582,10 @@ def simulate(
     if stop_neck is not None and not (isinstance(stop_neck, (int, float)) and 0 < stop_neck < radius):
         raise ValueError(f"stop_neck must lie in (0, radius), got {stop_neck!r}")
     _eval_zeta(zeta, np.linspace(0.0, np.pi, 7))
+    if myosin is not None and not isinstance(myosin, Myosin):
+        raise ValueError(f"myosin must be a Myosin or None, got {type(myosin).__name__}")
     if symmetric is None:
-        symmetric = _is_symmetric(zeta)
+        symmetric = _is_symmetric(zeta) and (myosin is None or myosin.symmetric())
     if parametrization == "auto":
         parametrization = "lagrangian" if symmetric else "arclength"
     if monitor and parametrization != "arclength":
@@ -561,8 +598,11 @@ def simulate(
         parametrization,
         carried=tension == "material",
         monitor=monitor,
+        myosin=myosin,
     )
     y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if dyn.labelled else [])
+    if myosin is not None:  # q = c r h on the sphere (h = R)
+        y0.append(myosin.density(sp.u) * R * np.sin(sp.u) * R)
     y0 = np.concatenate(y0)  # on the sphere the monitor is uniform: the nodes start equidistributed
     stops = {}
     if stop_neck is not None:
@@ -598,6 +638,7 @@ def simulate(
         monitor=monitor,
         stop_neck=stop_neck,
         stop_ill_posed=stop_ill_posed,
+        myosin=None if myosin is None else {k: v for k, v in vars(myosin).items() if k != "initial"},
     )
     out = _result(dyn, saved, R, stats, params)
     out.stopped = stopped
@@ -635,19 +676,27 @@ def full_meridian_dynamics(
     gauge: str = "velocity",
     cls: type | None = None,
     tension: str = "nodes",
+    myosin: Myosin | None = None,
 ) -> _Dynamics:
     """The shape dynamics of ``simulate(..., symmetric=False, parametrization='lagrangian')``:
     points at ``n`` labels on the whole meridian moving with ``v_n n``, state ``y = (r, z)``
     (``tension='material'``: ``y = (r, z, u)``, ``u`` the material label at each point, initially
     the point's polar angle); its ``rhs(t, y)`` and exact Jacobian ``jac(t, y)`` linearise the
     dynamics about any state (e.g. a saved frame), without the up-down reduction, so modes odd
-    under z -> -z are seen. ``cls``: a subclass of the dynamics to build instead (for experiments)."""
+    under z -> -z are seen. ``cls``: a subclass of the dynamics to build instead (for experiments).
+    ``myosin``: the state ends with the myosin amount per unit parameter ``q = c r h``
+    (:mod:`cortex_ti.axisymmetric.myosin`; on the sphere of radius R, ``q = c R^2 sin(sigma)``)."""
     phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
     sp = Spectral(_check_n(n), False)
     if tension not in ("nodes", "material"):
         raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
     return (cls or _Dynamics)(
-        sp, ForceBalance(sp, phys, _check_gauge(gauge)), zeta, "lagrangian", carried=tension == "material"
+        sp,
+        ForceBalance(sp, phys, _check_gauge(gauge)),
+        zeta,
+        "lagrangian",
+        carried=tension == "material",
+        myosin=myosin,
     )
 
 
@@ -833,7 +882,7 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
     for _, ys in saved:
         g, x, _ = dyn.solve(ys)
         d = _diagnostics(dyn, ys, g, x, R)
-        states.append(dict(r=d["r"], z=d["z"], v_s=d["v_s"], v_n=d["v_n"], u=None if lagrangian else d["u"]))
+        states.append(dict(r=d["r"], z=d["z"], v_s=d["v_s"], v_n=d["v_n"], u=None if lagrangian else d["u"], c=d["c"]))
         diags.append(d)
 
     def stack(key, parity, shift=0.0):
@@ -863,9 +912,12 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         grid_stretch=series("grid_stretch"),
         neck_radius=series("neck_radius"),
         bending_margin=series("bending_margin"),
+        c=stack("c", 1) if dyn.myosin is not None else None,
+        myosin_total=series("myosin_total") if dyn.myosin is not None else None,
         **stats,
         params=params,
         _states=states,
         _spectral=sp,
         _zeta_fn=dyn.zeta_fn,
+        _myosin=dyn.myosin,
     )

@@ -30,10 +30,18 @@ from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
 from .evolve import StepFailed, revolve, simulate
+from .myosin import Myosin
 
 log = logging.getLogger(__name__)
 
-__all__ = ["axisymmetric_tension", "viscosities", "evolution_options", "AxisymmetricRun", "MERIDIAN_VARIABLES"]
+__all__ = [
+    "axisymmetric_tension",
+    "axisymmetric_myosin",
+    "viscosities",
+    "evolution_options",
+    "AxisymmetricRun",
+    "MERIDIAN_VARIABLES",
+]
 
 #: The meridian arrays of an axisymmetric trajectory (dims: time, meridian).
 MERIDIAN_VARIABLES = {
@@ -48,13 +56,52 @@ MERIDIAN_VARIABLES = {
     "meridian_v_n": {"units": "R0/t_a", "long_name": "normal velocity (outward)"},
     "meridian_zeta": {"units": "zeta_0", "long_name": "active tension"},
 }
+#: With ``fields.myosin``: its density along the meridian and at the points (the 3D variable).
+MYOSIN_VARIABLES = {
+    "meridian_myosin": (("time", "meridian"), {"units": "c0 units", "long_name": "myosin density along the meridian"}),
+    "myosin": (
+        ("time", "node"),
+        {
+            "units": "c0 units (amount per R0^2)",
+            "long_name": "myosin density: conserved, carried by the full velocity, diffusing, turning over",
+        },
+    ),
+    "myosin_total": (("time",), {"units": "c0 R0^2", "long_name": "total myosin, oint c dA (spectral quadrature)"}),
+}
 _EXACT = ("pole_radius", "furrow_radius", "volume", "area")
 
 
 def axisymmetric_tension(settings: RunSettings):
     """The scene's active tension as a function of the polar angle on its initial sphere,
     ``zeta(theta0)`` (vectorised); a python pattern that varies about z is refused here, naming it."""
-    radius, patterns = settings.mesh.radius, list(settings.patterns)
+    return _of_polar_angle(settings, list(settings.patterns), "active_stress")
+
+
+def axisymmetric_myosin(settings: RunSettings) -> Myosin | None:
+    """The scene's ``fields.myosin`` for the meridian solver (None without it): its initial
+    density ``c0 +`` the patterns of ``fields.myosin.initial`` as a function of the polar angle,
+    refused (naming it) if one varies about z."""
+    f = settings.field("myosin")
+    if f is None:
+        return None
+    extra = _of_polar_angle(settings, list(f["initial"]), "fields.myosin.initial")
+    c0 = float(f["c0"])
+    t = f["tension"]
+    return Myosin(
+        c0=c0,
+        diffusion=float(f["diffusion"]),
+        turnover=float(f["turnover"]),
+        law=t["law"],
+        zeta0=float(t["zeta0"]),
+        gamma=float(t["gamma"]),
+        initial=lambda th: c0 + extra(th),
+    )
+
+
+def _of_polar_angle(settings: RunSettings, patterns: list, where: str):
+    """The sum of ``patterns`` on the initial sphere as a function of the polar angle (vectorised),
+    checked not to vary about z at 11 azimuths."""
+    radius = settings.mesh.radius
     if not patterns:
         return lambda theta: np.zeros(np.shape(theta))
 
@@ -69,7 +116,7 @@ def axisymmetric_tension(settings: RunSettings):
     for phi in np.linspace(0.0, 2.0 * np.pi, 13)[1:-1]:
         dev = float(np.max(np.abs(at(theta, phi) - ref)))
         if dev > 1e-10 * scale:
-            which = ", ".join(f"active_stress.{i} ({p['type']})" for i, p in enumerate(patterns))
+            which = ", ".join(f"{where}.{i} ({p['type']})" for i, p in enumerate(patterns))
             raise SceneError(
                 f"scene '{settings.name}': model = axisymmetric needs a tension that does not vary about "
                 f"the z axis, but {which} changes by {dev:.3g} between azimuths 0 and {phi:.3g} rad"
@@ -109,6 +156,7 @@ class AxisymmetricRun:
         self.scene = scene
         self.settings = scene.settings
         self.zeta = axisymmetric_tension(self.settings)
+        self.myosin = axisymmetric_myosin(self.settings)
         self.result = None
         self.seconds = 0.0
 
@@ -116,9 +164,15 @@ class AxisymmetricRun:
     def solve(self):
         """The static flow on the initial sphere (:class:`~cortex_ti.axisymmetric.balance.StaticResult`)."""
         s = self.settings
+        zeta, my = self.zeta, self.myosin
+        if my is not None:  # the tension of the initial density on the sphere
+
+            def zeta(th, base=self.zeta):
+                return base(th) + my.tension(my.density(th))
+
         try:
             return static_flow(
-                self.zeta,
+                zeta,
                 **viscosities(s),
                 radius=s.mesh.radius,
                 n=2 * s.axisymmetric.n,
@@ -147,6 +201,7 @@ class AxisymmetricRun:
                 rtol=s.axisymmetric.rtol,
                 interpolate=True,
                 gauge=GAUGES[s.translation],
+                myosin=self.myosin,
                 **evolution_options(s),
             )
         except StepFailed as exc:
@@ -240,6 +295,8 @@ class AxisymmetricRun:
         out = {"normal": (("time", "node", "xyz"), {"units": "1", "long_name": "outward unit normal at the nodes"})}
         out.update({k: (("time",), v) for k, v in DIAGNOSTIC_ATTRS.items()})
         out.update({k: (("time", "meridian"), v) for k, v in MERIDIAN_VARIABLES.items()})
+        if self.myosin is not None:
+            out.update(MYOSIN_VARIABLES)
         if self.settings.dynamic:
             out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
         return out
@@ -262,6 +319,9 @@ class AxisymmetricRun:
             v_z=at["v_z"],
             zeta=self.zeta(theta),
         )
+        if self.myosin is not None:
+            e["c"] = self.myosin.density(theta)
+            e["zeta"] = e["zeta"] + self.myosin.tension(e["c"])
         pressure = res.P if s.has("incompressibility") else float("nan")
         exact = {
             "pole_radius": s.mesh.radius,
@@ -269,6 +329,9 @@ class AxisymmetricRun:
             "volume": 4.0 / 3.0 * np.pi * s.mesh.radius**3,
             "area": 4.0 * np.pi * s.mesh.radius**2,
         }
+        if self.myosin is not None:  # oint c dA on the sphere (Gauss-Legendre in cos(theta))
+            x, w = np.polynomial.legendre.leggauss(256)
+            exact["myosin_total"] = float(2 * np.pi * s.mesh.radius**2 * (w @ self.myosin.density(np.arccos(x))))
         yield 0.0, self._frame(e, pressure, exact, dt=None)
 
     def _dynamic_frames(self):
@@ -283,6 +346,8 @@ class AxisymmetricRun:
             e = res.evaluate(i, labels, coordinate=coordinate)
             pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
             exact = {k: float(getattr(res, k)[i]) for k in _EXACT}
+            if res.myosin_total is not None:
+                exact["myosin_total"] = float(res.myosin_total[i])
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
             yield float(t), self._frame(e, pressure, exact, dt=dt)
 
@@ -314,6 +379,7 @@ class AxisymmetricRun:
             meridian_v_s=e["v_s"],
             meridian_v_n=e["v_n"],
             meridian_zeta=e["zeta"],
+            **({"meridian_myosin": e["c"], "myosin": e["c"][j]} if "c" in e else {}),
             **diag,
         )
         if dt is not None:

@@ -76,9 +76,9 @@ def _check_motion(data: dict) -> None:
             "'active_stress' (add it to effects; active_stress: [] adds no prescribed pattern)"
         )
     if data["fields"] and data["model"] == "axisymmetric":
-        raise SceneError(
-            f"model = axisymmetric does not carry fields yet (fields.{next(iter(data['fields']))}): use model: 3d"
-        )
+        other = [name for name in data["fields"] if name != "myosin"]
+        if other:
+            raise SceneError(f"model = axisymmetric carries only fields.myosin, not fields.{other[0]}: use model: 3d")
     if motion == "ale" and data["tension_transport"] == "nodes" and data["active_stress"]:
         raise SceneError(
             "mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
@@ -274,28 +274,42 @@ def _check_axisymmetric(data: dict) -> None:
         )
     if mesh["transform"] is not None:
         raise SceneError(f"{why}: mesh.transform deforms the initial sphere (remove it or use model: 3d)")
-    for i, pattern in enumerate(data["active_stress"]):
+    myosin = (data["fields"] or {}).get("myosin")
+    if myosin is not None and (myosin.get("noise") or {}).get("amplitude", 0.0) > 0:
+        raise SceneError(
+            f"{why}: fields.myosin.noise draws an independent number at every node of a 3D mesh, which "
+            "varies about z (set fields.myosin.noise.amplitude: 0, or use model: 3d)"
+        )
+    _check_axisymmetric_patterns(data["active_stress"], "active_stress", why)
+    if myosin is not None:
+        _check_axisymmetric_patterns(myosin.get("initial") or [], "fields.myosin.initial", why)
+
+
+def _check_axisymmetric_patterns(patterns: list, where: str, why: str) -> None:
+    """The patterns under ``where`` (``active_stress``, ``fields.myosin.initial``) must not vary
+    about z; the first that does is named."""
+    for i, pattern in enumerate(patterns):
         kind = pattern["type"]
         if kind == "field":
             raise SceneError(
-                f"{why}: active_stress.{i} is a field pattern, whose values exist only at the nodes of a "
+                f"{why}: {where}.{i} is a field pattern, whose values exist only at the nodes of a "
                 "3D mesh (write the tension as a python pattern of the polar angle, or use model: 3d)"
             )
         if kind == "fold" and pattern["sigma_phi"] != 0:
             raise SceneError(
-                f"{why}: active_stress.{i} is a fold pattern, which varies about its axis "
+                f"{why}: {where}.{i} is a fold pattern, which varies about its axis "
                 f"(sigma_phi = {fmt_value(pattern['sigma_phi'])})"
             )
         if kind == "harmonics":
             for j, term in enumerate(pattern["terms"]):
                 if term["m"] != 0 and term["coeff"] != 0:
                     raise SceneError(
-                        f"{why}: active_stress.{i}.terms.{j} has m = {term['m']}, which varies about z "
+                        f"{why}: {where}.{i}.terms.{j} has m = {term['m']}, which varies about z "
                         "(only m = 0 harmonics are axisymmetric)"
                     )
         axis = pattern.get("axis")
         if axis is not None and (axis[0] != 0 or axis[1] != 0):
             raise SceneError(
-                f"{why}: active_stress.{i}.axis = {axis} is not the z axis (rotate the scene so that "
+                f"{why}: {where}.{i}.axis = {axis} is not the z axis (rotate the scene so that "
                 "the pattern's axis is [0, 0, 1], or use model: 3d)"
             )

@@ -429,7 +429,8 @@ def test_myosin_total_is_kept_and_turns_over_as_dM_dt_says(tmp_path, turnover):
 
 
 def test_myosin_bad_input_is_one_line(tmp_path):
-    """A negative diffusion, and a myosin field under the axisymmetric model, are refused naming the key."""
+    """A negative diffusion, and a myosin noise under the axisymmetric model (it varies about z), are
+    refused naming the key."""
     import subprocess
     import sys
 
@@ -438,8 +439,18 @@ def test_myosin_bad_input_is_one_line(tmp_path):
     assert out.returncode == 2 and "fields.myosin.diffusion" in out.stderr and "Traceback" not in out.stderr
     ok = _myosin_scene(tmp_path)
     out = subprocess.run(
-        [sys.executable, "-m", "cortex_ti.cli", "check", str(ok), "--set", "model=axisymmetric"],
+        [
+            sys.executable,
+            "-m",
+            "cortex_ti.cli",
+            "check",
+            str(ok),
+            "--set",
+            "model=axisymmetric",
+            "--set",
+            "fields.myosin.noise.amplitude=0.01",
+        ],
         capture_output=True,
         text=True,
     )
-    assert out.returncode == 2 and "does not carry fields" in out.stderr
+    assert out.returncode == 2 and "fields.myosin.noise" in out.stderr and len(out.stderr.strip().splitlines()) == 1
