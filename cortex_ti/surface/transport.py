@@ -17,9 +17,16 @@ Two kinds of field:
   divergence, so a uniform ``q`` stays uniform exactly.
 
 ``F_ab`` is the exact flux of the linearly interpolated ``u`` through the dual edge (its midpoint
-rule is exact for a linear integrand). ``c_ab`` is the upwind value reconstructed linearly from the
-upwind node's gradient and limited to lie between ``c_a`` and ``c_b`` (second order where the
-field is smooth, bounded at extrema, so no new minima or maxima appear). Surface diffusion and
+rule is exact for a linear integrand). ``c_ab`` is the upwind node's value extrapolated with its
+gradient to the midpoint of the edge ``ab`` and limited to lie between the upwind value and the
+edge average ``(c_a + c_b)/2``: second order where the field is smooth (the extrapolation is the
+average up to O(h^2)), first order at extrema, and never beyond the average towards the downwind
+value. That bound is what makes the scheme stable: a face value ``c_ab = c_a + theta (c_b - c_a)``
+(``a`` upwind) adds ``-F_ab (1/2 - theta) (c_b - c_a)^2`` to the energy ``(1/2) sum A q^2`` of a
+property beyond the flow's own compression ``(1/2) sum A div_h(u) q^2``, so ``theta <= 1/2`` only
+dissipates, whereas the downwind value (``theta = 1``, what a clip to ``[c_a, c_b]`` allows) is a
+downwind difference with growing linearisations (docs/derivations/transport.md, "Energy").
+Surface diffusion and
 linear turnover are implicit in the step (:func:`implicit_diffusion_reaction`): the cotangent
 Laplacian with the dual areas as lumped mass, so the diffusive time ``h^2/D`` never limits it.
 Everything here is vectorised numpy on arrays (pure functions of points, faces and velocities).
@@ -137,13 +144,17 @@ def dual_fluxes(points: np.ndarray, faces: np.ndarray, u: np.ndarray, tri=None) 
 def _face_values(
     values: np.ndarray, grad: np.ndarray, points: np.ndarray, faces: np.ndarray, flux: np.ndarray, mids: np.ndarray
 ) -> np.ndarray:
-    """Upwind values at the dual edges, reconstructed linearly and limited between the two nodes."""
+    """Upwind values at the dual edges: the upwind node's value extrapolated with its gradient to the
+    midpoint of the edge, limited to lie between the upwind value and the edge average (``mids``: the
+    dual edges' midpoints, unused: the edge midpoint's value is the average for a linear field, so
+    the bound clips only at O(h^2), where the dual edge's midpoint would clip at O(h))."""
     a, b = faces, faces[:, [1, 2, 0]]
     up = np.where(flux >= 0.0, a, b)
-    rec = values[up] + np.einsum("tkc,tkc->tk", grad[up], mids - points[up])
-    va, vb = values[a], values[b]
-    out = np.clip(rec, np.minimum(va, vb), np.maximum(va, vb))
-    return out
+    dn = np.where(flux >= 0.0, b, a)
+    rec = values[up] + 0.5 * np.einsum("tkc,tkc->tk", grad[up], points[dn] - points[up])
+    vu = values[up]
+    mid = 0.5 * (values[a] + values[b])
+    return np.clip(rec, np.minimum(vu, mid), np.maximum(vu, mid))
 
 
 def advective_rate(

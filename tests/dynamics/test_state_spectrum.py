@@ -138,3 +138,49 @@ def test_myosin_sphere_spectrum_converges_to_the_closed_form():
                 continue
             assert 3.5 < e162 / e642 < 4.5, (l, branch, e162, e642)
             assert abs((4.0 * fine - coarse) / 3.0 - exact[branch]) < 0.2 * abs(e642)
+
+
+def test_the_carried_tension_of_a_furrow_grows_no_faster_than_its_flow_compresses(tmp_path):
+    """furrow_p4_a1, 642 nodes, the tension carried by the material, at t = 1 (the state of a run, in
+    the centroid gauge): the linearised transport of the tension by the frozen flow (the tension block
+    of state_jacobian without the flow's response). The continuum truth: an eigenmode v of the carried
+    property's transport, dq/dt = -u . grad q, changes its energy (1/2) int |v|^2 dA only by the flow's
+    compression, so Re lambda = (1/2) <div u>_v (the area- and |v|^2-weighted mean); a scheme may add
+    dissipation only. Every mode must keep Re lambda <= (1/2) <div_h u>_v + 1e-3.
+    The earlier clip of the face values to [q_a, q_b] let them reach the downwind value: eight modes on
+    the ring's crest at +0.038 (their own <div_h u>/2 is negative, -0.1: the flow converges there),
+    +0.14 beyond the bound (docs/validation/material_cortex.md)."""
+    from cortex_ti.dynamics.state import State
+    from cortex_ti.io import Trajectory
+    from cortex_ti.surface.transport import PROPERTY, advective_rate, dual_fluxes, triangle_gradients
+
+    sets = ["mesh.nodes=642", "tension_transport=material", "time.t_end=1", "translation=centroid"]
+    sim = Simulation(load_scene("furrow_p4_a1", sets))
+    out = sim.run(tmp_path / "f.h5", progress=False)
+    with Trajectory(out) as tr:
+        var = "prescribed_tension" if "prescribed_tension" in tr.ds else "active_stress"
+        points, q = tr.ds["points"].values[-1].copy(), tr.ds[var].values[-1].copy()
+        assert abs(float(tr.ds["time"].values[-1]) - 1.0) < 1e-9
+    ev = sim.evaluate(State(points, {"prescribed_tension": q}, sim.mesh.faces))
+    u = ev.velocity - ev.normal_speed[:, None] * ev.normal  # normal motion: the flow relative to the nodes
+    f, n = sim.mesh.faces, q.size
+    tri = triangle_gradients(points, f)
+    eps = 1e-5 * np.abs(q).max()
+    jac = np.empty((n, n))
+    for j in range(n):
+        dq = np.zeros(n)
+        dq[j] = eps
+        plus = advective_rate(q + dq, PROPERTY, points, f, u, tri)
+        minus = advective_rate(q - dq, PROPERTY, points, f, u, tri)
+        jac[:, j] = (plus - minus) / (2 * eps)
+    flux, _ = dual_fluxes(points, f, u, tri)
+    a, b = f, np.roll(f, -1, axis=1)
+    area = dual_areas(points, f)
+    div = np.bincount(np.concatenate([a.ravel(), b.ravel()]), weights=np.concatenate([flux.ravel(), -flux.ravel()]))
+    div /= area
+    w, v = np.linalg.eig(jac)
+    weight = area[:, None] * np.abs(v) ** 2
+    bound = 0.5 * (div @ weight) / weight.sum(0)
+    excess = w.real - bound
+    k = int(np.argmax(excess))
+    assert excess[k] < 1e-3, (w[k], bound[k])
