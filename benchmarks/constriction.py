@@ -16,7 +16,7 @@ What it measures, and why each column is there:
 
 Usage (one core; a few minutes on a shared machine, seconds with --smoke):
 
-    python benchmarks/constriction.py [--smoke] [section ...]
+    python benchmarks/constriction.py [--smoke] [--p P ...] [section ...]
 
 Sections: selfconv, sweep, carried (default: all). Markdown tables on stdout, headed by the
 machine, the date and the commit; docs/validation/constriction.md is written from it by
@@ -45,6 +45,7 @@ NOBEND = dict(eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0)
 #: the material stretch beyond which the label map counts as unresolved
 STRETCH_MAX = 100.0
 SMOKE = False
+P_VALUES = (2, 4, 8)
 
 
 def ring(amplitude: float, p: int = 4, sigma: float = 10.0):
@@ -132,7 +133,7 @@ def selfconv():
 
 
 def sweep():
-    ps = (4,) if SMOKE else (2, 4, 8)
+    ps = (4,) if SMOKE else P_VALUES
     amps = (6.0,) if SMOKE else (3.0, 4.0, 5.0, 6.0, 9.0, 12.0, 20.0, 40.0)
     t_end = 0.2 if SMOKE else 10.0
     ns = (8, 12) if SMOKE else (64, 96)
@@ -187,12 +188,14 @@ SECTIONS = {"selfconv": selfconv, "sweep": sweep, "carried": carried}
 
 
 def main():
-    global SMOKE
+    global SMOKE, P_VALUES
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--smoke", action="store_true", help="tiny sizes and times: checks that the script runs")
+    ap.add_argument("--p", type=int, nargs="+", default=list(P_VALUES), help="ring exponents of the sweep")
     ap.add_argument("sections", nargs="*", choices=[*SECTIONS, []], default=[])
     args = ap.parse_args()
     SMOKE = args.smoke
+    P_VALUES = tuple(args.p)
     try:
         commit = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"],
