@@ -151,6 +151,7 @@ class AxisymmetricSettings:
     azimuthal_points: int  # points around the axis
     neck_resolution: float = 0.0  # > 0: points placed by arc length and curvature (R0), 0: normal motion
     stop_neck: float = 0.05  # the run stops when the neck radius falls to this (R0)
+    points: str = "normal"  # "normal": meridian points move with v_n n; "arclength": equally spaced
 
 
 @dataclass(frozen=True)
@@ -237,6 +238,7 @@ class RunSettings:
                 azimuthal_points=int(ax["azimuthal_points"]),
                 neck_resolution=float(ax["neck_resolution"]),
                 stop_neck=float(ax["stop_neck"]),
+                points=ax["points"],
             ),
         )
 

@@ -224,3 +224,48 @@ def test_neck_resolving_points_give_the_same_shapes(tension):
         )
         assert np.max(np.abs(m.u[-1] - m.u[0])) > 1e-3  # the points did slide along the meridian
     assert diffs[1] < diffs[0] / 10 and diffs[1] <= 1e-8
+
+
+def test_arclength_points_from_the_scene_resolve_a_deep_neck(tmp_path):
+    """axisymmetric.points = arclength: the same shapes as simulate(parametrization='arclength'),
+    and a deep glued neck (amplitude 12, no bending viscosity) that the normally moving points do
+    not resolve (at n = 48 and t = 1.5 they are off by more than 1e-2 R0, the arc-length points by
+    less than 1e-3: docs/validation/constriction.md)."""
+    base = [
+        "--set",
+        "model=axisymmetric",
+        "--set",
+        "active_stress.0.amplitude=12",
+        "--set",
+        "effects=[active_stress, shear_viscosity, bulk_viscosity, normal_balance, incompressibility, shape_evolution]",
+        "--set",
+        "viscosity.bending=0",
+        "--set",
+        "viscosity.bending_bulk=0",
+        "--set",
+        "time.t_end=1.5",
+        "--set",
+        "time.save_every=0.5",
+    ]
+    necks = {}
+    for points in ("normal", "arclength"):
+        out = tmp_path / f"{points}.h5"
+        assert main(["run", "furrow_p4_a1", "-o", str(out), *base, "--set", f"axisymmetric.points={points}"]) == 0
+        necks[points] = Trajectory(out).ds["furrow_radius"].values[-1]
+    refs = {
+        n: simulate(
+            lambda th: 1.0 + 12.0 * np.exp(-10.0 * np.abs(np.asarray(th) - np.pi / 2) ** 4),
+            eta_s=1.0,
+            eta_b=1.0,
+            eta_bar=0.0,
+            eta_bar_b=0.0,
+            t_end=1.5,
+            n=n,
+            rtol=1e-10,
+            parametrization="arclength",
+        ).furrow_radius[-1]
+        for n in (48, 96)
+    }
+    assert abs(necks["arclength"] - refs[48]) <= 1e-7  # the scene key reaches the solver
+    assert abs(necks["arclength"] - refs[96]) <= 1e-3  # n = 48 against n = 96
+    assert necks["normal"] - refs[96] > 1e-2
