@@ -58,7 +58,7 @@ class MeshSettings:
     transform: tuple[tuple[float, float, float], ...] | None
     motion: str = "normal"  # how the nodes move (cortex_ti.dynamics.motion.MESH_MOTIONS)
     ale_time: float = 0.05  # relaxation time of the ALE mesh velocity (motion: ale)
-    relax_start: bool = False  # mend the triangles the initial shear/transform distorts (icosphere only)
+    relax_start: bool = False  # mend the triangles the initial shear/transform distorts (icosphere; default: with ale)
     remesh: RemeshSettings | None = None  # None: never remeshed
 
     def initial_map(self) -> np.ndarray | None:
@@ -201,7 +201,11 @@ class RunSettings:
                 shear=float(mesh["shear"]),
                 motion=mesh["motion"],
                 ale_time=float(mesh["ale_time"]),
-                relax_start=bool(mesh["relax_start"]),
+                relax_start=(
+                    mesh["motion"] == "ale" and mesh["file"] is None
+                    if mesh["relax_start"] is None
+                    else bool(mesh["relax_start"])
+                ),
                 remesh=_remesh_settings(mesh.get("remesh") or {}),
                 transform=None if transform is None else tuple(tuple(map(float, r)) for r in transform),
             ),

@@ -204,7 +204,7 @@ def test_defaults_and_canonical_numbers():
         "transform": None,
         "motion": "normal",
         "ale_time": 0.05,
-        "relax_start": False,
+        "relax_start": None,
         "remesh": {
             "min_angle": None,
             "quality": 30.0,

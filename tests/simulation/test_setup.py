@@ -52,6 +52,10 @@ def test_relaxed_start_mends_the_sheared_triangles_and_keeps_the_material_points
     assert conformal_distortion(x, ctx).sum() < 0.5 * conformal_distortion(plain.mesh.points, ctx).sum()
     p = x[faces]
     assert np.all(np.einsum("tc,tc->t", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p.sum(1)) > 0)
+    # the default: on with ALE motion (which would keep the sheared triangles), off with the paper's
+    ale = Simulation(load_scene("shear_075", ["mesh.nodes=642", "mesh.motion=ale", "tension_transport=material"]))
+    np.testing.assert_array_equal(ale.mesh.points, x)
+    assert not plain.settings.mesh.relax_start
     # without a shear or transform there is nothing to mend: the icosphere as it is
     same = Simulation(load_scene("furrow_p4_a1", ["mesh.nodes=162", "mesh.relax_start=true"]))
     np.testing.assert_array_equal(same.mesh.points, icosphere(162).points)
