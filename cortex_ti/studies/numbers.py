@@ -225,7 +225,7 @@ def _reference_check(stores) -> pd.DataFrame:
 def _accuracy(stores) -> pd.DataFrame:
     ds = stores[0]
     sel = np.flatnonzero(ds["study"].values == "accuracy")
-    cols = ["formulation", "nodes", "fit", "scheme", "implicit_tension", "dt", "status"]
+    cols = ["formulation", "nodes", "fit", "scheme", "implicit_tension", "dt", "tol", "status"]
     out = ds.isel(run=sel).reset_coords()[cols + ["wall_s", "steps", "error"]].to_dataframe().reset_index(drop=True)
     out["wall_s"] = out["wall_s"].map(lambda v: f"{v:.1f}")
     out["error"] = out["error"].map(lambda v: f"{v:.2e}")

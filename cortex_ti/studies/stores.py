@@ -181,7 +181,8 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
     ``summary`` (path or None) and optionally ``params`` (the sweep row) and ``error`` (float)."""
     n = len(entries)
     data = {k: np.full(n, np.nan) for k in _COST_ATTRS}
-    status, studies, labels, nodes, scheme, fit, dt, implicit, residual, model, formulation = ([] for _ in range(11))
+    status, studies, labels, nodes, scheme, fit, dt, tol = ([] for _ in range(8))
+    implicit, residual, model, formulation = ([] for _ in range(4))
     for i, e in enumerate(entries):
         b = read_benchmark(e["benchmark"])
         data["wall_s"][i] = b.get("s", np.nan)
@@ -217,6 +218,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         scheme.append(str(p.get("scheme", "static" if s.get("stopped") == "static" else "")))
         fit.append(str(p.get("fit", s.get("fit", ""))))
         dt.append(float(p.get("dt", np.nan)))
+        tol.append(float(p.get("tol", np.nan)))
         implicit.append(bool(s.get("implicit_tension", str(p.get("implicit", "false")) == "true")))
         residual.append(float(s.get("fit_residual_weight", p.get("residual", 0.0)) or 0.0))
     variables = {
@@ -233,6 +235,7 @@ def cost_dataset(entries: Sequence[Mapping]) -> xr.Dataset:
         "scheme": ("run", obj(scheme)),
         "fit": ("run", obj(fit)),
         "dt": ("run", np.asarray(dt), {"units": "t_a", "long_name": "(first) time step"}),
+        "tol": ("run", np.asarray(tol), {"units": "R0", "long_name": "local error per step of an adaptive scheme"}),
         "implicit_tension": (
             "run",
             np.asarray(implicit, dtype=bool),
