@@ -31,11 +31,9 @@ for _k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
     os.environ.setdefault(_k, "1")
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
-import subprocess  # noqa: E402
-import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _sections import run_sections  # noqa: E402  (a sibling script)
 
 from cortex_ti.axisymmetric.evolve import StepFailed, simulate  # noqa: E402
 
@@ -196,23 +194,7 @@ def main():
     args = ap.parse_args()
     SMOKE = args.smoke
     P_VALUES = tuple(args.p)
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            cwd=os.path.dirname(os.path.abspath(__file__)),
-        ).stdout.strip()
-    except OSError:
-        commit = "?"
-    print(
-        f"<!-- constriction.py{' --smoke' if SMOKE else ''} on {time.strftime('%Y-%m-%d %H:%M %Z')}, "
-        f"{platform.node()} ({platform.machine()}, {os.cpu_count()} cores), commit {commit} -->\n"
-    )
-    for name in args.sections or SECTIONS:
-        t0 = time.perf_counter()
-        SECTIONS[name]()
-        print(f"<!-- section {name}: {time.perf_counter() - t0:.0f} s -->\n", flush=True)
+    run_sections("constriction.py", SECTIONS, args.sections, SMOKE)
 
 
 if __name__ == "__main__":
