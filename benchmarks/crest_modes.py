@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     with Trajectory(args.trajectory) as tr:
         ds = tr.ds
         data = copy.deepcopy(tr.scene.data)
-        k = int(np.argmin(np.abs(ds["time"].values - args.time)))
+        k = tr.frame_at(args.time)
         var = "prescribed_tension" if "prescribed_tension" in ds else "active_stress"
         x, q, t = ds["points"].values[k].copy(), ds[var].values[k].copy(), float(ds["time"].values[k])
     sim = Simulation(scene_from_dict(data))

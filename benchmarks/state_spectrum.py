@@ -96,7 +96,7 @@ def main(argv=None) -> int:
         t_all = ds["time"].values
         frames = {}
         for want in args.times:
-            k = int(np.argmin(np.abs(t_all - want)))
+            k = tr.frame_at(want)
             var = "prescribed_tension" if "prescribed_tension" in ds else "active_stress"  # the whole tension
             frames[float(t_all[k])] = (ds["points"].values[k].copy(), ds[var].values[k].copy())
     print(
