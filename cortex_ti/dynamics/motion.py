@@ -15,10 +15,13 @@ by: the velocity relative to the mesh, ``v - w`` (:mod:`cortex_ti.surface.transp
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..surface.remesh import min_angles
 
 __all__ = [
     "MESH_MOTIONS",
@@ -136,11 +139,7 @@ ALE_STEP_FRACTION = 0.9
 def ale_stiffest_rate(context: MotionContext) -> float:
     """An upper estimate of the stiffest decay rate of the ALE mesh velocity about its reference
     triangles (:data:`ALE_STIFFNESS`)."""
-    x = context.reference[context.faces]
-    e = [x[:, (k + 1) % 3] - x[:, k] for k in range(3)]
-    length = [np.linalg.norm(ek, axis=1) for ek in e]
-    sines = [np.linalg.norm(np.cross(-e[k - 1], e[k]), axis=1) / (length[k - 1] * length[k]) for k in range(3)]
-    smallest = float(np.min(sines))  # sin of the smallest angle (all angles of a triangle are < 180)
+    smallest = math.sin(math.radians(float(min_angles(context.reference, context.faces).min())))
     return ALE_STIFFNESS / (context.ale_time * smallest**2)
 
 
