@@ -310,6 +310,9 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             # --resume --set time.dt=... after a stability stop does what it says)
             dt = min(state.dt, scheme.dt_max)
         start = resumed_state(sim, state)
+        if state.segment > 0:  # continued on a remeshed segment: its reference triangles' limit too
+            cap_ale_step(sim, scheme)
+            dt = min(dt, scheme.dt_cap)
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
