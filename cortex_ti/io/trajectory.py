@@ -26,9 +26,9 @@ segments (:func:`merge_segments`) the node and face dimensions are padded to the
 (NaN, triangles -1) and ``mesh_id(time)``, ``n_nodes(mesh)``, ``n_faces(mesh)``,
 ``triangles(mesh, face, corner)`` say which mesh each frame has (:func:`frame_mesh`).
 
-Crash safety: frames go to ``<path>.partial`` and are flushed to disk one by
-one, so a killed run leaves a readable partial file of the frames written so
-far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
+Crash safety: frames go to ``<path>.partial`` and are flushed to disk as they
+come (a run commits the frames of each time step together), so a killed run
+leaves a readable partial file of the frames written so far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
 to ``<path>``, so the final path never holds a half-written file.
 
 * The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.claim`) before it creates or opens
@@ -484,6 +484,7 @@ class TrajectoryWriter:
         self._state = "open"
         self._fd = -1  # a descriptor of the partial file, to reserve space with
         self._reserve = 0
+        self._held: list[tuple[float, dict]] = []  # frames appended with hold=True, not yet written
         self._claim = OutputClaim.acquire(self.path)  # before the partial file is truncated or opened
         try:
             if resume and self.partial.exists():
@@ -524,7 +525,7 @@ class TrajectoryWriter:
 
     def _size_reserve(self) -> None:
         data = self._datasets()
-        self._reserve = _METADATA_RESERVE + sum(
+        self._reserve = sum(  # one frame's chunks
             int(np.prod(d.chunks)) * d.dtype.itemsize for d in data.values() if d.chunks is not None
         )
 
@@ -543,7 +544,9 @@ class TrajectoryWriter:
     def start_segment(self, triangles: np.ndarray, n_nodes: int, reference: np.ndarray | None = None) -> None:
         """The mesh changed (a remeshing): the next frame starts segment ``mesh_<k>`` with these
         triangles and node count (``reference``: the ALE reference nodes, default the next frame's
-        points). The segment becomes visible to readers with its first committed frame."""
+        points). The segment becomes visible to readers with its first committed frame. Frames
+        held for the old mesh are committed first."""
+        self.commit()
         n_nodes = int(n_nodes)
         ref = None if reference is None else _array("reference_points", reference, (n_nodes, 3))
         self._pending = (_triangles(triangles, n_nodes), n_nodes, ref)
@@ -637,8 +640,8 @@ class TrajectoryWriter:
         self._nc.flush()  # h5netcdf bookkeeping (_NCProperties); does not flush HDF5
         self._h5.flush()  # push data and metadata to disk
 
-    def append(self, t: float, points, velocity, active_stress, pressure: float, **extra) -> None:
-        """Write one frame and flush it to disk.
+    def append(self, t: float, points, velocity, active_stress, pressure: float, hold: bool = False, **extra) -> None:
+        """Write one frame and flush it to disk (or, with ``hold``, keep it for :meth:`commit`).
 
         Parameters
         ----------
@@ -650,6 +653,12 @@ class TrajectoryWriter:
             Active tension zeta at the nodes.
         pressure : float
             P = p_inside - p_outside (NaN when not computed).
+        hold : bool, optional
+            Check the frame and keep it in memory; :meth:`commit` writes the frames held so far
+            in one write per variable and one commit (a run holds the frames one time step
+            interpolates and commits them after the step: 2-3 frames a step at the paper's
+            output interval, written for the price of one). :meth:`start_segment`,
+            :meth:`finish` and :meth:`close_partial` commit them first.
         **extra
             One value per extra variable declared in ``extra_vars`` (all of
             them, no others), shaped like its non-time dims.
@@ -657,41 +666,54 @@ class TrajectoryWriter:
         if self._state != "open":
             raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
         t = float(t)
-        if not math.isfinite(t) or t <= self._last_t:
-            raise ValueError(f"frame time must be finite and increase: got t = {t} after t = {self._last_t}")
+        last = self._held[-1][0] if self._held else self._last_t
+        if not math.isfinite(t) or t <= last:
+            raise ValueError(f"frame time must be finite and increase: got t = {t} after t = {last}")
         sizes = self._sizes if self._pending is None else {**self._sizes, "node": self._pending[1]}
-        values = _frame_values(sizes, self._extra, points, velocity, active_stress, pressure, extra)
+        self._held.append((t, _frame_values(sizes, self._extra, points, velocity, active_stress, pressure, extra)))
+        if not hold:
+            self.commit()
+
+    def commit(self) -> None:
+        """Write the held frames (:meth:`append` with ``hold``), flush them and then commit them
+        (``committed_frames``, flushed again): one write per variable for all of them."""
+        if not self._held:
+            return
+        held, self._held = self._held, []
+        times = np.array([t for t, _ in held])
+        m = len(held)
         with _signals_held():
             try:
                 new_segment = self._pending is not None
                 if new_segment:
-                    self._open_segment(values["points"])
+                    self._open_segment(held[0][1]["points"])
                 k = self._k
-                self._make_room()
+                self._make_room(m)
                 data = self._datasets()
                 for dataset in data.values():  # the time dimension's scale and every variable along it
-                    dataset.resize(k + 1, axis=0)  # (h5netcdf's resize_dimension: 7 ms a frame)
-                for name, value in values.items():
-                    data[name][k, ...] = value
-                data["time"][k] = t
+                    dataset.resize(k + m, axis=0)  # (h5netcdf's resize_dimension: 7 ms a frame)
+                for name in held[0][1]:
+                    data[name][k : k + m, ...] = np.stack([values[name] for _, values in held])
+                data["time"][k : k + m] = times
                 self._flush()
-                self._segment_node().attrs.modify(COMMIT_ATTR, np.int64(k + 1))  # last: the frame is complete
+                self._segment_node().attrs.modify(COMMIT_ATTR, np.int64(k + m))  # last: the frames are complete
                 if new_segment:
                     self._h5.attrs[SEGMENTS_ATTR] = np.int64(self._segment + 1)
                 self._flush()
             except OSError as exc:
                 self._state = "failed"
-                raise self._write_error(f"writing frame {self._n} (t = {t:.6g})", exc) from None
-            self._k = k + 1
-            self._n += 1
-            self._last_t = t
+                what = f"writing frame {self._n}" + (f"-{self._n + m - 1}" if m > 1 else "")
+                raise self._write_error(f"{what} (t = {times[0]:.6g})", exc) from None
+            self._k = k + m
+            self._n += m
+            self._last_t = float(times[-1])
 
-    def _make_room(self) -> None:
-        """Reserve the file space the next frame can take (see the module docstring), so that a full
-        disk is met here, with the file untouched, and not inside HDF5."""
+    def _make_room(self, frames: int = 1) -> None:
+        """Reserve the file space the next ``frames`` frames can take (see the module docstring), so
+        that a full disk is met here, with the file untouched, and not inside HDF5."""
         if self._fd < 0:
             return
-        end = int(self._h5.id.get_filesize()) + self._reserve
+        end = int(self._h5.id.get_filesize()) + _METADATA_RESERVE + frames * self._reserve
         try:
             os.posix_fallocate(self._fd, 0, end)
         except OSError as exc:
@@ -741,6 +763,7 @@ class TrajectoryWriter:
             return self.path
         if self._state != "open":
             raise RuntimeError(f"trajectory writer for '{self.path}' is already {self._state}")
+        self.commit()
         try:
             with _signals_held():
                 reserved = self._fd >= 0
@@ -780,6 +803,9 @@ class TrajectoryWriter:
         dynamic runs); a partial file without any frame is deleted instead."""
         if self._state not in ("open", "failed"):
             return None
+        if self._state == "open":
+            with contextlib.suppress(OutputError):  # held frames that cannot be written are lost, not the rest
+                self.commit()
         if self._n == 0:
             self.abort()
             return None

@@ -349,6 +349,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             ev.pressure if has_p else float("nan"),
             normal=ev.normal,
             dt=dt_next,
+            hold=True,  # committed with the step's other frames, in watch()
             **ev.solution.diagnostics,
             **diag,
             **{spec.var: fields[spec.name] for spec in stored},
@@ -371,6 +372,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         sim.on_remesh = lambda new: writer.start_segment(new.faces, new.n_nodes, new.points)
 
     def watch(t, ev, dt, stats):
+        writer.commit()  # the frames of the step just made, in one write
         check_interrupted()
         seen["stats"] = stats  # the counts so far, for the summary of a run that does not finish
         if bar is not None:

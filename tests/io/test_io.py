@@ -197,6 +197,28 @@ def test_killed_writer_leaves_readable_partial_and_resumes(tmp_path):
         assert "resumed" in ds.attrs
 
 
+def test_held_frames_are_written_at_commit_and_kept_when_the_run_stops(tmp_path):
+    """Frames appended with ``hold`` are invisible until ``commit`` (one write for all of them),
+    and a run that stops (``close_partial``) or finishes with frames still held keeps them."""
+    path = tmp_path / "run.h5"
+    w = TrajectoryWriter(path, TRI, N, attrs(), EXTRA)
+    for k in range(3):
+        f = frame(k)
+        w.append(
+            f.pop("t"), f.pop("points"), f.pop("velocity"), f.pop("active_stress"), f.pop("pressure"), hold=True, **f
+        )
+    assert w.n_frames == 0 and last_frame(path)["n_frames"] == 0  # nothing committed yet
+    with pytest.raises(ValueError, match="increase"):
+        write(w, 2)  # the held frames count for the time order
+    w.commit()
+    assert w.n_frames == 3 and w.last_time == 0.5
+    f = frame(3)
+    w.append(f.pop("t"), f.pop("points"), f.pop("velocity"), f.pop("active_stress"), f.pop("pressure"), hold=True, **f)
+    assert w.close_partial() == partial_path(path)
+    with xr.open_dataset(partial_path(path), engine="h5netcdf") as ds:
+        check_frames(ds, 4)
+
+
 def test_resume_rejects_a_different_mesh_or_scene(tmp_path):
     path = tmp_path / "run.h5"
     w = TrajectoryWriter(path, TRI, N, attrs(), EXTRA)
