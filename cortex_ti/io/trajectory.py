@@ -28,8 +28,9 @@ segments (:func:`merge_segments`) the node and face dimensions are padded to the
 
 Crash safety: frames go to ``<path>.partial`` and are flushed to disk as they
 come (a run commits the frames of each time step together), so a killed run
-leaves a readable partial file of the frames written so far (and can be resumed); :meth:`TrajectoryWriter.finish` renames it atomically
-to ``<path>``, so the final path never holds a half-written file.
+leaves a readable partial file of the frames written so far (and can be
+resumed); :meth:`TrajectoryWriter.finish` renames it atomically to ``<path>``,
+so the final path never holds a half-written file.
 
 * The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.claim`) before it creates or opens
   the partial file: a second writer of the same path is refused before anything is truncated.

@@ -123,27 +123,18 @@ def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_
 
 def _triangle_form(geometry: Geometry, faces: np.ndarray, bform: np.ndarray, tnormal: np.ndarray) -> np.ndarray:
     """``B^cd e_c e_d`` per triangle (T, 3, 3): the corner mean, projected on the triangle, clipped
-    to its positive semidefinite part."""
-    e = geometry.tangents
-    bt = (e.transpose(0, 2, 1) @ bform @ e)[faces].mean(axis=1)  # B^cd e_c e_d, corner mean
-    proj = np.eye(3)[None] - tnormal[:, :, None] * tnormal[:, None, :]
-    bt = proj @ bt @ proj
-    bt = 0.5 * (bt + bt.transpose(0, 2, 1))
-    # the tensor lies in the triangle's plane (rank 2): PSD iff its trace and the product of its
-    # in-plane eigenvalues are >= 0; elsewhere clip the negative eigenvalues
-    tr = np.trace(bt, axis1=1, axis2=2)
-    det2 = 0.5 * (tr**2 - np.sum(bt * bt, axis=(1, 2)))
-    bad = (tr < 0.0) | (det2 < 0.0)
-    if bad.any():
-        w, vec = np.linalg.eigh(bt[bad])
-        bt[bad] = np.einsum("tia,ta,tja->tij", vec, np.clip(w, 0.0, None), vec)
-    return bt
+    to its positive semidefinite part (one Taichi kernel, :mod:`.galerkin_kernel`)."""
+    from .galerkin_kernel import triangle_form_kernel  # starts Taichi
 
-
-def _normal_gradient_rows(geometry: Geometry, faces: np.ndarray, grads: np.ndarray) -> np.ndarray:
-    """(T, 3, 9): the in-plane gradient of ``v_n = n_k . v_k`` on each triangle from its corners' velocities."""
-    nrm = geometry.normal
-    return (grads.transpose(0, 2, 1)[:, :, :, None] * nrm[faces][:, None, :, :]).reshape(-1, 3, 9)
+    out = np.empty((len(faces), 3, 3))
+    triangle_form_kernel(
+        np.ascontiguousarray(faces, dtype=np.int32),
+        np.ascontiguousarray(geometry.tangents, dtype=float),
+        np.ascontiguousarray(bform, dtype=float),
+        np.ascontiguousarray(tnormal, dtype=float),
+        out,
+    )
+    return out
 
 
 def normal_blocks(
@@ -176,10 +167,18 @@ def normal_form_force(
     """(T, 9): the blocks of :func:`normal_blocks` applied to the nodal vectors ``rate`` (N, 3),
     without forming them: the force of ``1/2 int B^cd d_c (v_n - r_n) d_d (v_n - r_n) dA`` that
     moves its minimum from ``v_n = 0`` to ``v_n = r_n``."""
-    bt = _triangle_form(geometry, faces, bform, tnormal)
-    gn = _normal_gradient_rows(geometry, faces, grads)
-    grad_r = gn @ rate[faces].reshape(-1, 9, 1)  # (T, 3, 1): grad r_n on the triangle
-    return area[:, None] * (gn.transpose(0, 2, 1) @ (bt @ grad_r))[:, :, 0]
+    from .galerkin_kernel import normal_force_kernel  # starts Taichi
+
+    out = np.empty((len(faces), 9))
+    normal_force_kernel(
+        np.ascontiguousarray(area, dtype=float),
+        np.ascontiguousarray(geometry.normal[faces], dtype=float),
+        np.ascontiguousarray(grads, dtype=float),
+        _triangle_form(geometry, faces, bform, tnormal),
+        np.ascontiguousarray(np.asarray(rate, dtype=float)[faces]),
+        out,
+    )
+    return out
 
 
 def _lumped_normal(geometry: Geometry, beta0: np.ndarray) -> sp.csr_matrix:
@@ -259,6 +258,8 @@ def assemble_p1(
         f = bmat.T @ f
 
     def on_unknowns(rows):
+        if physics.normal_balance:  # the basis is the Cartesian one (velocity_basis)
+            return rows.reshape(rows.shape[0], -1)
         return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
 
     return EnergySystem(
