@@ -11,7 +11,6 @@ import math
 import warnings
 
 import numpy as np
-from scipy import special
 
 __all__ = [
     "pattern_frame",
@@ -21,6 +20,14 @@ __all__ = [
     "sphere_quadrature",
     "integrate_over_sphere",
 ]
+
+
+def _special():
+    """scipy.special, imported when a harmonic is first evaluated (a tenth of a second at start-up
+    that a scene without harmonics does not pay)."""
+    from scipy import special
+
+    return special
 
 
 def pattern_frame(axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -156,7 +163,7 @@ def real_sph_harm(l: int, m: int, theta, phi) -> np.ndarray:
     phi = np.asarray(phi, dtype=float)
     am = abs(m)
     # scipy's spherical Legendre function includes N_lm and the Condon-Shortley phase (-1)^m
-    leg = np.asarray(special.sph_legendre_p(l, am, theta))
+    leg = np.asarray(_special().sph_legendre_p(l, am, theta))
     if leg.shape == (1,) + theta.shape:  # scipy >= 1.15 returns a leading axis of derivatives
         leg = leg[0]
     leg = (-1.0) ** am * leg
@@ -215,9 +222,9 @@ def real_sph_harm_surface_gradient(l: int, m: int, points, center=(0.0, 0.0, 0.0
     logN = 0.5 * (math.log((2 * l + 1) / (4.0 * math.pi)) + math.lgamma(l - am + 1) - math.lgamma(l + am + 1))
     K = math.exp(logN + _log_double_factorial_odd(am)) * (math.sqrt(2.0) if m != 0 else 1.0)
 
-    G = special.eval_gegenbauer(l - am, am + 0.5, z)
+    G = _special().eval_gegenbauer(l - am, am + 0.5, z)
     if l - am - 1 >= 0:
-        dG = (2 * am + 1) * special.eval_gegenbauer(l - am - 1, am + 1.5, z)
+        dG = (2 * am + 1) * _special().eval_gegenbauer(l - am - 1, am + 1.5, z)
     else:
         dG = np.zeros_like(z)
 
@@ -267,7 +274,7 @@ def sphere_quadrature(order: int, axis=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.
     n = int(order)
     if n < 1:
         raise ValueError("order must be >= 1")
-    x, w = special.roots_legendre(n)
+    x, w = _special().roots_legendre(n)
     # two halves of [0, pi]
     th = np.concatenate([(x + 1.0) * (np.pi / 4.0), (x + 3.0) * (np.pi / 4.0)])
     wth = np.concatenate([w, w]) * (np.pi / 4.0) * np.sin(th)

@@ -27,7 +27,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import CortexError
 from .mesh import vertex_normals
@@ -247,6 +246,8 @@ def closest_points(points: np.ndarray, faces: np.ndarray, queries: np.ndarray, k
     """
     n = points.shape[0]
     k = min(k, n)
+    from scipy.spatial import cKDTree  # only a remeshing needs it (a tenth of a second to import)
+
     _, near = cKDTree(points).query(queries, k=k)
     near = near.reshape(len(queries), k)
     # node -> its triangles, padded with the first one
