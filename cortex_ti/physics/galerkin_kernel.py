@@ -38,50 +38,71 @@ def normal_blocks_kernel(area: f64_1, corner_normals: f64_3, grads: f64_3, form:
 
 @kernel
 def triangle_form_kernel(faces: i32_2, tangents: f64_3, form: f64_3, tnormal: f64_2, out: f64_3):
-    """``out[t] = B_t``: the corner mean of ``B^cd e_c e_d`` (``tangents[v, c]`` = e_c, ``form[v]`` = B^cd
-    at node v), projected on the triangle ``P B P`` (``P = I - n n^T``), symmetrised, and clipped to its
-    positive semidefinite part: it lies in the plane, so its two in-plane eigenvalues (of its 2x2
-    restriction to an orthonormal in-plane basis a, b) are clipped at 0 when the trace or the
-    determinant of that restriction is negative."""
+    """``out[t] = B_t``: the corner mean ``M`` of ``B^cd e_c e_d`` (``tangents[v, c]`` = e_c, ``form[v]`` =
+    B^cd at node v), projected on the triangle and symmetrised, ``P sym(M) P`` with ``P = I - n n^T``,
+    and clipped to its positive semidefinite part: it lies in the plane, so its two in-plane
+    eigenvalues (of its restriction to an orthonormal in-plane basis a, c) are clipped at 0 when its
+    trace or the determinant of that restriction is negative. Scalar code with runtime loops: the
+    syntax tree Taichi transforms on a process's first call stays small."""
     for t in range(faces.shape[0]):
-        m = ti.Matrix.zero(ti.f64, 3, 3)
-        for k in range(3):
-            v = faces[t, k]
-            for i, j in ti.static(ti.ndrange(3, 3)):
-                s = 0.0
-                for c, d in ti.static(ti.ndrange(2, 2)):
-                    s += tangents[v, c, i] * form[v, c, d] * tangents[v, d, j]
-                m[i, j] += s / 3.0
-        n = ti.Vector([tnormal[t, 0], tnormal[t, 1], tnormal[t, 2]])
-        p = ti.Matrix.identity(ti.f64, 3) - n.outer_product(n)
-        b = p @ m @ p
-        b = 0.5 * (b + b.transpose())
-        tr = b.trace()
-        det2 = 0.5 * (tr * tr - (b * b).sum())
-        if tr < 0.0 or det2 < 0.0:
-            axis = 0  # the axis least aligned with n gives the in-plane basis
-            if ti.abs(n[1]) < ti.abs(n[axis]):
-                axis = 1
-            if ti.abs(n[2]) < ti.abs(n[axis]):
-                axis = 2
-            e = ti.Vector([0.0, 0.0, 0.0])
-            if axis == 0:
-                e[0] = 1.0
-            elif axis == 1:
-                e[1] = 1.0
-            else:
-                e[2] = 1.0
-            a = n.cross(e).normalized()
-            c = n.cross(a)
-            baa, bcc, bac = a.dot(b @ a), c.dot(b @ c), a.dot(b @ c)
+        for i, j in ti.ndrange(3, 3):
+            s = 0.0
+            for k, c, d in ti.ndrange(3, 2, 2):
+                v = faces[t, k]
+                s += tangents[v, c, i] * form[v, c, d] * tangents[v, d, j]
+            out[t, i, j] = s / 3.0
+        # P sym(M) P = sym(M) - n s^T - s n^T + (n.M n) n n^T with s = sym(M) n
+        n0, n1, n2 = tnormal[t, 0], tnormal[t, 1], tnormal[t, 2]
+        s0 = 0.5 * (out[t, 0, 0] * n0 + out[t, 0, 1] * n1 + out[t, 0, 2] * n2)
+        s0 += 0.5 * (out[t, 0, 0] * n0 + out[t, 1, 0] * n1 + out[t, 2, 0] * n2)
+        s1 = 0.5 * (out[t, 1, 0] * n0 + out[t, 1, 1] * n1 + out[t, 1, 2] * n2)
+        s1 += 0.5 * (out[t, 0, 1] * n0 + out[t, 1, 1] * n1 + out[t, 2, 1] * n2)
+        s2 = 0.5 * (out[t, 2, 0] * n0 + out[t, 2, 1] * n1 + out[t, 2, 2] * n2)
+        s2 += 0.5 * (out[t, 0, 2] * n0 + out[t, 1, 2] * n1 + out[t, 2, 2] * n2)
+        nmn = n0 * s0 + n1 * s1 + n2 * s2
+        for i in range(3):
+            for j in range(i, 3):
+                ni, nj = tnormal[t, i], tnormal[t, j]
+                si = s0 if i == 0 else (s1 if i == 1 else s2)
+                sj = s0 if j == 0 else (s1 if j == 1 else s2)
+                value = 0.5 * (out[t, i, j] + out[t, j, i]) - ni * sj - si * nj + nmn * ni * nj
+                out[t, i, j] = value
+                out[t, j, i] = value
+        tr = out[t, 0, 0] + out[t, 1, 1] + out[t, 2, 2]
+        sq = 0.0
+        for i, j in ti.ndrange(3, 3):
+            sq += out[t, i, j] * out[t, i, j]
+        if tr < 0.0 or 0.5 * (tr * tr - sq) < 0.0:
+            # a = n x e / |n x e| with e the axis least aligned with n, c = n x a
+            a0, a1, a2 = 0.0, n2, -n1
+            if ti.abs(n1) < ti.abs(n0) and ti.abs(n1) <= ti.abs(n2):
+                a0, a1, a2 = -n2, 0.0, n0
+            elif ti.abs(n2) < ti.abs(n0) and ti.abs(n2) < ti.abs(n1):
+                a0, a1, a2 = n1, -n0, 0.0
+            na = ti.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            a0, a1, a2 = a0 / na, a1 / na, a2 / na
+            c0, c1, c2 = n1 * a2 - n2 * a1, n2 * a0 - n0 * a2, n0 * a1 - n1 * a0
+            baa, bcc, bac = 0.0, 0.0, 0.0
+            for i, j in ti.ndrange(3, 3):
+                ai = a0 if i == 0 else (a1 if i == 1 else a2)
+                aj = a0 if j == 0 else (a1 if j == 1 else a2)
+                ci = c0 if i == 0 else (c1 if i == 1 else c2)
+                cj = c0 if j == 0 else (c1 if j == 1 else c2)
+                baa += ai * out[t, i, j] * aj
+                bcc += ci * out[t, i, j] * cj
+                bac += ai * out[t, i, j] * cj
             half = 0.5 * (baa + bcc)
             r = ti.sqrt(0.25 * (baa - bcc) ** 2 + bac * bac)
             theta = 0.5 * ti.atan2(2.0 * bac, baa - bcc)
-            u = ti.cos(theta) * a + ti.sin(theta) * c  # eigenvector of half + r
-            w = -ti.sin(theta) * a + ti.cos(theta) * c  # of half - r
-            b = ti.max(half + r, 0.0) * u.outer_product(u) + ti.max(half - r, 0.0) * w.outer_product(w)
-        for i, j in ti.static(ti.ndrange(3, 3)):
-            out[t, i, j] = b[i, j]
+            cs, sn = ti.cos(theta), ti.sin(theta)
+            lu, lw = ti.max(half + r, 0.0), ti.max(half - r, 0.0)  # along u = cs a + sn c, w = -sn a + cs c
+            for i, j in ti.ndrange(3, 3):
+                ai = a0 if i == 0 else (a1 if i == 1 else a2)
+                aj = a0 if j == 0 else (a1 if j == 1 else a2)
+                ci = c0 if i == 0 else (c1 if i == 1 else c2)
+                cj = c0 if j == 0 else (c1 if j == 1 else c2)
+                ui, uj, wi, wj = cs * ai + sn * ci, cs * aj + sn * cj, cs * ci - sn * ai, cs * cj - sn * aj
+                out[t, i, j] = lu * ui * uj + lw * wi * wj
 
 
 @kernel
