@@ -19,7 +19,8 @@ The configurations are explicit (they do not depend on the scenes' defaults):
 * ``euler``: ``time.scheme=euler, time.dt=5e-3`` (the scenes' default before bdf2);
 * ``euler_half``: the same at ``time.dt=2.5e-3`` (for the Richardson estimate only);
 * ``adaptive_euler``: ``time.scheme=adaptive_euler, time.dt=5e-3`` (its default tolerance 1e-4);
-* ``bdf2``: ``time.scheme=bdf2, time.dt=1e-3, time.tol=4e-6, time.dt_max=0.2``.
+* ``bdf2``: ``time.scheme=bdf2, time.dt=1e-3, time.tol=4e-6, time.dt_max=0.2``;
+* ``bdf2_default``: ``time.scheme=bdf2`` and the scene's defaults (``time.tol`` 4e-6 * 10242 / N).
 
 Usage::
 
@@ -69,6 +70,7 @@ CONFIGS = {
     "euler_half": ("time.scheme=euler", "time.dt=2.5e-3"),
     "adaptive_euler": ("time.scheme=adaptive_euler", "time.dt=5e-3"),
     "bdf2": ("time.scheme=bdf2", "time.dt=1e-3", "time.tol=4e-6", "time.dt_max=0.2"),
+    "bdf2_default": ("time.scheme=bdf2",),  # the scene's own step control: tol 4e-6 * 10242 / N
 }
 
 

@@ -149,13 +149,18 @@ class Scheme:
     explicit_interval = 2.0
 
     @classmethod
-    def resolve_step_control(cls, tol, dt_max) -> tuple[float, float]:
+    def resolve_step_control(cls, tol, dt_max, nodes: int | None = None) -> tuple[float, float]:
         """``time.tol`` and ``time.dt_max`` for this scheme: the scene's values, or the scheme's
-        defaults where they are null."""
+        defaults where they are null (:meth:`default_tol_for` the mesh's ``nodes``, None for a mesh file)."""
         return (
-            float(cls.default_tol if tol is None else tol),
+            float(cls.default_tol_for(nodes) if tol is None else tol),
             float(cls.default_dt_max if dt_max is None else dt_max),
         )
+
+    @classmethod
+    def default_tol_for(cls, nodes: int | None) -> float:
+        """The scheme's ``time.tol`` when the scene leaves it null (the same at every resolution)."""
+        return cls.default_tol
 
     def __init__(self, evaluate, **_):
         self.evaluate = evaluate
@@ -368,11 +373,24 @@ class BDF2(Scheme):
     semi_implicit = True
     dense = True
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
-    default_tol = 4e-6  # furrow_p4_a1, 2562 nodes: time error 4.4e-5 in 113 steps (Euler at 5e-3: 4.6e-4)
+    default_tol = 4e-6  # at TOL_NODES nodes, and for a mesh file; scaled with the mesh (default_tol_for)
+    TOL_NODES = 10242
     default_dt_max = 0.2
     # extrapolated BDF2 on x' = -lam x (x* = 2 x_n - x_(n-1)): roots of 3/2 r^2 - 2 r + 1/2 = -z (2 r - 1)
     # stay in the unit disc for 0 <= z = lam dt < 4/3 (docs/derivations/time_schemes.md)
     explicit_interval = 4.0 / 3.0
+
+    @classmethod
+    def default_tol_for(cls, nodes: int | None) -> float:
+        """``4e-6 * 10242 / nodes``: a tolerance that follows the mesh's own error, so the time error
+        stays below it at every resolution without paying for more. The mesh's error of the radii is
+        second order, ~1/N (furrow_p4_a1 at t = 0: 2.5e-3, 6.4e-4, 1.6e-4 at 642, 2562, 10242 nodes);
+        the time error over a furrow run is ~3-11 tol at any N. So 6.4e-5, 1.6e-5, 4e-6 there, for
+        time errors about a tenth, a sixth and a quarter of the mesh's (docs/validation/time_schemes.md,
+        "The default tolerance"). A mesh file (``nodes`` None) gets the finest, 4e-6."""
+        if nodes is None:
+            return cls.default_tol
+        return cls.default_tol * cls.TOL_NODES / max(int(nodes), 1)
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:

@@ -216,7 +216,9 @@ def _check_multistep(data: dict) -> None:
             "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]
-    tol, dt_max = SCHEMES["bdf2"].resolve_step_control(time.get("tol"), time.get("dt_max"))
+    mesh = data.get("mesh") or {}
+    nodes = mesh.get("nodes") if mesh.get("file") is None else None
+    tol, dt_max = SCHEMES["bdf2"].resolve_step_control(time.get("tol"), time.get("dt_max"), nodes)
     if tol < 10.0 * rtol:
         raise SceneError(
             f"time.tol = {fmt_value(tol)} is below what bdf2 can honour: each solve leaves a relative "

@@ -179,7 +179,9 @@ class RunSettings:
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
         dynamic = "shape_evolution" in effects
         scheme = SCHEMES[tim["scheme"]]
-        tol, dt_max = scheme.resolve_step_control(tim["tol"], tim["dt_max"])
+        tol, dt_max = scheme.resolve_step_control(
+            tim["tol"], tim["dt_max"], mesh["nodes"] if mesh["file"] is None else None
+        )
         implicit = (
             dynamic
             and "normal_balance" in effects
