@@ -207,6 +207,15 @@ class _Surface:
         self.x = [tuple(row.take(col) for row in self.pts) for col in self.cols]
         self._areas = None
         self._centroid = None
+        self._longest = None
+
+    @property
+    def longest_edge(self) -> float:
+        """The longest edge of any triangle."""
+        if self._longest is None:
+            x0, x1, x2 = self.x
+            self._longest = float(np.sqrt(max(_dot(e, e).max() for e in (_sub(x2, x1), _sub(x0, x2), _sub(x1, x0)))))
+        return self._longest
 
     @property
     def areas(self) -> np.ndarray:
@@ -304,6 +313,7 @@ def _quality(surf: _Surface) -> dict:
     min_angle = float(np.degrees(np.arctan2(area2, cos_term).min()))
     lmax = np.maximum(np.maximum(la, lb), lc)
     lmin = np.minimum(np.minimum(la, lb), lc)
+    surf._longest = float(lmax.max())
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(lmin > 0, lmax / lmin, np.inf)
         # circumradius R = abc / (4 A), inradius r = A / s  ->  R / (2 r) = abc s / (8 A^2) = abc s / (2 (2A)^2)
@@ -432,11 +442,20 @@ def orientation_angle(points, faces, pattern_axis) -> float:
 def _line_hits(surf: _Surface, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
     """Parameters ``s`` of all (tolerant) intersections of ``origin + s direction`` with the triangles.
 
-    Moller-Trumbore for a line (``s`` unrestricted), all faces at once. A hit
+    Moller-Trumbore for a line (``s`` unrestricted), at once on the faces that can be hit. A hit
     needs barycentric coordinates ``u, v >= -tol`` and ``u + v <= 1 + tol``, so a
-    line through a shared vertex or edge hits every triangle around it.
+    line through a shared vertex or edge hits every triangle around it. Every point of a hit
+    triangle lies within its longest edge (times ``1 + 2 tol``) of the hit point, on the line: the
+    faces with no corner that close to the line are left out, none of them can be hit.
     """
-    x0, x1, x2 = surf.x
+    pts = surf.pts
+    rel = (pts[0] - origin[0], pts[1] - origin[1], pts[2] - origin[2])
+    along = _dot(rel, direction)
+    near_sq = (surf.longest_edge * (1.0 + 4.0 * BARYCENTRIC_TOLERANCE)) ** 2
+    near = (_dot(rel, rel) - along * along) <= near_sq  # node within that distance of the line
+    cand = np.flatnonzero(near[surf.cols[0]] | near[surf.cols[1]] | near[surf.cols[2]])
+    x0, x1, x2 = ((row[cand] for row in xk) for xk in surf.x)
+    x0, x1, x2 = tuple(x0), tuple(x1), tuple(x2)
     e1 = _sub(x1, x0)
     e2 = _sub(x2, x0)
     pvec = _cross(direction, e2)
