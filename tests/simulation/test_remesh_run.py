@@ -128,7 +128,12 @@ def test_a_remeshing_run_keeps_the_amount_and_resumes(tmp_path):
     sim = Simulation(load_scene("furrow_p4_a1", [*RUN, "time.t_end=1.0"]))
     sim.run(out, progress=False)
     summary = sim.summary()
-    assert summary["remeshes"] >= 1 and summary["symbolic_analyses"] in (None, summary["remeshes"] + 3)
+    assert summary["remeshes"] >= 1
+    # the symbolic analysis is redone for a new mesh only: one per mesh, and at most once more on it when
+    # entries that are exactly zero at its first solve (the icosphere's symmetry, a fresh remeshing) turn
+    # nonzero; the analysed pattern is then the union and keeps them (solve/factorizations.py)
+    meshes = summary["remeshes"] + 1
+    assert summary["symbolic_analyses"] is None or meshes <= summary["symbolic_analyses"] <= 2 * meshes
     tr = Trajectory(out)
     mesh_id = tr.ds["mesh_id"].values
     assert tr.remeshed and mesh_id[-1] == summary["remeshes"] and np.all(np.diff(mesh_id) >= 0)

@@ -369,7 +369,9 @@ def test_the_translation_gauge_is_a_rigid_translation_of_a_material_cortex(tmp_p
     the shape and everything on it along, so the two gauges of the free translation (zero mean
     velocity, the centroid held) give the same shapes up to a rigid translation, to the solver's
     precision, on a scene without up-down symmetry (zeta = 1 + 0.3 Y_20 + 0.3 Y_30), where the
-    translation is not zero. The bound: solver.rtol times the steps times the shape's size.
+    translation is not zero. The bound: solver.rtol times the steps times the shape's size. Fixed
+    steps (euler): an adaptive scheme's error estimates differ between the gauges by round-off, and
+    so may its step sequences, by a time error (1e-6 at 162 nodes with bdf2's default tolerance).
 
     With the pressure on the exact volume gradient (numerics.pressure_weights: exact) and the active
     force the exact gradient of the energy (numerics.active_force: gradient) the discrete
@@ -395,6 +397,7 @@ def test_the_translation_gauge_is_a_rigid_translation_of_a_material_cortex(tmp_p
                 "time.t_end=0.3",
                 "mesh.motion=lagrangian",
                 "time.implicit_tension=false",
+                "time.scheme=euler",
                 "numerics.pressure_weights=exact",
                 "numerics.active_force=gradient",
             ],
