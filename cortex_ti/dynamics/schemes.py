@@ -385,9 +385,10 @@ class BDF2(Scheme):
         """``4e-6 * 10242 / nodes``: a tolerance that follows the mesh's own error, so the time error
         stays below it at every resolution without paying for more. The mesh's error of the radii is
         second order, ~1/N (furrow_p4_a1 at t = 0: 2.5e-3, 6.4e-4, 1.6e-4 at 642, 2562, 10242 nodes);
-        the time error over a furrow run is ~3-11 tol at any N. So 6.4e-5, 1.6e-5, 4e-6 there, for
-        time errors about a tenth, a sixth and a quarter of the mesh's (docs/validation/time_schemes.md,
-        "The default tolerance"). A mesh file (``nodes`` None) gets the finest, 4e-6."""
+        the time error over a furrow run is ~3-10 tol at any N. So 6.4e-5, 1.6e-5, 4e-6 there, for
+        time errors of 2.1e-4, 9.0e-5 and 3.7e-5: a twelfth, a seventh and a quarter of the mesh's
+        (docs/validation/time_schemes.md, "The default tolerance"). A mesh file (``nodes`` None) gets
+        the finest, 4e-6."""
         if nodes is None:
             return cls.default_tol
         return cls.default_tol * cls.TOL_NODES / max(int(nodes), 1)
