@@ -166,5 +166,6 @@ def constriction_numbers(stores) -> pd.DataFrame:
             row["volume drift"] = f"{np.nanmax(np.abs(ds['volume_change'].values[i])):.1e}"
         rows.append(row)
     for p, (lo, hi) in threshold(ds).items():
-        rows.append({"run": f"threshold, p = {p:g}", "ratio 1 + zeta_hat": f"({lo:g}, {hi:g}]"})
+        bracket = f"({lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else "not bracketed by these runs"
+        rows.append({"run": f"threshold, p = {p:g}", "ratio 1 + zeta_hat": bracket})
     return pd.DataFrame(rows)
