@@ -11,6 +11,17 @@ from cortex_ti.errors import StabilityError
 from cortex_ti.surface.mesh import icosphere
 
 
+def _evaluation(points, normal, residual=1e-6):
+    """A solve at ``points`` with no flow, these normals and this relative residual."""
+    return Evaluation(
+        points=points,
+        velocity=np.zeros_like(points),
+        normal=normal,
+        pressure=0.0,
+        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)),
+    )
+
+
 def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
     """StabilityGuard's resolution checks, on hand-made steps: a triangle squashed below 0.2 of the
     starting smallest angle, and a solve whose relative residual exceeds 0.05."""
@@ -19,13 +30,7 @@ def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
     edge = np.full(len(x0), 10.0)  # large: only the resolution checks can fire
 
     def ev(points, residual):
-        return Evaluation(
-            points=points,
-            velocity=np.zeros_like(points),
-            normal=points,
-            pressure=0.0,
-            solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)),
-        )
+        return _evaluation(points, points, residual)
 
     guard = StabilityGuard(faces=mesh.faces)
     guard.check(0.01, 0.01, x0, x0.copy(), ev(x0, 1e-3), edge)  # a healthy step passes
@@ -47,13 +52,7 @@ def test_guard_names_an_extensile_tension_as_a_physical_instability():
     mesh = icosphere(42)
     x0 = mesh.points
     edge = np.full(len(x0), 1e-3)  # every node moves by far more than its edge
-    ev = Evaluation(
-        points=x0,
-        velocity=np.zeros_like(x0),
-        normal=x0,
-        pressure=0.0,
-        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=1e-6)),
-    )
+    ev = _evaluation(x0, x0)
     moved = 1.1 * x0
     with pytest.raises(StabilityError, match="physically unstable") as exc:
         StabilityGuard(zeta=np.full(len(x0), -1.0)).check(0.01, 0.01, x0, moved, ev, edge)
@@ -65,16 +64,6 @@ def test_guard_names_an_extensile_tension_as_a_physical_instability():
     zeta[:3] = -0.5
     assert f"zeta < 0 at 3 of {len(x0)} nodes, down to -0.5" in extensile_tension(zeta)
     assert extensile_tension(np.zeros(5)) is None
-
-
-def _evaluation(points, normal):
-    return Evaluation(
-        points=points,
-        velocity=np.zeros_like(points),
-        normal=normal,
-        pressure=0.0,
-        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=1e-6)),
-    )
 
 
 def test_guard_tells_a_closing_neck_from_an_unstable_step():
