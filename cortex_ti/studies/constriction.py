@@ -103,19 +103,28 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
     amps = sorted({float(z) for z in ds["zeta_hat"].values})
     colour = {z: f"C{k % 10}" for k, z in enumerate(amps)}
     marker_of: dict[int, str] = {}
+    labels: set[str] = set()
+
+    def once(label: str) -> str | None:
+        """The label the first time (a ring run to two end times is one entry of the legend)."""
+        seen, _ = label in labels, labels.add(label)
+        return None if seen else label
+
     for i in range(ds.sizes["run"]):
         zh = float(ds["zeta_hat"].values[i])
         t, v = _series(ds, i)
         if str(ds["model"].values[i]) == "axisymmetric":
             tu = _unresolved_time(ds, i)
             ok = t <= tu
-            a0.plot(t[ok], v[ok], "-", color=colour[zh], lw=1.2, label=f"axisymmetric, 1 + $\\hat\\zeta$ = {1 + zh:g}")
+            a0.plot(
+                t[ok], v[ok], "-", color=colour[zh], lw=1.2, label=once(f"axisymmetric, 1 + $\\hat\\zeta$ = {1 + zh:g}")
+            )
             a0.plot(t[t >= tu], v[t >= tu], ":", color=colour[zh], lw=1.2)
         else:
             every = max(1, t.size // 40)
             n = int(ds["nodes"].values[i])
             marker = marker_of.setdefault(n, "osD^v"[len(marker_of) % 5])
-            a0.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[zh], label=f"3D N={n}")
+            a0.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[zh], label=once(f"3D N={n}"))
     three_d = [float(ds["t_end"].values[i]) for i in range(ds.sizes["run"]) if i not in _axisymmetric(ds)]
     if three_d:  # the axisymmetric threshold runs go on much longer: show the span the 3D runs cover
         a0.set_xlim(0.0, max(three_d))
@@ -129,7 +138,12 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
         "closing": ("o", "still closing at the end"),
     }
     seen = set()
+    longest = {}  # per ring, its longest axisymmetric run
     for i in _axisymmetric(ds):
+        key = (float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+        if key not in longest or float(ds["t_end"].values[i]) > float(ds["t_end"].values[longest[key]]):
+            longest[key] = i
+    for i in longest.values():
         kind = outcome(ds, i)
         _, v = _series(ds, i)
         marker, label = style[kind]
