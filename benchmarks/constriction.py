@@ -35,13 +35,12 @@ import argparse  # noqa: E402
 import numpy as np  # noqa: E402
 from _sections import run_sections  # noqa: E402  (a sibling script)
 
-from cortex_ti.axisymmetric.evolve import StepFailed, simulate  # noqa: E402
+from cortex_ti.axisymmetric.evolve import STRETCH_LIMIT as STRETCH_MAX  # noqa: E402
+from cortex_ti.axisymmetric.evolve import StepFailed, first_unresolved, simulate  # noqa: E402
 
 #: eta_s = eta_b = 1, no bending viscosity (with it the model is ill-posed at a deep neck:
 #: docs/validation/axisymmetric.md, benchmarks/axisym_deep_furrow.py)
 NOBEND = dict(eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0)
-#: the material stretch beyond which the label map counts as unresolved
-STRETCH_MAX = 100.0
 SMOKE = False
 P_VALUES = (2, 4, 8)
 
@@ -84,8 +83,7 @@ def neck(res) -> np.ndarray:
 
 def unresolved(res) -> int | None:
     """The first frame whose material stretch exceeds STRETCH_MAX (or has folded), None if none."""
-    bad = np.nonzero(~np.isfinite(res.stretch) | (res.stretch > STRETCH_MAX))[0]
-    return int(bad[0]) if bad.size else None
+    return first_unresolved(res.stretch)
 
 
 def outcome(res) -> str:

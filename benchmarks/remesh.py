@@ -5,11 +5,15 @@ material), each with remeshing below 25 deg, to t = 5 or until the run stops.
 Per run: the time reached and why it stopped, the smallest triangle angle over the run, the
 smallest neck (furrow radius), the largest volume drift |V/V0 - 1|, the remeshings, their share
 of the run's wall time, the node count at the end and the symbolic analyses of the factorisation;
-then the neck radius over time against the axisymmetric twin (model: axisymmetric, the same
-scene) while that runs. Usage::
+the steps: accepted, the share rejected, the median step before the first remeshing and after
+it; then the neck radius over time against the axisymmetric twin (model: axisymmetric, the same
+scene) while that runs, and the largest deviation from it while the twin is resolved (its material
+stretch below 100; the twin of ``constriction_p4`` has arc-length points, converged to ~1e-6 R0).
+Usage::
 
     python benchmarks/remesh.py --nodes 642 2562                  # the table (minutes on 2 cores)
     python benchmarks/page.py remesh --title "Deep furrows with remeshing" -- remesh --nodes 642 2562
+    python benchmarks/remesh.py --scene constriction_p4 --motions normal --nodes 642 2562
     python benchmarks/remesh.py --smoke                           # 162 nodes, a few steps
 
 Each run is in this process (its summary holds the remeshing counts); a run the guard stops is a
@@ -34,7 +38,7 @@ MOTIONS = {
 TIMES = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
 
 
-def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: float, where) -> dict:
+def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: float, where, scene: str) -> dict:
     from cortex_ti.io.trajectory import Trajectory
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
@@ -48,7 +52,7 @@ def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: floa
         f"mesh.remesh.quality={max(30.0, min_angle + 5.0)}",
         *MOTIONS[motion],
     ]
-    sim = Simulation(load_scene("furrow_p4_a1", sets))
+    sim = Simulation(load_scene(scene, sets))
     out = where / f"a{amplitude:g}_{nodes}_{motion.split()[0]}.h5"
     start = time.perf_counter()
     why = ""
@@ -60,6 +64,8 @@ def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: floa
     stats = sim.report.stats if sim.report is not None else None
     tr = Trajectory(out)
     ds = tr.ds
+    steps = np.asarray(ds["dt"].values, dtype=float)
+    first = next((k for k in range(ds.sizes["time"]) if len(tr.mesh(k)[0]) != len(tr.mesh(0)[0])), None)
     volume = ds["volume"].values
     return {
         "amplitude": amplitude,
@@ -75,27 +81,45 @@ def one(amplitude: float, nodes: int, motion: str, t_end: float, min_angle: floa
         "share": (stats.remesh_wall / wall) if stats is not None and wall > 0 else float("nan"),
         "wall": wall,
         "final_nodes": sim.mesh.n_nodes,
+        "steps": stats.steps if stats is not None else 0,
+        "rejected": stats.rejected / max(1, stats.steps + stats.rejected) if stats is not None else float("nan"),
+        "dt_before": float(np.median(steps[: first or None])),
+        "dt_after": float(np.median(steps[first:])) if first is not None else float("nan"),
         "analyses": sim.solver.n_analyses,
         "times": ds["time"].values,
         "furrow": ds["furrow_radius"].values,
     }
 
 
-def twin(amplitude: float, t_end: float, where) -> dict:
-    """The axisymmetric model of the same scene: its furrow radius over time and why it stopped."""
+def twin(amplitude: float, t_end: float, where, scene: str) -> dict:
+    """The axisymmetric model of the same scene: its furrow radius over time, the time its material
+    stretch passes the limit (inf: never) and why it stopped."""
+    from cortex_ti.axisymmetric.evolve import first_unresolved
     from cortex_ti.io.trajectory import load_trajectory
     from cortex_ti.models import MODELS
     from cortex_ti.scene import load_scene
 
-    scene = load_scene(
-        "furrow_p4_a1",
-        ["model=axisymmetric", f"active_stress.0.amplitude={amplitude}", f"time.t_end={t_end}", "time.save_every=0.05"],
-    )
-    runner = MODELS["axisymmetric"].build(scene, "cpu", 1)
+    sets = ["model=axisymmetric", "mesh.remesh.min_angle=null", f"active_stress.0.amplitude={amplitude}"]
+    scene_ = load_scene(scene, [*sets, f"time.t_end={t_end}", "time.save_every=0.05"])
+    runner = MODELS["axisymmetric"].build(scene_, "cpu", 1)
     out = where / f"axisym_a{amplitude:g}.h5"
     runner.run(out, progress=False)
     ds = load_trajectory(out)
-    return {"times": ds["time"].values, "furrow": ds["furrow_radius"].values, "stopped": runner.summary()["stopped"]}
+    k = first_unresolved(ds["material_stretch"].values)
+    return {
+        "times": ds["time"].values,
+        "furrow": ds["furrow_radius"].values,
+        "stopped": runner.summary()["stopped"],
+        "resolved_until": float("inf") if k is None else float(ds["time"].values[k]),
+    }
+
+
+def deviation(r: dict, tw: dict) -> tuple[float, float]:
+    """The largest |3D - twin| neck radius over the run's frames while the twin runs and is
+    resolved, and the time up to which that is."""
+    end = min(r["times"][-1], tw["times"][-1], tw["resolved_until"])
+    keep = r["times"] <= end + 1e-9
+    return float(np.max(np.abs(r["furrow"][keep] - np.interp(r["times"][keep], tw["times"], tw["furrow"])))), end
 
 
 def at(times, values, t):
@@ -111,17 +135,23 @@ def main(argv=None) -> int:
     ap.add_argument("--amplitudes", type=float, nargs="+", default=[6.0, 12.0])
     ap.add_argument("--t-end", type=float, default=5.0)
     ap.add_argument("--min-angle", type=float, default=25.0)
+    ap.add_argument("--scene", default="furrow_p4_a1", help="furrow_p4_a1 (with bending viscosity) or constriction_p4")
+    ap.add_argument("--motions", nargs="+", choices=["normal", "ale"], default=["normal", "ale"])
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = ap.parse_args(argv)
     if args.smoke:  # the code path only: too short to remesh
         args.nodes, args.amplitudes, args.t_end = [162], [6.0], 0.03
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
     where = _smoke.folder() if args.smoke else Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
+    motions = [m for m in MOTIONS if m.split()[0] in args.motions]
     rows = [
-        one(a, n, m, args.t_end, args.min_angle, where) for a in args.amplitudes for n in args.nodes for m in MOTIONS
+        one(a, n, m, args.t_end, args.min_angle, where, args.scene)
+        for a in args.amplitudes
+        for n in args.nodes
+        for m in motions
     ]
-    twins = {a: twin(a, args.t_end, where) for a in args.amplitudes}
-    print(f"# Furrow p = 4 with remeshing below {args.min_angle:g} deg, to t = {args.t_end:g}\n")
+    twins = {a: twin(a, args.t_end, where, args.scene) for a in args.amplitudes}
+    print(f"# {args.scene} with remeshing below {args.min_angle:g} deg, to t = {args.t_end:g}\n")
     print(
         "| amplitude | nodes | motion | t reached | stopped | smallest angle (deg) | smallest neck (R0) | "
         "volume drift | remeshings | remeshing share of wall | wall (s) | nodes at the end | symbolic analyses |"
@@ -132,6 +162,21 @@ def main(argv=None) -> int:
             f"| {r['amplitude']:g} | {r['nodes']} | {r['motion']} | {r['t']:.3g} | {r['stopped']} | "
             f"{r['min_angle']:.1f} | {r['neck']:.3f} | {r['drift']:.1e} | {r['remeshes']} | "
             f"{100 * r['share']:.1f} % | {r['wall']:.0f} | {r['final_nodes']} | {r['analyses']} |"
+        )
+    print("\n## Steps (bdf2) and the deviation from the axisymmetric twin\n")
+    print(
+        "Median step between frames before the first remeshing and after it; deviation: the largest "
+        "|3D - twin| neck radius over the frames while the twin runs and its material stretch is below 100.\n"
+    )
+    print(
+        "| amplitude | nodes | motion | steps | rejected | median dt before | median dt after | max deviation | to t |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        dev, end = deviation(r, twins[r["amplitude"]])
+        print(
+            f"| {r['amplitude']:g} | {r['nodes']} | {r['motion']} | {r['steps']} | {100 * r['rejected']:.0f} % | "
+            f"{r['dt_before']:.2e} | {r['dt_after']:.2e} | {dev:.2e} | {end:.3g} |"
         )
     stops = [r for r in rows if r["why"]]
     if stops:

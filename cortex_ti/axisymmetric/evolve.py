@@ -33,9 +33,33 @@ from .balance import (
 from .myosin import Myosin
 from .spectral import Spectral, geometry
 
-__all__ = ["SimulationResult", "simulate", "revolve", "full_meridian_dynamics", "normal_embedding"]
+__all__ = [
+    "SimulationResult",
+    "simulate",
+    "revolve",
+    "full_meridian_dynamics",
+    "normal_embedding",
+    "STRETCH_LIMIT",
+    "first_unresolved",
+]
 
 ArrayF = np.ndarray
+
+#: The material stretch (max/min of ``|dX/du|`` over the meridian) beyond which the label map is
+#: no longer resolved: glued deep rings stop self-converging there (docs/validation/constriction.md:
+#: the neck radius agrees between n = 96 and 128 to 1e-8 at a stretch of 3, 1e-5 at 16, 2e-4 at 65,
+#: 1e-3 at 480).
+STRETCH_LIMIT = 100.0
+
+
+def first_unresolved(stretch: ArrayF, limit: float = STRETCH_LIMIT) -> int | None:
+    """The first frame whose material stretch exceeds ``limit`` or whose label map has folded
+    (a non-finite stretch), None if there is none.
+
+    >>> first_unresolved(np.array([1.0, 40.0, 150.0, np.inf])), first_unresolved(np.array([1.0, 2.0]))
+    (2, None)"""
+    bad = np.nonzero(~np.isfinite(stretch) | (np.asarray(stretch) > limit))[0]
+    return int(bad[0]) if bad.size else None
 
 
 class _ZetaSeries:

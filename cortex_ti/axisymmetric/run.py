@@ -29,7 +29,7 @@ from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
-from .evolve import StepFailed, revolve, simulate
+from .evolve import STRETCH_LIMIT, StepFailed, first_unresolved, revolve, simulate
 from .myosin import Myosin
 
 log = logging.getLogger(__name__)
@@ -55,6 +55,14 @@ MERIDIAN_VARIABLES = {
     "meridian_v_s": {"units": "R0/t_a", "long_name": "tangential velocity along the meridian, north to south"},
     "meridian_v_n": {"units": "R0/t_a", "long_name": "normal velocity (outward)"},
     "meridian_zeta": {"units": "zeta_0", "long_name": "active tension"},
+}
+#: A dynamic run's per-frame material stretch (:attr:`SimulationResult.stretch
+#: <cortex_ti.axisymmetric.evolve.SimulationResult>`).
+MATERIAL_STRETCH_ATTRS = {
+    "units": "1",
+    "long_name": "material stretch: max/min over the meridian of |dX/du| (u the material label)",
+    "description": f"inf once the label map has folded; above {STRETCH_LIMIT:g} the label map is not resolved "
+    "(the neck radius stops converging in axisymmetric.n, docs/validation/constriction.md)",
 }
 #: With ``fields.myosin``: its density along the meridian and at the points (the 3D variable).
 MYOSIN_VARIABLES = {
@@ -207,12 +215,32 @@ class AxisymmetricRun:
             )
         except StepFailed as exc:
             self.result = exc.result  # its frames are written, then the run fails (run)
+            self._warn_unresolved(exc.result)
             return exc.result
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
+        self._warn_unresolved(res)
         if res.stopped != "t_end":
             log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
         return res
+
+    def _warn_unresolved(self, res) -> None:
+        """One line when arc-length points carry a label map stretched past
+        :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` (or folded): from that frame on the
+        run's numbers stop converging with n."""
+        if evolution_options(self.settings)["parametrization"] != "arclength":
+            return
+        k = first_unresolved(res.stretch)
+        if k is not None:
+            log.warning(
+                "%s (axisymmetric): from t = %.4g (neck %.4g R0) the material stretch of the arc-length points' "
+                "label map is %.3g > %g: the frames after it are not converged in axisymmetric.n",
+                self.settings.name,
+                res.t[k],
+                res.furrow_radius[k],
+                res.stretch[k],
+                STRETCH_LIMIT,
+            )
 
     # ------------------------------------------------------------------------------- writing
     def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
@@ -300,6 +328,7 @@ class AxisymmetricRun:
             out.update(MYOSIN_VARIABLES)
         if self.settings.dynamic:
             out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
+            out["material_stretch"] = (("time",), MATERIAL_STRETCH_ATTRS)
         return out
 
     def _static_frames(self):
@@ -350,7 +379,7 @@ class AxisymmetricRun:
             if res.myosin_total is not None:
                 exact["myosin_total"] = float(res.myosin_total[i])
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
-            yield float(t), self._frame(e, pressure, exact, dt=dt)
+            yield float(t), {**self._frame(e, pressure, exact, dt=dt), "material_stretch": float(res.stretch[i])}
 
     def _frame(self, e: dict, pressure: float, exact: dict, dt) -> dict:
         """One frame: the meridian values ``e`` revolved about z, with the diagnostics."""

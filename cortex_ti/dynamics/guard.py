@@ -6,6 +6,12 @@ balance residual and the mesh, and stops such a run with a
 :class:`~cortex_ti.errors.StabilityError` that names the step size to try, before the output
 fills with garbage.
 
+When it stops a run it says which of three things it sees (:meth:`StabilityGuard.diagnosis`): a
+**closing neck** (the surface comes within two edge lengths of itself across the body: a pinch
+toward division, a physical singularity the model does not go through), an **unstable step**
+(shorten it; unless an adaptive scheme has already shortened it a hundredfold, which no step
+fixes), or a **distorted mesh** (its triangles collapse while the flow does not blow up: remesh).
+
 Not every blow-up is numerical. A cortex under *extensile* active tension (zeta < 0) is
 physically unstable: a negative tension does work on any wrinkle that adds area, so its shape
 modes grow at a rate set by the physics, and a smaller step or a finer mesh only changes when
@@ -24,7 +30,12 @@ from ..analysis.diagnostics import mesh_quality
 from ..errors import StabilityError
 from .schemes import RESOLUTION_HINT, Evaluation
 
-__all__ = ["StabilityGuard", "extensile_tension"]
+__all__ = ["StabilityGuard", "extensile_tension", "closing_neck"]
+
+#: a neck closer than this many edge lengths across the body is closing (the guard's diagnosis)
+NECK_EDGES = 2.0
+#: an adaptive step below this fraction of the largest step taken is not what a shorter step fixes
+STEP_COLLAPSE = 1e-2
 
 
 def extensile_tension(zeta) -> str | None:
@@ -40,6 +51,44 @@ def extensile_tension(zeta) -> str | None:
         f"the active tension is extensile (zeta < 0 {share}, down to {float(z.min()):.3g}): a cortex under "
         "extensile tension is physically unstable (its shape modes grow whatever the step and the mesh)"
     )
+
+
+def closing_neck(points, faces, normals, within: float = NECK_EDGES) -> tuple[int, float] | None:
+    """Where the surface comes within ``within`` edge lengths of itself across the body: two nodes
+    more than two rings apart whose outward normals face each other (``n_i . n_j < -0.9``) closer
+    than ``within`` times the mean length of the edges at either. Returns (that node, the gap) for
+    the narrowest such gap relative to the edge length, None if there is none.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> closing_neck(m.points, m.faces, m.points) is None  # a sphere has no neck
+    True"""
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
+    points, faces = np.asarray(points, dtype=float), np.asarray(faces)
+    n = points.shape[0]
+    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    a = sp.csr_matrix((np.ones(len(e)), (e[:, 0], e[:, 1])), shape=(n, n))
+    a = ((a + a.T + sp.identity(n)) > 0).astype(np.float64)
+    near = (a @ a).tocsr()  # within two rings
+    length = np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1)
+    edge_length = np.bincount(e.ravel(), np.repeat(length, 2), minlength=n) / np.maximum(
+        np.bincount(e.ravel(), minlength=n), 1
+    )
+    pairs = cKDTree(points).query_pairs(within * float(edge_length.max()), output_type="ndarray")
+    if pairs.size == 0:
+        return None
+    i, j = pairs[:, 0], pairs[:, 1]
+    d = np.linalg.norm(points[i] - points[j], axis=1)
+    facing = np.einsum("ij,ij->i", normals[i], normals[j]) < -0.9
+    apart = np.asarray(near[i, j]).ravel() == 0
+    ratio = d / np.minimum(edge_length[i], edge_length[j])
+    hit = facing & apart & (ratio < within)
+    if not hit.any():
+        return None
+    k = np.flatnonzero(hit)[np.argmin(ratio[hit])]
+    return int(i[k]), float(d[k])
 
 
 @dataclass
@@ -68,6 +117,7 @@ class StabilityGuard:
     zeta: np.ndarray | None = None  # the tension the nodes carry: tells a physical instability
     _history: list = field(default_factory=list)
     _angle0: float | None = None
+    _largest_dt: float = 0.0
 
     def new_mesh(self, faces: np.ndarray) -> None:
         """The run remeshed: judge the mesh by its new triangles (against the smallest angle at the
@@ -77,31 +127,64 @@ class StabilityGuard:
     def _min_angle(self, points) -> float:
         return mesh_quality(points, self.faces)["min_angle_deg"]
 
+    def diagnosis(self, t: float, dt: float, points, ev: Evaluation) -> str | None:
+        """What a stop means when it is not the step (None: it may be): a closing neck, or an adaptive
+        step already fallen a hundredfold below the largest one taken before it."""
+        if self.faces is not None and ev.normal is not None:
+            neck = closing_neck(points, self.faces, ev.normal)
+            if neck is not None:
+                i, gap = neck
+                return (
+                    f"the neck is closing: at t={t:.4g} the surface is {gap:.3g} R0 across at node {i}, within "
+                    f"{NECK_EDGES:g} edge lengths: a pinch toward division, a physical singularity the model does not "
+                    "go through (neither a smaller step nor remeshing helps)"
+                )
+        if self._largest_dt > 0 and dt < STEP_COLLAPSE * self._largest_dt:
+            return (
+                f"the adaptive step has already fallen from {self._largest_dt:.3g} to {dt:.3g}, so a shorter "
+                "one will not help: a mode of this shape or mesh grows at any step "
+                "(benchmarks/remesh_mode.py lists the growing modes of a frame)"
+            )
+        return None
+
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
         physical = extensile_tension(self.zeta)
-        if physical is not None:
-            suggestion = (
-                f"{physical}; this is the physics, not the numerics: a smaller step or a finer mesh "
-                "only changes when it blows up"
-            )
-        else:
-            suggestion = (
+
+        def advice(growing: bool) -> str:
+            """What to do, said once the guard stops (the neck search is not paid on every step)."""
+            if physical is not None:
+                return (
+                    f"{physical}; this is the physics, not the numerics: a smaller step or a finer mesh "
+                    "only changes when it blows up"
+                )
+            finite = np.all(np.isfinite(new_points))
+            other = self.diagnosis(t, dt, new_points if finite else old_points, ev)
+            if other is not None:
+                return other
+            if not growing:
+                return (
+                    "the flow does not blow up, the mesh is distorted: remesh (mesh.remesh.min_angle, e.g. 25) or "
+                    "move the nodes tangentially (mesh.motion: ale)"
+                )
+            return (
                 f"try time.dt={dt / 4:.3g} or time.scheme=adaptive; if smaller steps blow up too, the "
                 f"mesh is too coarse for the force balance: {RESOLUTION_HINT}"
             )
+
+        unstable = "the shape is unstable" if physical else "the explicit scheme is unstable"
         if not np.all(np.isfinite(new_points)) or not np.all(np.isfinite(ev.velocity)):
-            raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {suggestion}")
+            raise StabilityError(f"the step dt={dt:.3g} produced non-finite values at t={t:.4g}; {advice(True)}")
         move = np.linalg.norm(new_points - old_points, axis=1)
         worst = int(np.argmax(move / edge_length))
         if move[worst] > self.max_fraction * edge_length[worst]:
             raise StabilityError(
                 f"the step dt={dt:.3g} at t={t:.4g} moves node {worst} by {move[worst]:.3g}, "
-                f"{move[worst] / edge_length[worst]:.2f} of its edge length: "
-                f"{'the shape is unstable' if physical else 'the explicit scheme is unstable'}; {suggestion}"
+                f"{move[worst] / edge_length[worst]:.2f} of its edge length: {unstable}; {advice(True)}"
             )
         vmax = float(np.max(np.abs(ev.normal_speed)))
         self._history.append(vmax)
         h = self._history
+        growing = len(h) > 1 and h[-1] > self.growth * h[-2]
         if len(h) > self.patience:
             recent = h[-self.patience - 1 :]
             if all(
@@ -109,9 +192,7 @@ class StabilityGuard:
             ) and vmax > self.jump * min(h):
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
-                    f"(t={t:.4g}): "
-                    f"{'the shape is unstable' if physical else 'the explicit scheme is unstable at this step'}; "
-                    f"{suggestion}"
+                    f"(t={t:.4g}): {unstable}{'' if physical else ' at this step'}; {advice(True)}"
                 )
         residual = ev.solution.info.relative_residual
         if residual > self.max_residual:
@@ -127,6 +208,6 @@ class StabilityGuard:
             if angle < self.angle_fraction * self._angle0:
                 raise StabilityError(
                     f"the mesh is collapsing at t={t:.4g}: smallest triangle angle {angle:.2g} deg, from "
-                    f"{self._angle0:.3g} at the start; either the step is unstable ({suggestion}) or the shape is "
-                    "not resolved"
+                    f"{self._angle0:.3g} at the start; {advice(growing)}"
                 )
+        self._largest_dt = max(self._largest_dt, dt)  # after the checks: a diagnosis compares with the steps before

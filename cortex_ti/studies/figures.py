@@ -20,6 +20,7 @@ from ..dynamics.schemes import SCHEMES
 from ..io.trajectory import Trajectory, open_trajectory
 from ..physics.formulations import FORMULATIONS
 from ..surface.fits import FIT_SCHEMES
+from .constriction import constriction_figure  # noqa: F401  (issue 18's figure, drawn by name)
 from .registry import FIGURES
 
 __all__ = [

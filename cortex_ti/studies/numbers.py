@@ -16,6 +16,7 @@ import pandas as pd
 import xarray as xr
 
 from ..io.trajectory import Trajectory
+from .constriction import constriction_numbers
 from .registry import FIGURES
 
 __all__ = ["figure_numbers", "numbers_html"]
@@ -241,6 +242,7 @@ _NUMBERS = {
     "orientation_figure": _orientation,
     "reference_check_figure": _reference_check,
     "accuracy_cost_figure": _accuracy,
+    "constriction_figure": constriction_numbers,
 }
 
 

@@ -104,6 +104,19 @@ _STUDIES = (
     ),
 )
 
+# Issue 18: deep rings to the brink of division (its own block, so other studies merge beside it).
+_STUDIES += (
+    Study(
+        "constriction",
+        ("scene", "model", "zeta_hat", "p", "remesh", "nodes", "t_end"),
+        "Deep rings without bending viscosity (issue 18): the neck radius against time, by the axisymmetric "
+        "model with arc-length points (the truth, with its material stretch: past 100 not converged) and in 3D "
+        "with remeshing; and, from the axisymmetric runs over the ring-to-pole tension ratio 1 + zeta_hat, the "
+        "threshold above which the furrow closes (to a neck of 0.1 R0) instead of arresting.",
+        variables=("furrow_radius", "pole_radius", "volume", "min_angle_deg", "material_stretch"),
+    ),
+)
+
 #: The studies by name (the config's sections of run records).
 STUDIES: dict[str, Study] = {s.name: s for s in _STUDIES}
 
@@ -247,6 +260,24 @@ _FIGURES = (
         "dashed line joins the Pareto front (no other run is both cheaper and more accurate), tabulated beside "
         "it; red crosses: runs that went unstable (the reason is in their summary). Times are wall-clock seconds "
         "of one job on the machine that ran the workflow, start-up included.",
+    ),
+)
+
+# Issue 18: deep rings (its own block, so other figures merge beside it).
+_FIGURES += (
+    FigureSpec(
+        "constriction",
+        "store",
+        ("constriction",),
+        "constriction_figure",
+        "7. Deep rings: does the furrow close?",
+        "Not in the paper (issue 18): rings zeta = 1 + zeta_hat exp(-10 |theta - pi/2|^4) without bending "
+        "viscosity, the tension glued to the normally moving points. Left: the neck radius against time, lines the "
+        "axisymmetric model (arc-length points; dotted where its material stretch exceeds 100 and the numbers stop "
+        "converging), dots the 3D runs with remeshing. Right: the neck at the end of each axisymmetric run against "
+        "the ring-to-pole tension ratio 1 + zeta_hat: closed (reached 0.1 R0), arrested (slower than 1e-4 R0/t_a "
+        "at the end) or still closing, and the threshold between the largest ratio that arrests and the smallest "
+        "that closes. Store: ``results/aggregate/constriction.nc``.",
     ),
 )
 

@@ -30,6 +30,9 @@ p            ``active_stress.0.p``              exponent of Eq. 59
 gamma        ``mesh.shear``                     initial simple shear x -> x + gamma z
 tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
                                                 about +y, toward +x (the shear direction)
+model        ``model``                          3d or axisymmetric
+remesh       ``mesh.remesh.min_angle``          remesh below this angle (deg); null: never
+                                                (the axisymmetric model has no mesh)
 ===========  =================================  =====================================
 """
 
@@ -72,16 +75,19 @@ PARAMETERS: dict[str, str] = {
     "gamma": "mesh.shear",
     "tilt": "active_stress.0.axis",
     "model": "model",
+    "remesh": "mesh.remesh.min_angle",
 }
 
 
 def format_value(value) -> str:
     """A parameter value as it appears in folder names and overrides: the shortest text that
-    reads back to the same number (``5e-04`` -> ``0.0005``, ``2562.0`` -> ``2562``), the
-    string itself otherwise.
+    reads back to the same number (``5e-04`` -> ``0.0005``, ``2562.0`` -> ``2562``), ``null``
+    for an unset one (a setting that is off), the string itself otherwise.
 
-    >>> format_value(5e-4), format_value(2562.0), format_value(True), format_value("quartic")
-    ('0.0005', '2562', 'true', 'quartic')"""
+    >>> format_value(5e-4), format_value(2562.0), format_value(True), format_value("quartic"), format_value(None)
+    ('0.0005', '2562', 'true', 'quartic', 'null')"""
+    if value is None:
+        return "null"
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, (int, float)):
@@ -118,6 +124,8 @@ def _settings_value(settings, column: str):
         return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
     if column == "model":
         return settings.model
+    if column == "remesh":
+        return None if settings.mesh.remesh is None else settings.mesh.remesh.min_angle
     section, key = {
         "nodes": ("mesh", "nodes"),
         "formulation": ("numerics", "formulation"),

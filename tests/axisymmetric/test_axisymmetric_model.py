@@ -257,3 +257,34 @@ def test_a_failed_step_keeps_the_frames_before_it(tmp_path, capsys, monkeypatch)
     # every frame (one per 0.01) up to the last step that succeeded, which ends past t = 0.3
     assert not out.exists() and t >= 0.3 and n == round(t / 0.01) + 1
     assert f"the {n} frames to t = {t:.6g} before it are kept" in lines[0]
+
+
+AXISYM_DEEP = ["model=axisymmetric", "mesh.remesh.min_angle=null", "axisymmetric.n=16", "time.save_every=0.05"]
+
+
+def test_deep_ring_warns_once_its_label_map_is_unresolved(tmp_path, caplog):
+    """The material stretch is 1 on the initial sphere (the label is the polar angle: |dX/du| = R0
+    everywhere), and a short resolved run says nothing; a run whose stretch passes the limit (a
+    ratio-21 ring passes it at t = 0.90 - 1.00 for n = 48 - 128, docs/validation/constriction.md;
+    too slow for a test, so its result is stood in for) says so in one line, at that frame."""
+    import logging
+    from types import SimpleNamespace
+
+    from cortex_ti.axisymmetric.evolve import STRETCH_LIMIT
+
+    run = AxisymmetricRun(load_scene("constriction_p4", [*AXISYM_DEEP, "time.t_end=0.1"]))
+    with caplog.at_level(logging.WARNING, logger="cortex_ti"):
+        run.run(tmp_path / "a.h5")
+    assert not [r for r in caplog.records if "material stretch" in r.getMessage()]
+    stretch = Trajectory(tmp_path / "a.h5").ds["material_stretch"].values
+    assert stretch[0] == pytest.approx(1.0, abs=1e-12) and np.all(stretch < STRETCH_LIMIT)
+    caplog.clear()
+    past = SimpleNamespace(
+        t=np.array([0.0, 0.9, 1.0, 1.1]),
+        stretch=np.array([1.0, 60.0, 1.5 * STRETCH_LIMIT, np.inf]),
+        furrow_radius=np.array([1.0, 0.2, 0.16, 0.12]),
+    )
+    with caplog.at_level(logging.WARNING, logger="cortex_ti"):
+        run._warn_unresolved(past)
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 1 and "\n" not in lines[0] and "from t = 1 (neck 0.16 R0)" in lines[0]

@@ -11,6 +11,17 @@ from cortex_ti.errors import StabilityError
 from cortex_ti.surface.mesh import icosphere
 
 
+def _evaluation(points, normal, residual=1e-6):
+    """A solve at ``points`` with no flow, these normals and this relative residual."""
+    return Evaluation(
+        points=points,
+        velocity=np.zeros_like(points),
+        normal=normal,
+        pressure=0.0,
+        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)),
+    )
+
+
 def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
     """StabilityGuard's resolution checks, on hand-made steps: a triangle squashed below 0.2 of the
     starting smallest angle, and a solve whose relative residual exceeds 0.05."""
@@ -19,21 +30,16 @@ def test_guard_stops_a_collapsing_mesh_and_an_unsatisfied_balance():
     edge = np.full(len(x0), 10.0)  # large: only the resolution checks can fire
 
     def ev(points, residual):
-        return Evaluation(
-            points=points,
-            velocity=np.zeros_like(points),
-            normal=points,
-            pressure=0.0,
-            solution=SimpleNamespace(info=SimpleNamespace(relative_residual=residual)),
-        )
+        return _evaluation(points, points, residual)
 
     guard = StabilityGuard(faces=mesh.faces)
     guard.check(0.01, 0.01, x0, x0.copy(), ev(x0, 1e-3), edge)  # a healthy step passes
     a, b, c = mesh.faces[0]
     squashed = x0.copy()
     squashed[a] = 0.5 * (x0[b] + x0[c]) + 0.01 * (x0[a] - 0.5 * (x0[b] + x0[c]))  # corner a onto edge bc
-    with pytest.raises(StabilityError, match="mesh is collapsing"):
+    with pytest.raises(StabilityError, match="mesh is collapsing") as exc:
         guard.check(0.02, 0.01, x0, squashed, ev(x0, 1e-3), edge)
+    assert "the mesh is distorted: remesh" in str(exc.value)  # the flow does not blow up
     with pytest.raises(StabilityError, match="no longer satisfied"):
         StabilityGuard(faces=mesh.faces).check(0.01, 0.01, x0, x0.copy(), ev(x0, 0.2), edge)
 
@@ -46,13 +52,7 @@ def test_guard_names_an_extensile_tension_as_a_physical_instability():
     mesh = icosphere(42)
     x0 = mesh.points
     edge = np.full(len(x0), 1e-3)  # every node moves by far more than its edge
-    ev = Evaluation(
-        points=x0,
-        velocity=np.zeros_like(x0),
-        normal=x0,
-        pressure=0.0,
-        solution=SimpleNamespace(info=SimpleNamespace(relative_residual=1e-6)),
-    )
+    ev = _evaluation(x0, x0)
     moved = 1.1 * x0
     with pytest.raises(StabilityError, match="physically unstable") as exc:
         StabilityGuard(zeta=np.full(len(x0), -1.0)).check(0.01, 0.01, x0, moved, ev, edge)
@@ -64,3 +64,38 @@ def test_guard_names_an_extensile_tension_as_a_physical_instability():
     zeta[:3] = -0.5
     assert f"zeta < 0 at 3 of {len(x0)} nodes, down to -0.5" in extensile_tension(zeta)
     assert extensile_tension(np.zeros(5)) is None
+
+
+def test_guard_tells_a_closing_neck_from_an_unstable_step():
+    """An hourglass whose waist (radius 0.05 R0) is narrower than two edge lengths across: a node
+    moving too far there is the neck closing (physical), not a step to shorten; on the sphere the
+    same move asks for a shorter step."""
+    from cortex_ti.dynamics.guard import closing_neck
+    from cortex_ti.surface.mesh import vertex_normals
+
+    mesh = icosphere(642)
+    x = mesh.points.copy()
+    x[:, :2] *= (1.0 - 0.95 * np.exp(-((x[:, 2] / 0.35) ** 2)))[:, None]
+    normals = vertex_normals(x, mesh.faces)
+    edge = np.full(len(x), 0.1)
+    i, gap = closing_neck(x, mesh.faces, normals)
+    assert abs(x[i, 2]) < 0.2 and gap < 0.3  # at the waist, across it
+    moved = x + np.array([0.0, 0.0, 0.2])  # every node moves two edge lengths (the shape does not change)
+    with pytest.raises(StabilityError, match="the neck is closing") as exc:
+        StabilityGuard(faces=mesh.faces).check(0.01, 0.01, x, moved, _evaluation(x, normals), edge)
+    assert "try time.dt" not in str(exc.value)
+    sphere = mesh.points
+    with pytest.raises(StabilityError, match="try time.dt=0.0025"):
+        StabilityGuard(faces=mesh.faces).check(0.01, 0.01, sphere, 1.3 * sphere, _evaluation(sphere, sphere), edge)
+
+
+def test_guard_says_a_hundredfold_shorter_adaptive_step_is_not_the_cure():
+    """An adaptive scheme that has cut its step from 0.1 to 1e-4 and still blows up: the guard does
+    not ask for a shorter step, it says one will not help."""
+    mesh = icosphere(162)
+    x = mesh.points
+    guard = StabilityGuard(faces=mesh.faces)
+    guard.check(0.1, 0.1, x, x.copy(), _evaluation(x, x), np.full(len(x), 1.0))
+    with pytest.raises(StabilityError, match="already fallen from 0.1 to 0.0001") as exc:
+        guard.check(0.1001, 1e-4, x, 1.3 * x, _evaluation(x, x), np.full(len(x), 0.01))
+    assert "try time.dt" not in str(exc.value)

@@ -49,6 +49,7 @@ FURROWS = [
     "shear_035",
     "shear_035_tilted",
     "shear_075",
+    "constriction_p4",
 ]
 
 

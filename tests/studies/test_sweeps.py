@@ -155,3 +155,18 @@ def test_a_swept_tilt_names_the_same_folder_as_the_scenes_own():
         "reorientation", [{"scene": "shear_035_tilted", "tilt": [22.5, 45]}, {"scene": "shear_035_tilted"}]
     )
     assert [r["tilt"] for r in rows] == ["22.5", "45"]
+
+
+def test_the_remesh_column_turns_remeshing_off_for_the_axisymmetric_model():
+    """One scene, both models: its 3D runs remesh at the scene's angle; ``remesh: null`` (written
+    ``null`` in the folder name) turns it off so the axisymmetric model, which has no mesh, accepts it."""
+    rows = expand_runs(
+        "constriction",
+        [{"scene": "constriction_p4", "model": "axisymmetric", "remesh": None}, {"scene": "constriction_p4"}],
+    )
+    assert [(r["model"], r["remesh"]) for r in rows] == [("axisymmetric", "null"), ("3d", "25")]
+    twin, three_d = (load_scene(r["scene"], scene_overrides(r)).settings for r in rows)
+    assert twin.model == "axisymmetric" and twin.mesh.remesh is None
+    assert three_d.mesh.remesh is not None and three_d.mesh.remesh.min_angle == 25
+    with pytest.raises(SceneError, match="no triangle mesh"):
+        expand_runs("constriction", [{"scene": "constriction_p4", "model": "axisymmetric"}])

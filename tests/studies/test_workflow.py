@@ -45,7 +45,7 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
 
     n_methods = sum(len(fits) for fits in config["static"]["methods"].values())
     n_static = len(config["static"]["scenes"]) * len(config["static"]["nodes"]) * n_methods
-    n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation"))
+    n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation", "constriction"))
     n_accuracy = len(expand_runs("accuracy", config["accuracy"]["runs"]))
     # plus one axisymmetric twin per distinct axisymmetric problem of the furrow and accuracy runs
     twin_sources = [r for s in ("furrow", "accuracy") for r in expand_runs(s, config[s]["runs"])]
@@ -130,8 +130,13 @@ def test_tiny_configuration_end_to_end(tmp_path):
         assert angle[-1] < angle[0]  # turning back toward the pattern axis
 
     cost = open_store("cost")
-    n_runs = 8 + 1 + 1 + 2 + 4 + 1  # + the axisymmetric twin of furrow_p8_a1 (both studies run it)
+    n_runs = 8 + 1 + 1 + 2 + 4 + 1 + 1  # + the twin of furrow_p8_a1 (both studies run it), + constriction
     assert cost.sizes["run"] == n_runs
+    deep = open_store("constriction")
+    assert deep["model"].values.tolist() == ["axisymmetric"]
+    assert deep["material_stretch"].values[0, 0] == pytest.approx(1.0, abs=1e-12)  # the initial sphere
+    assert np.all(np.diff(deep["furrow_radius"].values[0]) < 0)  # the ring pulls the neck in
+
     twin = cost["study"].values == "axisymmetric"
     assert twin.sum() == 1 and cost["model"].values[twin][0] == "axisymmetric" and cost["wall_s"].values[twin][0] > 0
     assert np.all(cost["wall_s"].values > 0) and np.all(cost["max_rss_mb"].values > 0)

@@ -1,0 +1,185 @@
+"""The ``constriction`` study (issue 18): deep rings, the neck radius over time and whether the furrow
+closes or arrests, read from the study's store (``results/aggregate/constriction.nc``).
+
+A run's *outcome* (:func:`outcome`): ``closed`` when it ended before its ``t_end`` (the
+axisymmetric model stops cleanly at its ``stop_neck``); ``arrested`` when the neck's rate over its
+last frames is below :data:`ARREST_RATE`; ``closing`` otherwise (undecided at ``t_end``). The
+*threshold* (:func:`threshold`) lies between the largest ring-to-pole tension ratio
+``1 + zeta_hat`` whose axisymmetric run arrests and the smallest whose run closes (same ``p``).
+The axisymmetric runs' frames past :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` of
+material stretch are drawn dotted and excluded from the 3D comparison: they are not converged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import xarray as xr
+from matplotlib.figure import Figure
+
+from ..axisymmetric.evolve import first_unresolved
+
+__all__ = ["ARREST_RATE", "outcome", "threshold", "constriction_figure", "constriction_numbers"]
+
+#: |d neck / dt| (R0/t_a) over the last frames below which a run counts as arrested
+#: (docs/validation/constriction.md: arrested runs end at 1e-6 or slower, closing ones at 3e-4 or faster)
+ARREST_RATE = 1e-4
+
+
+def _series(ds: xr.Dataset, i: int, name: str = "furrow_radius"):
+    v = ds[name].values[i]
+    ok = np.isfinite(v)
+    return ds["time"].values[ok], v[ok]
+
+
+def outcome(ds: xr.Dataset, i: int) -> str:
+    """How run ``i`` ended: ``closed``, ``arrested`` or ``closing`` (module docstring)."""
+    t, neck = _series(ds, i)
+    if t[-1] < float(ds["t_end"].values[i]) - 1e-9:
+        return "closed"
+    if t.size < 2:
+        return "closing"
+    rate = (neck[-1] - neck[-2]) / (t[-1] - t[-2])
+    return "arrested" if abs(rate) < ARREST_RATE else "closing"
+
+
+def _unresolved_time(ds: xr.Dataset, i: int) -> float:
+    """The first time run ``i``'s material stretch passes the limit (inf: never, or a 3D run)."""
+    if "material_stretch" not in ds:
+        return math.inf
+    t, s = _series(ds, i, "material_stretch")
+    k = first_unresolved(s) if s.size else None
+    return math.inf if k is None else float(t[k])
+
+
+def _axisymmetric(ds: xr.Dataset) -> list[int]:
+    return [i for i in range(ds.sizes["run"]) if str(ds["model"].values[i]) == "axisymmetric"]
+
+
+def threshold(ds: xr.Dataset) -> dict[float, tuple[float, float]]:
+    """Per ``p``: (the largest ratio 1 + zeta_hat that arrests, the smallest that closes) among the
+    axisymmetric runs (nan where the sweep has none)."""
+    out = {}
+    for p in sorted({float(ds["p"].values[i]) for i in _axisymmetric(ds)}):
+        runs = [i for i in _axisymmetric(ds) if float(ds["p"].values[i]) == p]
+        ratio = {i: 1.0 + float(ds["zeta_hat"].values[i]) for i in runs}
+        arrested = [ratio[i] for i in runs if outcome(ds, i) == "arrested"]
+        closed = [ratio[i] for i in runs if outcome(ds, i) == "closed"]
+        out[p] = (max(arrested, default=math.nan), min(closed, default=math.nan))
+    return out
+
+
+def _twin(ds: xr.Dataset, i: int) -> int | None:
+    """The axisymmetric run of the same ring as 3D run ``i`` (the longest one), if any."""
+    same = [
+        j
+        for j in _axisymmetric(ds)
+        if float(ds["zeta_hat"].values[j]) == float(ds["zeta_hat"].values[i])
+        and float(ds["p"].values[j]) == float(ds["p"].values[i])
+    ]
+    return max(same, key=lambda j: float(ds["t_end"].values[j]), default=None)
+
+
+def deviation(ds: xr.Dataset, i: int) -> tuple[float, float]:
+    """(largest |3D - axisymmetric| neck radius over the frames both have while the twin is
+    resolved, the time up to which that is measured); nan without a twin."""
+    j = _twin(ds, i)
+    if j is None:
+        return math.nan, math.nan
+    t, v = _series(ds, i)
+    ta, va = _series(ds, j)
+    end = min(t[-1], ta[-1], _unresolved_time(ds, j))
+    keep = t <= end + 1e-9
+    return float(np.max(np.abs(v[keep] - np.interp(t[keep], ta, va)))), float(end)
+
+
+def constriction_figure(ds: xr.Dataset) -> Figure:
+    """Neck radius against time (axisymmetric lines, dotted past the stretch limit; 3D dots) and the
+    neck at the end of each axisymmetric run against the ring-to-pole ratio, with the threshold."""
+    fig = Figure(figsize=(10, 3.8), layout="constrained")
+    a0, a1 = fig.subplots(1, 2)
+    amps = sorted({float(z) for z in ds["zeta_hat"].values})
+    colour = {z: f"C{k % 10}" for k, z in enumerate(amps)}
+    marker_of: dict[int, str] = {}
+    labels: set[str] = set()
+
+    def once(label: str) -> str | None:
+        """The label the first time (a ring run to two end times is one entry of the legend)."""
+        seen, _ = label in labels, labels.add(label)
+        return None if seen else label
+
+    for i in range(ds.sizes["run"]):
+        zh = float(ds["zeta_hat"].values[i])
+        t, v = _series(ds, i)
+        if str(ds["model"].values[i]) == "axisymmetric":
+            tu = _unresolved_time(ds, i)
+            ok = t <= tu
+            a0.plot(
+                t[ok], v[ok], "-", color=colour[zh], lw=1.2, label=once(f"axisymmetric, 1 + $\\hat\\zeta$ = {1 + zh:g}")
+            )
+            a0.plot(t[t >= tu], v[t >= tu], ":", color=colour[zh], lw=1.2)
+        else:
+            every = max(1, t.size // 40)
+            n = int(ds["nodes"].values[i])
+            marker = marker_of.setdefault(n, "osD^v"[len(marker_of) % 5])
+            a0.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[zh], label=once(f"3D N={n}"))
+    three_d = [float(ds["t_end"].values[i]) for i in range(ds.sizes["run"]) if i not in _axisymmetric(ds)]
+    if three_d:  # the axisymmetric threshold runs go on much longer: show the span the 3D runs cover
+        a0.set_xlim(0.0, max(three_d))
+    a0.set_xlabel(r"$t / t_a$")
+    a0.set_ylabel(r"neck radius / $R_0$")
+    a0.set_ylim(0.0, 1.05)
+    a0.legend(fontsize=6)
+    style = {
+        "closed": ("v", "closed (0.1 $R_0$)"),
+        "arrested": ("s", "arrested"),
+        "closing": ("o", "still closing at the end"),
+    }
+    seen = set()
+    longest = {}  # per ring, its longest axisymmetric run
+    for i in _axisymmetric(ds):
+        key = (float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+        if key not in longest or float(ds["t_end"].values[i]) > float(ds["t_end"].values[longest[key]]):
+            longest[key] = i
+    for i in longest.values():
+        kind = outcome(ds, i)
+        _, v = _series(ds, i)
+        marker, label = style[kind]
+        a1.plot(1.0 + float(ds["zeta_hat"].values[i]), v[-1], marker, color="k", label=None if kind in seen else label)
+        seen.add(kind)
+    for p, (lo, hi) in threshold(ds).items():
+        if math.isfinite(lo) and math.isfinite(hi):
+            a1.axvspan(lo, hi, color="0.85", label=f"threshold, p = {p:g}: ({lo:g}, {hi:g}]")
+    a1.set_xlabel(r"ring-to-pole tension ratio $1 + \hat\zeta$")
+    a1.set_ylabel(r"neck radius at the end / $R_0$")
+    a1.legend(fontsize=7)
+    return fig
+
+
+def constriction_numbers(stores) -> pd.DataFrame:
+    """Per run: how it ended, its neck at the end, where its material stretch passed the limit,
+    and for a 3D run its largest deviation from the axisymmetric twin; then the threshold."""
+    ds = stores[0]
+    rows = []
+    for i in range(ds.sizes["run"]):
+        t, v = _series(ds, i)
+        row = {
+            "run": str(ds["label"].values[i]),
+            "ratio 1 + zeta_hat": f"{1.0 + float(ds['zeta_hat'].values[i]):g}",
+            "t reached": f"{t[-1]:.4g}",
+            "neck at the end": f"{v[-1]:.5f}",
+            "outcome": outcome(ds, i),
+            "stretch > limit from t": f"{_unresolved_time(ds, i):.3g}",
+        }
+        if str(ds["model"].values[i]) != "axisymmetric":
+            dev, until = deviation(ds, i)
+            row["max |3D - axisymmetric| neck"] = f"{dev:.2e} (to t = {until:.3g})"
+            row["smallest angle (deg)"] = f"{np.nanmin(ds['min_angle_deg'].values[i]):.1f}"
+            row["volume drift"] = f"{np.nanmax(np.abs(ds['volume_change'].values[i])):.1e}"
+        rows.append(row)
+    for p, (lo, hi) in threshold(ds).items():
+        bracket = f"({lo:g}, {hi:g}]" if math.isfinite(lo) and math.isfinite(hi) else "not bracketed by these runs"
+        rows.append({"run": f"threshold, p = {p:g}", "ratio 1 + zeta_hat": bracket})
+    return pd.DataFrame(rows)
