@@ -232,7 +232,84 @@ def _accuracy(stores) -> pd.DataFrame:
     return out
 
 
+def _myosin_rates(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    ds = stores[0]
+    rates = so.run_rates(ds)
+    rows = []
+    for i in so.rate_runs(ds):
+        scene, l, n = str(ds["scene"].values[i]), int(ds["degree"].values[i]), int(ds["nodes"].values[i])
+        a, k = so.activity(ds, i), float(ds["turnover"].values[i])
+        exact = so.closed_rate(scene, l, a, k)
+        spec = so.spectrum_rate(scene, n, l, a, k)
+        rows.append(
+            {
+                "scene": scene,
+                "l": l,
+                "A": f"{a:g}",
+                "k": f"{k:g}",
+                "N": n,
+                "run": f"{rates[i]:+.5f}",
+                "spectrum tool": f"{spec:+.5f}",
+                "closed form": f"{exact:+.5f}",
+                "run - closed": f"{rates[i] - exact:+.1e}",
+                "run / closed - 1": f"{rates[i] / exact - 1:+.2e}",
+                "spectrum / closed - 1": f"{spec / exact - 1:+.2e}",
+                "run - spectrum": f"{rates[i] - spec:+.1e}",
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _myosin_onset(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    ds = stores[0]
+    rates = so.run_rates(ds)
+    rows = []
+    for i in so.rate_runs(ds):
+        scene, l, n = str(ds["scene"].values[i]), int(ds["degree"].values[i]), int(ds["nodes"].values[i])
+        a, k = so.activity(ds, i), float(ds["turnover"].values[i])
+        a_c = float(so.closed_onset(scene, l, k)[0])
+        rows.append(
+            {
+                "l": l,
+                "k": f"{k:g}",
+                "A": f"{a:g}",
+                "N": n,
+                "closed-form onset A_c": f"{a_c:.4f}",
+                "spectrum-tool onset": f"{so.spectrum_onset(scene, n, l, k):.4f}",
+                "run rate": f"{rates[i]:+.4f}",
+                "grew (run) / grows (closed form)": f"{'yes' if rates[i] > 0 else 'no'} / {'yes' if a > a_c else 'no'}",
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _myosin_ring(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    ds = stores[0]
+    t = ds["time"].values
+    rows = []
+    for scene, (idx, j) in so.ring_runs(ds).items():
+        twin = ds["furrow_radius"].values[j]
+        for tq in (0.0, 10.0, 20.0, 25.0, 30.0, 36.0):
+            k = int(np.argmin(np.abs(t - tq)))
+            if abs(t[k] - tq) > 1e-6 or not np.isfinite(twin[k]):
+                continue
+            row = {"scene": scene, "t": f"{t[k]:g}", "twin furrow radius": f"{twin[k]:.5f}"}
+            for i in idx:
+                row[f"3D N={ds['nodes'].values[i]} - twin"] = f"{ds['furrow_radius'].values[i][k] - twin[k]:+.2e}"
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
 _NUMBERS = {
+    "myosin_rates_figure": _myosin_rates,
+    "myosin_onset_figure": _myosin_onset,
+    "myosin_ring_figure": _myosin_ring,
     "convergence_figure": _convergence,
     "sphere_flows_figure": _sphere_flows,
     "radii_figure": _furrow_radii,
