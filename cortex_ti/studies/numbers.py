@@ -235,56 +235,35 @@ def _accuracy(stores) -> pd.DataFrame:
 def _myosin_rates(stores) -> pd.DataFrame:
     from . import self_organisation as so
 
-    ds = stores[0]
-    rates = so.run_rates(ds)
-    rows = []
-    for i in so.rate_runs(ds):
-        scene, l, n = str(ds["scene"].values[i]), int(ds["degree"].values[i]), int(ds["nodes"].values[i])
-        a, k = so.activity(ds, i), float(ds["turnover"].values[i])
-        exact = so.closed_rate(scene, l, a, k)
-        spec = so.spectrum_rate(scene, n, l, a, k)
-        rows.append(
-            {
-                "scene": scene,
-                "l": l,
-                "A": f"{a:g}",
-                "k": f"{k:g}",
-                "N": n,
-                "run": f"{rates[i]:+.5f}",
-                "spectrum tool": f"{spec:+.5f}",
-                "closed form": f"{exact:+.5f}",
-                "run - closed": f"{rates[i] - exact:+.1e}",
-                "run / closed - 1": f"{rates[i] / exact - 1:+.2e}",
-                "spectrum / closed - 1": f"{spec / exact - 1:+.2e}",
-                "run - spectrum": f"{rates[i] - spec:+.1e}",
-            }
-        )
-    return pd.DataFrame(rows)
+    out = pd.DataFrame([r._asdict() for r in so.rate_table(stores[0])])
+    if not len(out):
+        return out
+    params = list(zip(out.scene, out.nodes, out.degree, out.activity, out.turnover, strict=True))
+    out["spectrum tool"] = [so.spectrum_rate(*p) for p in params]
+    out["closed form"] = [so.closed_rate(s, l, a, k) for s, _, l, a, k in params]
+    out["run / closed - 1"] = out.rate / out["closed form"] - 1.0
+    out["spectrum / closed - 1"] = out["spectrum tool"] / out["closed form"] - 1.0
+    out["run - spectrum"] = out.rate - out["spectrum tool"]
+    return out.drop(columns=["index"]).rename(columns={"rate": "run"}).round(6)
 
 
 def _myosin_onset(stores) -> pd.DataFrame:
     from . import self_organisation as so
 
-    ds = stores[0]
-    rates = so.run_rates(ds)
-    rows = []
-    for i in so.rate_runs(ds):
-        scene, l, n = str(ds["scene"].values[i]), int(ds["degree"].values[i]), int(ds["nodes"].values[i])
-        a, k = so.activity(ds, i), float(ds["turnover"].values[i])
-        a_c = float(so.closed_onset(scene, l, k)[0])
-        rows.append(
-            {
-                "l": l,
-                "k": f"{k:g}",
-                "A": f"{a:g}",
-                "N": n,
-                "closed-form onset A_c": f"{a_c:.4f}",
-                "spectrum-tool onset": f"{so.spectrum_onset(scene, n, l, k):.4f}",
-                "run rate": f"{rates[i]:+.4f}",
-                "grew (run) / grows (closed form)": f"{'yes' if rates[i] > 0 else 'no'} / {'yes' if a > a_c else 'no'}",
-            }
-        )
-    return pd.DataFrame(rows)
+    out = pd.DataFrame([r._asdict() for r in so.rate_table(stores[0])])
+    if not len(out):
+        return out
+    out["closed-form onset A_c"] = [
+        float(so.closed_onset(s, l, k)[0]) for s, l, k in zip(out.scene, out.degree, out.turnover, strict=True)
+    ]
+    out["spectrum-tool onset"] = [
+        so.spectrum_onset(s, n, l, k) for s, n, l, k in zip(out.scene, out.nodes, out.degree, out.turnover, strict=True)
+    ]
+    out["grew (run) / grows (closed form)"] = [
+        f"{'yes' if r > 0 else 'no'} / {'yes' if a > ac else 'no'}"
+        for r, a, ac in zip(out.rate, out.activity, out["closed-form onset A_c"], strict=True)
+    ]
+    return out.drop(columns=["index", "scene"]).round(5)
 
 
 def _myosin_ring(stores) -> pd.DataFrame:

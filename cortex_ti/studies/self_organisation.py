@@ -17,11 +17,14 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 import xarray as xr
 
 __all__ = [
+    "RateRun",
+    "rate_table",
     "closed_rate",
     "closed_onset",
     "ring_runs",
@@ -154,3 +157,32 @@ def run_rates(ds: xr.Dataset) -> np.ndarray:
 def activity(ds: xr.Dataset, i: int) -> float:
     """The activity ``A = zeta0 gamma`` of run ``i``."""
     return _zeta0(str(ds["scene"].values[i])) * float(ds["myosin_gamma"].values[i])
+
+
+class RateRun(NamedTuple):
+    """One run that measures a rate (:func:`rate_table`)."""
+
+    index: int
+    scene: str
+    degree: int
+    nodes: int
+    activity: float
+    turnover: float
+    rate: float
+
+
+def rate_table(ds: xr.Dataset) -> list[RateRun]:
+    """The rate runs of a store (:func:`rate_runs`) with their parameters and measured rates."""
+    rates = run_rates(ds)
+    return [
+        RateRun(
+            i,
+            str(ds["scene"].values[i]),
+            int(ds["degree"].values[i]),
+            int(ds["nodes"].values[i]),
+            activity(ds, i),
+            float(ds["turnover"].values[i]),
+            float(rates[i]),
+        )
+        for i in rate_runs(ds)
+    ]
