@@ -640,10 +640,10 @@ def myosin_rates_figure(ds: xr.Dataset) -> Figure:
     return fig
 
 
-def _dedupe_legend(ax) -> None:
+def _dedupe_legend(ax, **kw) -> None:
     handles, labels = ax.get_legend_handles_labels()
     seen = dict(zip(labels, handles, strict=True))
-    ax.legend(seen.values(), seen.keys(), fontsize=6)
+    ax.legend(seen.values(), seen.keys(), fontsize=6, **kw)
 
 
 def myosin_onset_figure(ds: xr.Dataset) -> Figure:
@@ -652,7 +652,7 @@ def myosin_onset_figure(ds: xr.Dataset) -> Figure:
     from . import self_organisation as so
 
     idx, rates, scene, _ = _rate_groups(ds)
-    fig = Figure(figsize=(5.5, 4.2), layout="constrained")
+    fig = Figure(figsize=(8.0, 4.2), layout="constrained")
     ax = fig.subplots()
     if scene is None:
         return fig
@@ -686,7 +686,7 @@ def myosin_onset_figure(ds: xr.Dataset) -> Figure:
     ax.set_xlabel(r"turnover $k\, t_a$")
     ax.set_ylabel(r"activity $A = \zeta_0 \gamma$")
     ax.set_ylim(0.0, 1.3 * max(so.activity(ds, i) for i in idx))
-    _dedupe_legend(ax)
+    _dedupe_legend(ax, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return fig
 
 
