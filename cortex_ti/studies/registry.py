@@ -280,7 +280,7 @@ _FIGURES += (
         "Lines: the closed form (docs/derivations/myosin_stability.md, with the scene's bending viscosity); "
         "open markers and thin lines: the spectrum tool (the state Jacobian projected on each degree, "
         "dynamics.spectrum.degree_jacobian) at the runs' resolutions; filled markers: the runs, the slope of "
-        "log |c_l| of the seeded harmonic over the second half of each run. The 3D rates sit below the closed "
+        "``log |c_l|`` of the seeded harmonic over the second half of each run. The 3D rates sit below the closed "
         "form by the O(h^2) error of the linearisation (docs/validation/myosin_rates.md). Store: "
         "``results/aggregate/self_organisation.nc``.",
     ),
@@ -305,7 +305,7 @@ _FIGURES += (
         "Not in the paper: a ring that forms by itself. Scene myosin_ring: the myosin cortex above the onset of "
         "l = 2, seeded with more myosin at the equator; the mode grows, myosin gathers into an equatorial ring "
         "and the cell constricts. Left: the furrow radius of the 3D runs and of the axisymmetric twin (the same "
-        "scene, model: axisymmetric, the truth while the 3D run stays mirror-symmetric); right: |3D - twin|, "
+        "scene, model: axisymmetric, the truth while the 3D run stays mirror-symmetric); right: ``|3D - twin|``, "
         "with the issue's 2e-3 R0. The 3D ring lags by the 3D l = 2 rate's O(h^2) error "
         "(docs/validation/myosin_ring.md).",
     ),
