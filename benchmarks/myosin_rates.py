@@ -71,60 +71,12 @@ def myosin_sphere(nodes: int, gamma: float = 1.0):
     return Simulation(scene_from_dict(data))
 
 
-def projected(sim, l: int, eps: float = 1e-6):
-    """The ``2 (2l+1)`` square matrix of the state Jacobian (``gamma`` of the scene) on the degree-l
-    harmonics, blocks (myosin, normal) as ``myosin_stability.mode_matrix``'s state ``(c, u)``;
-    and its myosin columns at ``gamma = 0`` (diffusion and turnover)."""
-    from cortex_ti.dynamics.spectrum import state_rates
-    from cortex_ti.dynamics.state import State
-    from cortex_ti.solve.constrained import ConstrainedSolver
-    from cortex_ti.surface.transport import cotan_laplacian, dual_areas
+def projected(sim, l: int):
+    """The state Jacobian (``gamma`` of the scene) projected on the degree-l harmonics
+    (:func:`cortex_ti.dynamics.spectrum.degree_jacobian`)."""
+    from cortex_ti.dynamics.spectrum import degree_jacobian
 
-    state = sim.state0
-    pts, faces, n = state.points, sim.mesh.faces, state.n_nodes
-    q, w = degree_basis(pts, faces, l)
-    basis = q / w[:, None]  # nodal values, orthonormal in the area-weighted inner product
-    saved = sim.solver
-    sim.solver = ConstrainedSolver("auto", reuse=False)
-    try:
-        normal = sim.evaluate(state).normal
-        c0 = np.asarray(state.fields["myosin"], dtype=float)
-        cols = []
-        for block in ("myosin", "normal"):
-            for k in range(basis.shape[1]):
-                out = []
-                for sign in (1.0, -1.0):
-                    if block == "normal":
-                        s = State(pts + sign * eps * basis[:, k, None] * normal, state.fields, state.faces)
-                    else:
-                        s = State(pts, {**state.fields, "myosin": c0 + sign * eps * basis[:, k]}, state.faces)
-                    out.append(state_rates(sim, s))
-                cols.append((out[0] - out[1]) / (2 * eps))
-    finally:
-        sim.solver = saved
-    Jv = np.stack(cols, 1)  # (2n, 2m): rows normal then myosin (state_rates' order)
-    left = q * w[:, None]
-    G = np.block(
-        [
-            [
-                left.T @ Jv[n:, :],
-            ],
-            [left.T @ Jv[:n, :]],
-        ]
-    )  # rows (c, u), columns (c, u)
-    area = dual_areas(pts, faces)
-    G0c = left.T @ ((-D * (cotan_laplacian(pts, faces) @ basis)) / area[:, None] - K * basis)
-    return G, G0c
-
-
-def at_gamma_projected(G1: np.ndarray, G0c: np.ndarray, gamma: float) -> np.ndarray:
-    """``G(gamma)`` from ``G(1)``: the myosin columns ``G0 + gamma (G1 - G0)`` (G0's normal rows 0)."""
-    m = G1.shape[0] // 2
-    G = G1.copy()
-    G0 = np.zeros((2 * m, m))
-    G0[:m] = G0c
-    G[:, :m] = G0 + gamma * (G1[:, :m] - G0)
-    return G
+    return degree_jacobian(sim, l)
 
 
 def full_jacobian(sim):
@@ -151,16 +103,6 @@ def at_gamma(J1: np.ndarray, C0: np.ndarray, gamma: float) -> np.ndarray:
     J = J1.copy()
     J[:, n:] = C0 + gamma * (J1[:, n:] - C0)
     return J
-
-
-def degree_basis(points, faces, l: int):
-    """Orthonormal (area-weighted) basis of the degree-l harmonics at the nodes, and sqrt(area)."""
-    from cortex_ti.analysis.sphere_exact import real_sph_harm
-    from cortex_ti.surface.transport import dual_areas
-
-    w = np.sqrt(dual_areas(points, faces))
-    q, _ = np.linalg.qr(np.stack([real_sph_harm(l, m, points) for m in range(-l, l + 1)], 1) * w[:, None])
-    return q, w
 
 
 def branches(G: np.ndarray, exact) -> list:
@@ -231,7 +173,7 @@ def main(argv=None) -> int:
         if args.check:
             half = myosin_sphere(nodes, 0.5)
             dev = max(
-                np.abs(at_gamma_projected(*proj[l], 0.5) - projected(half, l)[0]).max() / np.abs(proj[l][0]).max()
+                np.abs(proj[l].at(0.5 * ZETA0) - projected(half, l).matrix).max() / np.abs(proj[l].matrix).max()
                 for l in args.degrees
             )
             notes.append(
@@ -248,7 +190,7 @@ def main(argv=None) -> int:
                 exact = [
                     r for r in ms.growth_rates(l, ZETA0, gamma, D, K, decimals=None) if not (l == 1 and abs(r) < 1e-14)
                 ]
-                got = branches(at_gamma_projected(*proj[l], gamma), exact)
+                got = branches(proj[l].at(gamma * ZETA0), exact)
                 for branch, (rate, (mean, spread)) in enumerate(zip(exact, got, strict=True)):
                     found[nodes, gamma, l, branch] = mean
                     gap = float("nan") if every is None else float(np.min(np.abs(every - mean)))

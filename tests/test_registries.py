@@ -18,7 +18,7 @@ from cortex_ti.physics.terms import TERMS
 from cortex_ti.physics.terms.active import ACTIVE_FORCES
 from cortex_ti.scene import full_schema, load_scene, scene_from_dict
 from cortex_ti.solve.factorizations import FACTORIZATIONS
-from cortex_ti.studies.registry import FIGURES, STORES, STUDIES
+from cortex_ti.studies.registry import FIGURES, STORES, STUDIES, TABLES
 from cortex_ti.surface.fits import FIT_SCHEMES
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -75,6 +75,20 @@ def test_every_store_and_figure_source_is_registered():
     from cortex_ti.studies import figures
 
     assert all(callable(getattr(figures, spec.draw)) for spec in FIGURES.values())
+
+
+def test_every_caption_is_valid_restructuredtext():
+    """The report renders the captions with docutils: one that it cannot parse (a ``|x|`` read as a
+    substitution) shows an error in the report."""
+    import io
+
+    import docutils.core
+
+    for name, caption in [*((f.name, f.caption) for f in FIGURES.values()), *TABLES.items()]:
+        text = caption if isinstance(caption, str) else caption[1]
+        warnings = io.StringIO()
+        docutils.core.publish_doctree(text, settings_overrides={"report_level": 2, "warning_stream": warnings})
+        assert warnings.getvalue() == "", (name, warnings.getvalue())
 
 
 def test_a_registered_pattern_is_a_valid_scene_pattern():

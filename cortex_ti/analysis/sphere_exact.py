@@ -25,6 +25,7 @@ Public API
 ``expand(zeta, lmax, ...) -> Spectrum``              spherical-harmonic expansion of a callable
 ``flow_coefficients(l, ...)``, ``l1_coefficients(...)``, ``bending_kappa(l, ...)``
 ``real_sph_harm(l, m, points)``                      real orthonormal Y_lm (no Condon-Shortley)
+``real_sph_harms(lmax, points)``                     every Y_lm up to lmax at once (one recurrence)
 ``sphere_mean(zeta, axis=None)``                     mean of a callable over the unit sphere
 """
 
@@ -45,6 +46,7 @@ __all__ = [
     "l1_coefficients",
     "bending_kappa",
     "real_sph_harm",
+    "real_sph_harms",
     "sphere_mean",
     "frame_matrix",
     "NotConvergedError",
@@ -309,6 +311,27 @@ def real_sph_harm(l: int, m: int, points) -> np.ndarray:
         return val
     wm = (u[:, 0] + 1j * u[:, 1]) ** am
     return math.sqrt(2.0) * val * (wm.real if m > 0 else wm.imag)
+
+
+def real_sph_harms(lmax: int, points) -> np.ndarray:
+    """Every :func:`real_sph_harm` up to degree ``lmax`` at once, ``(N, (lmax + 1)^2)``, column
+    ``l^2 + l + m`` holding ``Y_lm`` (m = -l..l), from one recurrence.
+
+    >>> p = np.array([[0.3, -0.5, 0.8], [0.0, 0.0, -1.0]])
+    >>> Y = real_sph_harms(3, p)
+    >>> bool(np.allclose(Y[:, 9 + 3 - 2], real_sph_harm(3, -2, p), atol=1e-15))
+    True
+    """
+    p = np.atleast_2d(np.asarray(points, dtype=float))
+    u = p / np.linalg.norm(p, axis=1, keepdims=True)
+    phi = np.arctan2(u[:, 1], u[:, 0])
+    out = np.empty((p.shape[0], (lmax + 1) ** 2))
+    for l, q, _ in _legendre_rows(u[:, 2], lmax, s=np.hypot(u[:, 0], u[:, 1])):
+        out[:, l * l + l] = q[:, 0]
+        for m in range(1, l + 1):
+            out[:, l * l + l + m] = math.sqrt(2.0) * q[:, m] * np.cos(m * phi)
+            out[:, l * l + l - m] = math.sqrt(2.0) * q[:, m] * np.sin(m * phi)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

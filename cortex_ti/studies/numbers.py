@@ -233,7 +233,63 @@ def _accuracy(stores) -> pd.DataFrame:
     return out
 
 
+def _myosin_rates(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    out = pd.DataFrame([r._asdict() for r in so.rate_table(stores[0])])
+    if not len(out):
+        return out
+    params = list(zip(out.scene, out.nodes, out.degree, out.activity, out.turnover, strict=True))
+    out["spectrum tool"] = [so.spectrum_rate(*p) for p in params]
+    out["closed form"] = [so.closed_rate(s, l, a, k) for s, _, l, a, k in params]
+    out["run / closed - 1"] = out.rate / out["closed form"] - 1.0
+    out["spectrum / closed - 1"] = out["spectrum tool"] / out["closed form"] - 1.0
+    out["run - spectrum"] = out.rate - out["spectrum tool"]
+    return out.drop(columns=["index"]).rename(columns={"rate": "run"}).round(6)
+
+
+def _myosin_onset(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    out = pd.DataFrame([r._asdict() for r in so.rate_table(stores[0])])
+    if not len(out):
+        return out
+    out["closed-form onset A_c"] = [
+        float(so.closed_onset(s, l, k)[0]) for s, l, k in zip(out.scene, out.degree, out.turnover, strict=True)
+    ]
+    out["spectrum-tool onset"] = [
+        so.spectrum_onset(s, n, l, k) for s, n, l, k in zip(out.scene, out.nodes, out.degree, out.turnover, strict=True)
+    ]
+    out["grew (run) / grows (closed form)"] = [
+        f"{'yes' if r > 0 else 'no'} / {'yes' if a > ac else 'no'}"
+        for r, a, ac in zip(out.rate, out.activity, out["closed-form onset A_c"], strict=True)
+    ]
+    return out.drop(columns=["index", "scene"]).round(5)
+
+
+def _myosin_ring(stores) -> pd.DataFrame:
+    from . import self_organisation as so
+
+    ds = stores[0]
+    t = ds["time"].values
+    rows = []
+    for scene, (idx, j) in so.ring_runs(ds).items():
+        twin = ds["furrow_radius"].values[j]
+        for tq in (0.0, 10.0, 20.0, 25.0, 30.0, 36.0):
+            k = int(np.argmin(np.abs(t - tq)))
+            if abs(t[k] - tq) > 1e-6 or not np.isfinite(twin[k]):
+                continue
+            row = {"scene": scene, "t": f"{t[k]:g}", "twin furrow radius": f"{twin[k]:.5f}"}
+            for i in idx:
+                row[f"3D N={ds['nodes'].values[i]} - twin"] = f"{ds['furrow_radius'].values[i][k] - twin[k]:+.2e}"
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
 _NUMBERS = {
+    "myosin_rates_figure": _myosin_rates,
+    "myosin_onset_figure": _myosin_onset,
+    "myosin_ring_figure": _myosin_ring,
     "convergence_figure": _convergence,
     "sphere_flows_figure": _sphere_flows,
     "radii_figure": _furrow_radii,

@@ -21,6 +21,9 @@ __all__ = [
     "figure_names",
     "study_store_names",
     "configured_studies",
+    "optional_studies",
+    "figures_of",
+    "stores_of",
 ]
 
 
@@ -34,6 +37,7 @@ class Study:
     variables: tuple[str, ...] = ()  # per-frame variables of its (run, time) store; () for none
     failures_are_data: bool = False  # a run that goes unstable is a result (a failed point), not an error
     twin_of: tuple[str, ...] = ()  # derived, not configured: the axisymmetric twins of these studies' runs
+    optional: bool = False  # a config may leave it out (then its stores and figures are not made)
 
     @property
     def has_store(self) -> bool:
@@ -102,6 +106,17 @@ _STUDIES = (
         variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed"),
         twin_of=("furrow", "accuracy"),
     ),
+    Study(
+        "self_organisation",
+        ("scene", "model", "degree", "seed", "myosin_gamma", "turnover", "nodes", "t_end"),
+        "A self-organising cortex (issue 20): a myosin density carried by the flow it drives. Runs seeded "
+        "with one harmonic of degree `degree` (amplitude `seed`) at the linear law's slope `myosin_gamma` "
+        "and turnover `turnover`, whose seeded mode grows or decays at a rate fitted to the log of its "
+        "amplitude; and the nonlinear ring (scene myosin_ring) in 3D and in the axisymmetric model. Per "
+        "frame: the radii and the amplitude of each degree of the myosin (myosin_amplitude).",
+        variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed"),
+        optional=True,
+    ),
 )
 
 # Issue 18: deep rings to the brink of division (its own block, so other studies merge beside it).
@@ -130,6 +145,7 @@ _FURROW = "3. Figs. 5, 7, 8: furrow dynamics against the axisymmetric solution"
 _FOLD = "4. Fig. 9: fold formation"
 _SHEAR = "5. Figs. 10-12: the sheared cortex reorients"
 _COST = "6. What accuracy costs"
+_SELF = "7. A self-organising cortex (beyond the paper)"
 
 #: The figures in the paper's order: the report shows them in this order, each with its caption
 #: (what the paper shows there and what to compare) and a table of the numbers to compare and
@@ -263,6 +279,51 @@ _FIGURES = (
     ),
 )
 
+_FIGURES += (
+    FigureSpec(
+        "myosin_rates",
+        "store",
+        ("self_organisation",),
+        "myosin_rates_figure",
+        _SELF,
+        "Not in the paper: the uniform myosin cortex's growth rates. Left: the rate of each degree l at the "
+        "largest activity of the runs; middle: the rate of l = 1 and l = 2 against the activity A = zeta0 gamma; "
+        "right: every run's and the spectrum tool's deviation from the closed form against N, with an N^-1 "
+        "(h^2) guide. "
+        "Lines: the closed form (docs/derivations/myosin_stability.md, with the scene's bending viscosity); "
+        "open markers and thin lines: the spectrum tool (the state Jacobian projected on each degree, "
+        "dynamics.spectrum.degree_jacobian) at the runs' resolutions; filled markers: the runs, the slope of "
+        "``log |c_l|`` of the seeded harmonic over the second half of each run. The 3D rates sit below the closed "
+        "form by the O(h^2) error of the linearisation (docs/validation/myosin_rates.md). Store: "
+        "``results/aggregate/self_organisation.nc``.",
+    ),
+    FigureSpec(
+        "myosin_onset",
+        "store",
+        ("self_organisation",),
+        "myosin_onset_figure",
+        _SELF,
+        "Not in the paper: where the uniform myosin cortex loses stability, in the (turnover k, activity A) "
+        "plane. Black lines: the closed form's onsets A_c(l) = (eta_s (L-2) + eta_b L)(D + k / L) for l = 2 and "
+        "mu_1 / G_1 for l = 1 (polarity goes first); coloured lines: the spectrum tool's onset at each "
+        "resolution (where its largest rate of that degree crosses zero); markers: the runs seeded with that "
+        "degree, filled where the seeded mode grew, open where it decayed.",
+    ),
+    FigureSpec(
+        "myosin_ring",
+        "store",
+        ("self_organisation",),
+        "myosin_ring_figure",
+        _SELF,
+        "Not in the paper: a ring that forms by itself. Scene myosin_ring: the myosin cortex above the onset of "
+        "l = 2, seeded with more myosin at the equator; the mode grows, myosin gathers into an equatorial ring "
+        "and the cell constricts. Left: the furrow radius of the 3D runs and of the axisymmetric twin (the same "
+        "scene, model: axisymmetric, the truth while the 3D run stays mirror-symmetric); right: ``|3D - twin|``, "
+        "with the issue's 2e-3 R0. The 3D ring lags by the 3D l = 2 rate's O(h^2) error "
+        "(docs/validation/myosin_ring.md).",
+    ),
+)
+
 # Issue 18: deep rings (its own block, so other figures merge beside it).
 _FIGURES += (
     FigureSpec(
@@ -270,7 +331,7 @@ _FIGURES += (
         "store",
         ("constriction",),
         "constriction_figure",
-        "7. Deep rings: does the furrow close?",
+        "8. Deep rings: does the furrow close?",
         "Not in the paper (issue 18): rings zeta = 1 + zeta_hat exp(-10 |theta - pi/2|^4) without bending "
         "viscosity, the tension glued to the normally moving points. Left: the neck radius against time, lines the "
         "axisymmetric model (arc-length points; dotted where its material stretch exceeds 100 and the numbers stop "
@@ -301,9 +362,32 @@ def figure_names() -> list[str]:
     return list(FIGURES)
 
 
-def configured_studies() -> list[str]:
-    """The studies the config lists runs for (the others are derived from them)."""
-    return [s.name for s in _STUDIES if not s.twin_of]
+def _left_out(config) -> set[str]:
+    """The optional studies ``config`` leaves out: absent, or with an empty ``runs`` list (a config
+    given with ``--configfile`` is merged into the default one, so it leaves a study out that way)."""
+    return {s.name for s in _STUDIES if s.optional and not (config.get(s.name) or {}).get("runs")}
+
+
+def configured_studies(config=None) -> list[str]:
+    """The studies the config lists runs for (the others are derived from them); with ``config``
+    (the workflow's configuration) without the optional ones it leaves out."""
+    left_out = set() if config is None else _left_out(config)
+    return [s.name for s in _STUDIES if not s.twin_of and s.name not in left_out]
+
+
+def optional_studies() -> list[str]:
+    """The studies a configuration may leave out."""
+    return [s.name for s in _STUDIES if s.optional]
+
+
+def stores_of(config) -> list[str]:
+    """The stores the configuration ``config`` makes: every store but those of the studies it leaves out."""
+    return [name for name in STORES if name not in _left_out(config)]
+
+
+def figures_of(config) -> list[str]:
+    """The figures the configuration ``config`` draws: those whose stores or studies it makes."""
+    return [f.name for f in _FIGURES if not _left_out(config).intersection(f.data)]
 
 
 def study_store_names() -> list[str]:

@@ -67,6 +67,36 @@ def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
     return {"radius_stripe": on, "radius_off_stripe": off, "fold_depth": off - on}
 
 
+#: The degrees of the myosin whose amplitude a self_organisation store keeps per frame.
+MYOSIN_LMAX = 6
+
+
+def myosin_series(tr: Trajectory, lmax: int = MYOSIN_LMAX) -> dict[str, np.ndarray]:
+    """The amplitude ``sqrt(sum_m c_lm^2)`` of every degree ``l <= lmax`` of the myosin, per frame
+    ``(time, l)`` (:func:`cortex_ti.analysis.harmonics.degree_amplitudes`, directions from the
+    area centroid); empty for a trajectory without myosin."""
+    from ..analysis.harmonics import degree_amplitudes
+
+    if "myosin" not in tr.ds:
+        return {}
+    frames = range(tr.ds.sizes["time"])
+    if tr.remeshed:
+        out = [degree_amplitudes(*tr.mesh(k), tr.nodal("myosin", k), lmax) for k in frames]
+    else:  # one mesh: read every frame at once (a lazy file read frame by frame costs more than the fits)
+        points, myosin, triangles = tr.ds["points"].values, tr.ds["myosin"].values, tr.triangles
+        out = [degree_amplitudes(points[k], triangles, myosin[k], lmax) for k in frames]
+    return {"myosin_amplitude": np.array(out)}
+
+
+_MYOSIN_ATTRS = {
+    "myosin_amplitude": {
+        "units": "c0 units",
+        "long_name": "amplitude of each degree of the myosin",
+        "description": "sqrt(sum_m c_lm^2) of the weighted least-squares expansion of the nodal myosin in the real "
+        "orthonormal harmonics of the directions from the area centroid (analysis.harmonics)",
+    }
+}
+
 _FOLD_ATTRS = {
     "radius_stripe": {
         "units": "R0",
@@ -108,6 +138,9 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             if study == "fold":
                 data.update(fold_series(tr))
                 attrs.update(_FOLD_ATTRS)
+            if study == "self_organisation":
+                data.update(myosin_series(tr))
+                attrs.update(_MYOSIN_ATTRS)
             if "volume" in data:
                 data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
         times.append(t)
@@ -121,15 +154,20 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
     names = sorted({k for _, d in series for k in d})
     out = {}
     for name in names:
-        arr = np.full((len(series), grid.size), np.nan)
+        extra = next(d[name].shape[1:] for _, d in series if name in d)  # (l,) for myosin_amplitude
+        arr = np.full((len(series), grid.size, *extra), np.nan)
         for i, (t, d) in enumerate(series):
             if name in d:
                 arr[i, np.searchsorted(grid, t)] = d[name]
-        out[name] = (("run", "time"), arr, attrs.get(name, DIAGNOSTIC_ATTRS.get(name, {})))
+        dims = ("run", "time", "l")[: 2 + len(extra)]
+        out[name] = (dims, arr, attrs.get(name, DIAGNOSTIC_ATTRS.get(name, {})))
     coords = {
         "time": ("time", grid, {"units": "t_a", "long_name": "time"}),
         "run": ("run", np.arange(len(rows)), {"long_name": "run index (parameters are coordinates along run)"}),
     }
+    if any(len(v[0]) == 3 for v in out.values()):
+        n_deg = next(v[1].shape[2] for v in out.values() if len(v[0]) == 3)
+        coords["l"] = ("l", np.arange(n_deg), {"long_name": "spherical-harmonic degree"})
     for col in rows[0].keys() if rows else []:
         values = [_number(r[col]) for r in rows]
         if all(isinstance(v, (int, float)) for v in values):

@@ -30,9 +30,16 @@ p            ``active_stress.0.p``              exponent of Eq. 59
 gamma        ``mesh.shear``                     initial simple shear x -> x + gamma z
 tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
                                                 about +y, toward +x (the shear direction)
-model        ``model``                          3d or axisymmetric
+model        ``model``                          3d or axisymmetric (the same scene's twin)
 remesh       ``mesh.remesh.min_angle``          remesh below this angle (deg); null: never
                                                 (the axisymmetric model has no mesh)
+degree       ``fields.myosin.initial.0.         degree l of the myosin's seeded harmonic
+             terms.0.l``                        (its first term)
+seed         ``fields.myosin.initial.0.         amplitude of that harmonic (units of c0)
+             terms.0.coeff``
+myosin_gamma ``fields.myosin.tension.gamma``    slope of the linear tension law (activity
+                                                A = zeta0 gamma)
+turnover     ``fields.myosin.turnover``         turnover rate k of the myosin, 1/t_a
 ===========  =================================  =====================================
 """
 
@@ -76,6 +83,18 @@ PARAMETERS: dict[str, str] = {
     "tilt": "active_stress.0.axis",
     "model": "model",
     "remesh": "mesh.remesh.min_angle",
+    "degree": "fields.myosin.initial.0.terms.0.l",
+    "seed": "fields.myosin.initial.0.terms.0.coeff",
+    "myosin_gamma": "fields.myosin.tension.gamma",
+    "turnover": "fields.myosin.turnover",
+}
+
+#: The columns read from the scene's myosin field: column -> path inside ``fields.myosin``.
+_MYOSIN = {
+    "degree": ("initial", 0, "terms", 0, "l"),
+    "seed": ("initial", 0, "terms", 0, "coeff"),
+    "myosin_gamma": ("tension", "gamma"),
+    "turnover": ("turnover",),
 }
 
 
@@ -126,6 +145,17 @@ def _settings_value(settings, column: str):
         return settings.model
     if column == "remesh":
         return None if settings.mesh.remesh is None else settings.mesh.remesh.min_angle
+    if column in _MYOSIN:
+        value = settings.field("myosin")
+        try:
+            for key in _MYOSIN[column]:
+                value = value[key]
+        except (TypeError, KeyError, IndexError):
+            raise SceneError(
+                f"scene {settings.name!r} has no {'.'.join(map(str, ('fields.myosin', *_MYOSIN[column])))} "
+                f"for sweep column {column!r}"
+            ) from None
+        return value
     section, key = {
         "nodes": ("mesh", "nodes"),
         "formulation": ("numerics", "formulation"),

@@ -45,6 +45,7 @@ FIXTURES = {
     "ax.h5": ("furrow_p4_a3", ["model=axisymmetric"]),
     "run.h5.partial": ("furrow_p4_a1", []),
     "a6.h5": ("furrow_p4_a1", ["active_stress.0.amplitude=6", "mesh.remesh.min_angle=25"]),
+    "noise.h5": ("myosin_noise", []),
 }
 SKIP_MARK = re.compile(r"<!--\s*examples:\s*skip\b")
 FENCE = re.compile(r"^```(\w*)\s*$")

@@ -51,11 +51,13 @@ FURROWS = [
     "shear_075",
     "constriction_p4",
 ]
+#: issue 20's scenes: a myosin cortex that organises itself
+MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
-    assert builtin_scene_names() == sorted(SHIPPED + FURROWS)
-    for name in SHIPPED + FURROWS:
+    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN)
+    for name in SHIPPED + FURROWS + MYOSIN:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
         assert path.parent.parent.name == "scene"  # package data of cortex_ti.scene

@@ -122,12 +122,12 @@ def _profile(tmp_path: Path) -> Path:
 def _n_simulation_jobs(config: dict) -> int:
     """The jobs the workflow submits for ``config``: the static runs (scenes x nodes x the fits of
     every formulation), the configured studies' runs and their axisymmetric twins."""
-    from cortex_ti.studies.registry import STUDIES
+    from cortex_ti.studies.registry import STUDIES, configured_studies
     from cortex_ti.studies.sweeps import expand_runs, twin_rows
 
     static = config["static"]
     n_static = len(static["scenes"]) * len(static["nodes"]) * sum(len(f) for f in static["methods"].values())
-    rows = {s: expand_runs(s, config[s]["runs"]) for s, spec in STUDIES.items() if not spec.twin_of}
+    rows = {s: expand_runs(s, config[s]["runs"]) for s in configured_studies(config)}
     n_twins = sum(
         len(twin_rows([r for src in spec.twin_of for r in rows[src]], spec.columns))
         for spec in STUDIES.values()
@@ -151,7 +151,7 @@ def _sacct(run_id: str, since: str) -> list[dict[str, str]]:
 def test_tiny_configuration_through_the_slurm_profile(cluster, tmp_path):
     pytest.importorskip("snakemake_executor_plugin_slurm")
     xr = pytest.importorskip("xarray")
-    from cortex_ti.studies.registry import STORES, TABLES
+    from cortex_ti.studies.registry import TABLES, stores_of
 
     workdir = tmp_path / "work"
     workdir.mkdir()
@@ -200,7 +200,7 @@ def test_tiny_configuration_through_the_slurm_profile(cluster, tmp_path):
     assert t_end - last_end < 240, f"Snakemake ended {t_end - last_end:.0f} s after the last job"
 
     # the stores (convergence, furrow, fold, reorientation, cost), openable
-    for name in STORES:
+    for name in stores_of(config):
         path = workdir / "results" / "aggregate" / f"{name}.nc"
         assert path.stat().st_size > 0, path
         with xr.open_dataset(path, engine="h5netcdf") as ds:

@@ -170,3 +170,45 @@ def test_the_remesh_column_turns_remeshing_off_for_the_axisymmetric_model():
     assert three_d.mesh.remesh is not None and three_d.mesh.remesh.min_angle == 25
     with pytest.raises(SceneError, match="no triangle mesh"):
         expand_runs("constriction", [{"scene": "constriction_p4", "model": "axisymmetric"}])
+
+
+def test_the_myosin_columns_set_the_seeded_harmonic_the_law_and_the_turnover():
+    """A self_organisation row names the myosin the run has: the seeded harmonic's degree and
+    amplitude, the linear law's slope and the turnover, read back from the scene the row makes."""
+    rows = expand_runs(
+        "self_organisation",
+        [{"scene": "myosin_decay", "degree": 3, "seed": 1e-3, "myosin_gamma": 0.7, "turnover": 0.05, "nodes": 642}],
+    )
+    assert rows == [
+        {
+            "scene": "myosin_decay",
+            "model": "3d",
+            "degree": "3",
+            "seed": "0.001",
+            "myosin_gamma": "0.7",
+            "turnover": "0.05",
+            "nodes": "642",
+            "t_end": "10",
+        }
+    ]
+    f = load_scene("myosin_decay", scene_overrides(rows[0])).settings.field("myosin")
+    assert f["initial"][0]["terms"][0] == {"l": 3, "m": 0, "coeff": 1e-3}
+    assert (f["tension"]["gamma"], f["turnover"]) == (0.7, 0.05)
+    with pytest.raises(SceneError, match="fields.myosin.initial.0.terms.0.l"):
+        expand_runs("self_organisation", [{"scene": "myosin_noise"}])  # noise, no seeded harmonic
+
+
+def test_the_self_organisation_store_holds_each_degrees_amplitude(tmp_path):
+    """The store's ``myosin_amplitude`` at t = 0 is the seeded harmonic exactly (the expansion
+    reproduces a harmonic to round-off), and the run's volume is held."""
+    from cortex_ti.simulation import Simulation
+    from cortex_ti.studies.stores import study_dataset
+
+    rows = expand_runs("self_organisation", [{"scene": "myosin_decay", "degree": 2, "nodes": 162, "t_end": 0.5}])
+    path = Simulation(load_scene("myosin_decay", scene_overrides(rows[0]))).run(tmp_path / "d.h5", progress=False)
+    ds = study_dataset("self_organisation", rows, [path])
+    a = ds["myosin_amplitude"].isel(run=0)
+    assert a.dims == ("time", "l") and ds["degree"].values[0] == 2
+    assert a.values[0, 2] == pytest.approx(0.05, abs=1e-13) and a.values[0, [1, 3, 4]].max() < 1e-13
+    assert a.values[0, 0] == pytest.approx(math.sqrt(4 * math.pi), rel=1e-13)
+    assert 0.0 < a.values[-1, 2] < a.values[0, 2]  # below onset it decays

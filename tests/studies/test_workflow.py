@@ -16,7 +16,7 @@ SNAKEMAKE = shutil.which("snakemake")
 
 pytestmark = pytest.mark.skipif(SNAKEMAKE is None, reason="snakemake is installed with the test extra")
 
-from cortex_ti.studies.registry import FIGURES, STORES, TABLES  # noqa: E402  (what the workflow produces)
+from cortex_ti.studies.registry import TABLES, figures_of, stores_of  # noqa: E402  (what the workflow produces)
 
 
 def snakemake(workdir, *args, timeout=900):
@@ -26,9 +26,9 @@ def snakemake(workdir, *args, timeout=900):
 
 def expected_outputs(config):
     formats = config["figures"].get("formats", ["png", "pdf"])
-    out = [f"results/aggregate/{s}.nc" for s in STORES]
-    out += [f"results/figures/{f}.{fmt}" for f in FIGURES for fmt in formats]
-    out += [f"results/figures/{f}_numbers.html" for f in FIGURES]
+    out = [f"results/aggregate/{s}.nc" for s in stores_of(config)]
+    out += [f"results/figures/{f}.{fmt}" for f in figures_of(config) for fmt in formats]
+    out += [f"results/figures/{f}_numbers.html" for f in figures_of(config)]
     return out + [f"results/figures/{t}.html" for t in TABLES]
 
 
@@ -45,7 +45,11 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
 
     n_methods = sum(len(fits) for fits in config["static"]["methods"].values())
     n_static = len(config["static"]["scenes"]) * len(config["static"]["nodes"]) * n_methods
-    n_dynamic = sum(len(expand_runs(s, config[s]["runs"])) for s in ("furrow", "fold", "reorientation", "constriction"))
+    n_dynamic = sum(
+        len(expand_runs(s, config[s]["runs"]))
+        for s in ("furrow", "fold", "reorientation", "constriction", "self_organisation")
+        if s in config
+    )
     n_accuracy = len(expand_runs("accuracy", config["accuracy"]["runs"]))
     # plus one axisymmetric twin per distinct axisymmetric problem of the furrow and accuracy runs
     twin_sources = [r for s in ("furrow", "accuracy") for r in expand_runs(s, config[s]["runs"])]
@@ -158,7 +162,7 @@ def test_tiny_configuration_end_to_end(tmp_path):
     assert report.returncode == 0, report.stderr[-2000:]
     assert "ERROR" not in report.stdout + report.stderr  # captions are valid reStructuredText
     html = (tmp_path / "report.html").read_text(errors="replace")
-    for name in FIGURES:
+    for name in figures_of(config):
         assert f"{name}.png" in html
 
 

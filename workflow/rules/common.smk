@@ -9,7 +9,7 @@ import pandas as pd
 from snakemake.utils import Paramspace
 
 from cortex_ti.physics.formulations import FORMULATIONS
-from cortex_ti.studies.registry import FIGURES, STORES, STUDIES, TABLE_CATEGORY, TABLES
+from cortex_ti.studies.registry import FIGURES, STUDIES, TABLE_CATEGORY, TABLES, configured_studies, figures_of, stores_of
 from cortex_ti.studies.sweeps import expand_runs, job_resources as estimate_resources, scene_overrides, twin_key, twin_rows
 
 
@@ -19,8 +19,9 @@ def _space(study, rows):
 
 # One Paramspace per study: a run's folder is named after its parameters,
 # e.g. results/runs/furrow/scene~furrow_p8_a1/zeta_hat~1/p~8/nodes~2562/fit~quadratic/...
-# The configured studies first; then the derived ones (the axisymmetric twins of their runs).
-SPACES = {s: _space(s, expand_runs(s, config[s]["runs"])) for s, spec in STUDIES.items() if not spec.twin_of}
+# The configured studies first (an optional one only if the config has it); then the derived ones
+# (the axisymmetric twins of their runs).
+SPACES = {s: _space(s, expand_runs(s, config[s]["runs"])) for s in configured_studies(config)}
 SPACES.update({
     s: _space(s, twin_rows([r for src in spec.twin_of for r in SPACES[src].dataframe.to_dict("records")],
                            spec.columns))
@@ -35,15 +36,16 @@ STATIC_RUNS = [(s, n, form, f) for s in STATIC["scenes"] for n in STATIC["nodes"
 STATIC_RUN = {name: os.path.join("results", "runs", "static", "{scene}", "{formulation}", "N{nodes}_{fit}", name)
               for name in ("trajectory.h5", "summary.json", "run.log", "benchmark.tsv")}
 
+STORES = stores_of(config)
 STORE_FILES = expand("results/aggregate/{store}.nc", store=STORES)
-FIGURE_FILES = expand("results/figures/{name}.{fmt}", name=list(FIGURES), fmt=FORMATS)
+FIGURE_FILES = expand("results/figures/{name}.{fmt}", name=figures_of(config), fmt=FORMATS)
 TABLE_FILES = expand("results/figures/{name}.html", name=list(TABLES))
 
 
 wildcard_constraints:
     study="|".join(s for s, spec in STUDIES.items() if not spec.failures_are_data),
     store="|".join(STORES),
-    name="|".join([*FIGURES, *TABLES]),
+    name="|".join([*figures_of(config), *TABLES]),
     scene=r"[^/]+",
     nodes=r"\d+",
     fit=r"[a-z_]+",
@@ -86,7 +88,7 @@ def cost_runs():
     out = [("static", f"{s} N={n} {form} {f}", {"scene": s, "nodes": n, "formulation": form, "fit": f},
             STATIC_RUN["summary.json"].format(scene=s, nodes=n, formulation=form, fit=f), None)
            for s, n, form, f in STATIC_RUNS]
-    for study in STUDIES:
+    for study in SPACES:
         for pattern, row in zip(SPACES[study].instance_patterns, run_rows(study)):
             out.append((study, pattern, row, f"results/runs/{study}/{pattern}/summary.json",
                         twin_trajectory(study, row)))
