@@ -30,12 +30,17 @@ from ..analysis.diagnostics import mesh_quality
 from ..errors import StabilityError
 from .schemes import RESOLUTION_HINT, Evaluation
 
-__all__ = ["StabilityGuard", "extensile_tension", "closing_neck"]
+__all__ = ["StabilityGuard", "extensile_tension", "closing_neck", "unresolved_spot"]
 
 #: a neck closer than this many edge lengths across the body is closing (the guard's diagnosis)
 NECK_EDGES = 2.0
 #: an adaptive step below this fraction of the largest step taken is not what a shorter step fixes
 STEP_COLLAPSE = 1e-2
+#: a myosin peak above this many times the field's median is a spot ...
+SPOT_CONTRAST = 3.0
+#: ... which the mesh no longer resolves when fewer nodes than this (a node and its two rings of
+#: neighbours on a regular mesh: 1 + 6 + 12) lie at or above half its height over the median
+SPOT_NODES = 19
 
 
 def extensile_tension(zeta) -> str | None:
@@ -91,6 +96,30 @@ def closing_neck(points, faces, normals, within: float = NECK_EDGES) -> tuple[in
     return int(i[k]), float(d[k])
 
 
+def unresolved_spot(density) -> tuple[int, float, int] | None:
+    """A myosin spot narrower than the mesh resolves: the peak of ``density`` (N,) when it exceeds
+    :data:`SPOT_CONTRAST` times the median and fewer than :data:`SPOT_NODES` nodes lie at or above
+    half its height over the median. Returns (the peak's node, peak / median, those nodes) or None.
+    A density that concentrates without a bound (the linear tension law past its onset) ends in such
+    a spot: the discretisation then fails, whatever the step (the solve turns singular).
+
+    >>> import numpy as np
+    >>> c = np.ones(100); c[7] = 5.0
+    >>> unresolved_spot(c)  # one node
+    (7, 5.0, 1)
+    >>> c[:30] = 5.0
+    >>> unresolved_spot(c) is None  # thirty
+    True"""
+    c = np.asarray(density, dtype=float)
+    base = float(np.median(c))
+    peak = int(np.argmax(c))
+    top = float(c[peak])
+    if not (base > 0.0 and top > SPOT_CONTRAST * base):
+        return None
+    nodes = int(np.count_nonzero(c - base >= 0.5 * (top - base)))
+    return (peak, top / base, nodes) if nodes < SPOT_NODES else None
+
+
 @dataclass
 class StabilityGuard:
     """Stops a run that is going unstable or has stopped meaning anything, naming what to try.
@@ -104,7 +133,9 @@ class StabilityGuard:
     * signs of an unresolved shape, which a damped (semi-implicit) step can otherwise carry on
       through: the force balance no longer satisfied (relative least-squares residual above
       ``max_residual``; resolved runs stay below 3e-3), or the mesh collapsing (the smallest
-      triangle angle below ``angle_fraction`` of its value at the start of the run).
+      triangle angle below ``angle_fraction`` of its value at the start of the run);
+    * a myosin field collapsed into a spot the mesh cannot resolve (:func:`unresolved_spot`): a
+      resolution problem, not the step's.
     """
 
     growth: float = 1.5
@@ -193,6 +224,17 @@ class StabilityGuard:
                 raise StabilityError(
                     f"max |v_n| grew from {recent[0]:.3g} to {vmax:.3g} in {self.patience} steps of dt={dt:.3g} "
                     f"(t={t:.4g}): {unstable}{'' if physical else ' at this step'}; {advice(True)}"
+                )
+        fields = ev.state.fields if ev.state is not None else {}
+        if "myosin" in fields:
+            spot = unresolved_spot(fields["myosin"])
+            if spot is not None:
+                node, ratio, nodes = spot
+                raise StabilityError(
+                    f"the myosin has collapsed into a spot the mesh cannot resolve at t={t - dt:.4g}: its peak at "
+                    f"node {node}, {ratio:.3g} times the median density, has {nodes} node{'s' if nodes > 1 else ''} "
+                    f"at half height (fewer than {SPOT_NODES}, a node and its two rings): a resolution problem, not "
+                    "the time step; a finer mesh (mesh.nodes) follows the spot further"
                 )
         residual = ev.solution.info.relative_residual
         if residual > self.max_residual:

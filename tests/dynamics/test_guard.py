@@ -99,3 +99,29 @@ def test_guard_says_a_hundredfold_shorter_adaptive_step_is_not_the_cure():
     with pytest.raises(StabilityError, match="already fallen from 0.1 to 0.0001") as exc:
         guard.check(0.1001, 1e-4, x, 1.3 * x, _evaluation(x, x), np.full(len(x), 0.01))
     assert "try time.dt" not in str(exc.value)
+
+
+def test_guard_stops_a_myosin_spot_the_mesh_cannot_resolve():
+    """A myosin density gathered into a spot narrower than two rings of nodes at half its height is a
+    resolution problem, and the guard says so; a wide peak (a cap over many nodes) and a weak one pass."""
+    from cortex_ti.dynamics.state import State
+
+    mesh = icosphere(642)
+    x0 = mesh.points
+    edge = np.full(len(x0), 10.0)
+    angle = np.arccos(np.clip(x0[:, 2], -1.0, 1.0))  # from the north pole, node 0's direction need not matter
+
+    def ev(density):
+        e = _evaluation(x0, x0)
+        e.state = State(x0, {"myosin": density})
+        return e
+
+    guard = StabilityGuard(faces=mesh.faces)
+    wide = 1.0 + 7.0 * np.exp(-((angle / 0.6) ** 2))  # half height at 0.5 rad, ~3 edges: 37 nodes
+    guard.check(0.1, 0.01, x0, x0.copy(), ev(wide), edge)
+    weak = 1.0 + 1.5 * (angle == angle.min())  # one node, but only 2.5 times the median
+    guard.check(0.2, 0.01, x0, x0.copy(), ev(weak), edge)
+    narrow = 1.0 + 7.0 * np.exp(-((angle / 0.05) ** 2))  # 0.05 rad, below the edge (~0.15 at 642 nodes)
+    with pytest.raises(StabilityError, match="spot the mesh cannot resolve") as exc:
+        guard.check(0.3, 0.01, x0, x0.copy(), ev(narrow), edge)
+    assert "not the time step" in str(exc.value) and "mesh.nodes" in str(exc.value)
