@@ -408,6 +408,27 @@ def test_a_solve_failing_mid_run_is_one_line_and_keeps_the_frames(tmp_path, caps
         assert ds.sizes["time"] == 6
 
 
+def test_a_myosin_collapse_is_one_line_saying_resolution_and_keeps_the_frames(tmp_path, capsys):
+    """The noise scene's linear law has no ceiling: the l = 1 mode gathers the myosin into a cap that
+    keeps shrinking, until a solve fails (PARDISO -4 at 642 nodes). The guard stops it first, saying it
+    is a resolution problem and not the step (dynamics.guard.unresolved_spot): one line, exit 2, the
+    frames kept in OUT.h5.partial, the last of them the cap before the stop (still resolved)."""
+    from cortex_ti.dynamics.guard import unresolved_spot
+
+    out = tmp_path / "x.h5"
+    rc, _, stderr = run(
+        ["run", "myosin_noise", "-o", str(out), "--set", "mesh.nodes=162", "--set", "time.t_end=20"], capsys
+    )
+    assert rc == 2
+    lines = [ln for ln in stderr.strip().splitlines() if ln.startswith("cortex-ti: error:")]
+    assert len(lines) == 1 and "spot the mesh cannot resolve" in lines[0] and "not the time step" in lines[0]
+    assert not out.exists()
+    with xr.open_dataset(partial_path(out), engine="h5netcdf") as ds:
+        c = ds["myosin"].values
+        assert ds.sizes["time"] > 10 and float(ds["time"].values[-1]) < 20
+    assert unresolved_spot(c[0]) is None and c[-1].max() > 3 * np.median(c[-1])  # it gathered into a spot
+
+
 @pytest.mark.parametrize(
     "overrides, words",
     [

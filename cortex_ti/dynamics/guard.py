@@ -110,14 +110,20 @@ def unresolved_spot(density) -> tuple[int, float, int] | None:
     >>> c[:30] = 5.0
     >>> unresolved_spot(c) is None  # thirty
     True"""
+    spot = _spot(density)
+    return spot if spot is not None and spot[2] < SPOT_NODES else None
+
+
+def _spot(density) -> tuple[int, float, int] | None:
+    """The peak of ``density`` when above :data:`SPOT_CONTRAST` times the median: (its node, peak /
+    median, the nodes at or above half its height over the median); None otherwise."""
     c = np.asarray(density, dtype=float)
     base = float(np.median(c))
     peak = int(np.argmax(c))
     top = float(c[peak])
     if not (base > 0.0 and top > SPOT_CONTRAST * base):
         return None
-    nodes = int(np.count_nonzero(c - base >= 0.5 * (top - base)))
-    return (peak, top / base, nodes) if nodes < SPOT_NODES else None
+    return peak, top / base, int(np.count_nonzero(c - base >= 0.5 * (top - base)))
 
 
 @dataclass
@@ -177,6 +183,25 @@ class StabilityGuard:
                 "(benchmarks/remesh_mode.py lists the growing modes of a frame)"
             )
         return None
+
+    def failed_solve(self, error: Exception, ev: Evaluation) -> Exception:
+        """What a solve that failed in a step from ``ev`` means: a myosin field gathering into a spot
+        (its peak above :data:`SPOT_CONTRAST` times the median) outruns the mesh, the solve breaks
+        before the spot is narrower than :func:`unresolved_spot` waits for (``myosin_noise`` at 2562
+        nodes: the solve fails at t = 12.44 with the peak 31.7 times the median on 36 nodes at half
+        height): a resolution problem, said as one, with the solver's message. Otherwise ``error``."""
+        fields = ev.state.fields if ev.state is not None else {}
+        if "myosin" not in fields:
+            return error
+        spot = _spot(fields["myosin"])
+        if spot is None:
+            return error
+        _, ratio, nodes = spot
+        return StabilityError(
+            f"the myosin is collapsing into a spot (its peak {ratio:.3g} times the median density, {nodes} nodes at "
+            "half height) faster than the mesh resolves it: a resolution problem, not the time step; a finer mesh "
+            f"(mesh.nodes) follows the spot further (the solver: {error})"
+        )
 
     def check(self, t: float, dt: float, old_points, new_points, ev: Evaluation, edge_length: np.ndarray) -> None:
         physical = extensile_tension(self.zeta)

@@ -138,7 +138,7 @@ def integrate(
         try:
             res = scheme.step(ev, h)
         except SolverError as exc:
-            raise _which_solve(exc, t, h, True) from None
+            raise guard.failed_solve(_which_solve(exc, t, h, True), ev) from None
         stats.solves += res.solves
         if not res.accepted:
             stats.rejected += 1
@@ -217,7 +217,7 @@ def _integrate_dense(
         try:
             res = scheme.step(ev, h)
         except SolverError as exc:
-            raise _which_solve(exc, t, h, True) from None
+            raise guard.failed_solve(_which_solve(exc, t, h, True), ev) from None
         stats.solves += res.solves
         if not res.accepted:
             stats.rejected += 1

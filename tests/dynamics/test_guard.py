@@ -125,3 +125,25 @@ def test_guard_stops_a_myosin_spot_the_mesh_cannot_resolve():
     with pytest.raises(StabilityError, match="spot the mesh cannot resolve") as exc:
         guard.check(0.3, 0.01, x0, x0.copy(), ev(narrow), edge)
     assert "not the time step" in str(exc.value) and "mesh.nodes" in str(exc.value)
+
+
+def test_a_solve_failing_while_the_myosin_collapses_is_a_resolution_problem():
+    """At 2562 nodes the noise scene's solve fails while its cap still spans ~90 nodes at half height:
+    a failed solve from a state whose myosin has a strong peak (above 3 times the median) is said to
+    be the collapse outrunning the mesh, with the solver's words; without one the error is unchanged."""
+    from cortex_ti.dynamics.state import State
+    from cortex_ti.errors import SolverError
+
+    mesh = icosphere(642)
+    x0 = mesh.points
+    angle = np.arccos(np.clip(x0[:, 2], -1.0, 1.0))
+    err = SolverError("the solve at t = 12.44 failed: PARDISO -4")
+    guard = StabilityGuard(faces=mesh.faces)
+    e = _evaluation(x0, x0)
+    e.state = State(x0, {"myosin": 1.0 + 12.0 * np.exp(-((angle / 0.6) ** 2))})
+    said = guard.failed_solve(err, e)
+    assert isinstance(said, StabilityError) and "PARDISO -4" in str(said)
+    assert "collapsing into a spot" in str(said) and "not the time step" in str(said)
+    e.state = State(x0, {"myosin": 1.0 + 0.5 * np.exp(-((angle / 0.6) ** 2))})  # a weak pattern
+    assert guard.failed_solve(err, e) is err
+    assert guard.failed_solve(err, _evaluation(x0, x0)) is err  # no myosin
