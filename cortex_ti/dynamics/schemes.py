@@ -382,7 +382,7 @@ class BDF2(Scheme):
 
     @classmethod
     def default_tol_for(cls, nodes: int | None) -> float:
-        """``4e-6 * 10242 / nodes``: a tolerance that follows the mesh's own error, so the time error
+        """``4e-6 * 10242 / nodes`` to two digits: a tolerance that follows the mesh's own error, so the time error
         stays below it at every resolution without paying for more. The mesh's error of the radii is
         second order, ~1/N (furrow_p4_a1 at t = 0: 2.5e-3, 6.4e-4, 1.6e-4 at 642, 2562, 10242 nodes);
         the time error over a furrow run is ~3-10 tol at any N. So 6.4e-5, 1.6e-5, 4e-6 there, for
@@ -391,7 +391,7 @@ class BDF2(Scheme):
         the finest, 4e-6."""
         if nodes is None:
             return cls.default_tol
-        return cls.default_tol * cls.TOL_NODES / max(int(nodes), 1)
+        return float(f"{cls.default_tol * cls.TOL_NODES / max(int(nodes), 1):.2g}")  # 2 digits: 1.6e-5, not 1.599...e-5
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
