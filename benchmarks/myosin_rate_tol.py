@@ -1,0 +1,71 @@
+"""What the time step does to a measured myosin growth rate: one seeded harmonic at several ``time.tol``.
+
+Runs ``myosin_decay`` seeded with ``1e-3 Y_l0`` (the study ``self_organisation``'s rate runs) at the
+given linear-law slope, to t = 6, once per tolerance (``default``: the scene's, ``bdf2``'s mesh-scaled
+default), in this process, and prints per run the steps and the slope of ``log |c_l|`` over the second
+half of the frames (``cortex_ti.analysis.harmonics``), with the closed form and the spectrum tool at
+the same resolution (``cortex_ti.studies.self_organisation``).
+
+Usage::
+
+    python benchmarks/myosin_rate_tol.py                       # l = 1, gamma = 1, 2562 nodes; default, 4e-6, 1e-7
+    python benchmarks/myosin_rate_tol.py --degree 2 --tols default 1e-7
+    python benchmarks/myosin_rate_tol.py --smoke               # 162 nodes, to t = 1 (seconds)
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import numpy as np
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--degree", type=int, default=1)
+    ap.add_argument("--gamma", type=float, default=1.0)
+    ap.add_argument("--nodes", type=int, default=2562)
+    ap.add_argument("--tols", nargs="+", default=["default", "4e-6", "1e-7"])
+    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    args = ap.parse_args(argv)
+    t_end = 1.0 if args.smoke else 6.0
+    if args.smoke:
+        args.nodes, args.tols = 162, ["default", "1e-6"]
+
+    import h5py
+
+    from cortex_ti.analysis.harmonics import degree_amplitudes, growth_rate
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation.core import Simulation
+    from cortex_ti.studies.self_organisation import closed_rate, spectrum_rate
+
+    l, where = args.degree, _smoke.folder()
+    closed = closed_rate("myosin_decay", l, args.gamma, 0.2)
+    tool = float("nan") if args.smoke else spectrum_rate("myosin_decay", args.nodes, l, args.gamma, 0.2)
+    head = f"myosin_decay, l = {l}, gamma = {args.gamma}, {args.nodes} nodes"
+    print(f"{head}: closed form {closed:.5f}, spectrum tool {tool:.5f}")
+    print("| time.tol | steps | rate | rate / spectrum tool - 1 |\n|---|---|---|---|")
+    for tol in args.tols:
+        sets = [
+            f"mesh.nodes={args.nodes}",
+            f"fields.myosin.initial.0.terms.0.l={l}",
+            "fields.myosin.initial.0.terms.0.coeff=1e-3",
+            f"fields.myosin.tension.gamma={args.gamma}",
+            f"time.t_end={t_end}",
+        ] + ([] if tol == "default" else [f"time.tol={tol}"])
+        sim = Simulation(load_scene("myosin_decay", sets))
+        path = sim.run(Path(where) / f"tol_{tol}.h5", progress=False)
+        with h5py.File(path, "r") as f:
+            t, tri = f["time"][...], f["triangles"][...]
+            amp = np.array([degree_amplitudes(f["points"][k], tri, f["myosin"][k], l + 1)[l] for k in range(len(t))])
+        late = t >= 0.5 * t[-1]
+        rate = growth_rate(t[late], amp[late])
+        steps = sim.summary()["steps"]
+        print(f"| {sim.settings.time.tol:.3g} ({tol}) | {steps} | {rate:.5f} | {rate / tool - 1:+.1e} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
