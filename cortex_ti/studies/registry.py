@@ -332,7 +332,7 @@ _FIGURES += (
         ("constriction",),
         "constriction_figure",
         "8. Deep rings: does the furrow close?",
-        "Not in the paper (issue 18): rings zeta = 1 + zeta_hat exp(-10 |theta - pi/2|^4) without bending "
+        "Not in the paper (issue 18): rings ``zeta = 1 + zeta_hat exp(-10 |theta - pi/2|^4)`` without bending "
         "viscosity, the tension glued to the normally moving points. Left: the neck radius against time, lines the "
         "axisymmetric model (arc-length points; dotted where its material stretch exceeds 100 and the numbers stop "
         "converging), dots the 3D runs with remeshing. Right: the neck at the end of each axisymmetric run against "
