@@ -41,6 +41,8 @@ SPOT_CONTRAST = 3.0
 #: ... which the mesh no longer resolves when fewer nodes than this (a node and its two rings of
 #: neighbours on a regular mesh: 1 + 6 + 12) lie at or above half its height over the median
 SPOT_NODES = 19
+#: ... and they lie within this many edge lengths of the peak (two rings, with room for distortion)
+SPOT_EDGES = 4.0
 
 
 def extensile_tension(zeta) -> str | None:
@@ -96,12 +98,14 @@ def closing_neck(points, faces, normals, within: float = NECK_EDGES) -> tuple[in
     return int(i[k]), float(d[k])
 
 
-def unresolved_spot(density) -> tuple[int, float, int] | None:
+def unresolved_spot(density, points=None, edge_length=None) -> tuple[int, float, int] | None:
     """A myosin spot narrower than the mesh resolves: the peak of ``density`` (N,) when it exceeds
     :data:`SPOT_CONTRAST` times the median and fewer than :data:`SPOT_NODES` nodes lie at or above
-    half its height over the median. Returns (the peak's node, peak / median, those nodes) or None.
-    A density that concentrates without a bound (the linear tension law past its onset) ends in such
-    a spot: the discretisation then fails, whatever the step (the solve turns singular).
+    half its height over the median, all of them (with ``points`` and ``edge_length``) within
+    :data:`SPOT_EDGES` edge lengths of the peak: a spot, not a thin band such as a ring one node wide.
+    Returns (the peak's node, peak / median, those nodes) or None. A density that concentrates
+    without a bound (the linear tension law past its onset) ends in such a spot: the discretisation
+    then fails, whatever the step (the solve turns singular).
 
     >>> import numpy as np
     >>> c = np.ones(100); c[7] = 5.0
@@ -111,7 +115,16 @@ def unresolved_spot(density) -> tuple[int, float, int] | None:
     >>> unresolved_spot(c) is None  # thirty
     True"""
     spot = _spot(density)
-    return spot if spot is not None and spot[2] < SPOT_NODES else None
+    if spot is None or spot[2] >= SPOT_NODES:
+        return None
+    if points is not None and edge_length is not None:
+        c = np.asarray(density, dtype=float)
+        base = float(np.median(c))
+        top = np.flatnonzero(c - base >= 0.5 * (c[spot[0]] - base))
+        reach = float(np.linalg.norm(points[top] - points[spot[0]], axis=1).max())
+        if reach > SPOT_EDGES * float(edge_length[spot[0]]):
+            return None
+    return spot
 
 
 def _spot(density) -> tuple[int, float, int] | None:
@@ -252,7 +265,7 @@ class StabilityGuard:
                 )
         fields = ev.state.fields if ev.state is not None else {}
         if "myosin" in fields:
-            spot = unresolved_spot(fields["myosin"])
+            spot = unresolved_spot(fields["myosin"], new_points, edge_length)
             if spot is not None:
                 node, ratio, nodes = spot
                 raise StabilityError(

@@ -124,6 +124,13 @@ def test_guard_stops_a_myosin_spot_the_mesh_cannot_resolve():
     narrow = 1.0 + 7.0 * np.exp(-((angle / 0.05) ** 2))  # 0.05 rad, below the edge (~0.15 at 642 nodes)
     with pytest.raises(StabilityError, match="spot the mesh cannot resolve") as exc:
         guard.check(0.3, 0.01, x0, x0.copy(), ev(narrow), edge)
+    # a band one node wide along half the equator has few nodes at half height too, but it is not a spot
+    h = np.full(len(x0), 0.15)  # the edge length at 642 nodes
+    band = 1.0 + 7.0 * ((np.abs(x0[:, 2]) < 0.02) & (x0[:, 0] > 0.0))
+    assert 0 < np.count_nonzero(band > 1.0) < 19
+    StabilityGuard(faces=mesh.faces).check(0.1, 0.01, x0, x0.copy(), ev(band), h)
+    with pytest.raises(StabilityError, match="spot the mesh cannot resolve"):
+        StabilityGuard(faces=mesh.faces).check(0.1, 0.01, x0, x0.copy(), ev(narrow), h)
     assert "not the time step" in str(exc.value) and "mesh.nodes" in str(exc.value)
 
 
