@@ -115,19 +115,17 @@ def unresolved_spot(density, points=None, edge_length=None) -> tuple[int, float,
     >>> unresolved_spot(c) is None  # thirty
     True"""
     spot = _spot(density)
-    if spot is None or spot[2] >= SPOT_NODES:
+    if spot is None or spot[2].size >= SPOT_NODES:
         return None
+    peak, ratio, high = spot
     if points is not None and edge_length is not None:
-        c = np.asarray(density, dtype=float)
-        base = float(np.median(c))
-        top = np.flatnonzero(c - base >= 0.5 * (c[spot[0]] - base))
-        reach = float(np.linalg.norm(points[top] - points[spot[0]], axis=1).max())
-        if reach > SPOT_EDGES * float(edge_length[spot[0]]):
+        reach = float(np.linalg.norm(points[high] - points[peak], axis=1).max())
+        if reach > SPOT_EDGES * float(edge_length[peak]):
             return None
-    return spot
+    return peak, ratio, high.size
 
 
-def _spot(density) -> tuple[int, float, int] | None:
+def _spot(density) -> tuple[int, float, np.ndarray] | None:
     """The peak of ``density`` when above :data:`SPOT_CONTRAST` times the median: (its node, peak /
     median, the nodes at or above half its height over the median); None otherwise."""
     c = np.asarray(density, dtype=float)
@@ -136,7 +134,7 @@ def _spot(density) -> tuple[int, float, int] | None:
     top = float(c[peak])
     if not (base > 0.0 and top > SPOT_CONTRAST * base):
         return None
-    return peak, top / base, int(np.count_nonzero(c - base >= 0.5 * (top - base)))
+    return peak, top / base, np.flatnonzero(c - base >= 0.5 * (top - base))
 
 
 @dataclass
@@ -209,7 +207,8 @@ class StabilityGuard:
         spot = _spot(fields["myosin"])
         if spot is None:
             return error
-        _, ratio, nodes = spot
+        _, ratio, high = spot
+        nodes = high.size
         return StabilityError(
             f"the myosin is collapsing into a spot (its peak {ratio:.3g} times the median density, {nodes} nodes at "
             "half height) faster than the mesh resolves it: a resolution problem, not the time step; a finer mesh "
