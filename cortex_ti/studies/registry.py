@@ -108,7 +108,7 @@ _STUDIES = (
     ),
     Study(
         "self_organisation",
-        ("scene", "model", "degree", "seed", "myosin_gamma", "turnover", "nodes", "tol", "t_end"),
+        ("scene", "model", "degree", "seed", "myosin_gamma", "turnover", "nodes", "tol", "dt_max", "t_end"),
         "A self-organising cortex (issue 20): a myosin density carried by the flow it drives. Runs seeded "
         "with one harmonic of degree `degree` (amplitude `seed`) at the linear law's slope `myosin_gamma` "
         "and turnover `turnover`, whose seeded mode grows or decays at a rate fitted to the log of its "

@@ -76,6 +76,7 @@ PARAMETERS: dict[str, str] = {
     "residual": "numerics.fit_residual_weight",
     "dt": "time.dt",
     "tol": "time.tol",
+    "dt_max": "time.dt_max",
     "t_end": "time.t_end",
     "zeta_hat": "active_stress.0.amplitude",
     "p": "active_stress.0.p",
@@ -165,6 +166,7 @@ def _settings_value(settings, column: str):
         "residual": ("numerics", "fit_residual_weight"),
         "dt": ("time", "dt"),
         "tol": ("time", "tol"),
+        "dt_max": ("time", "dt_max"),
         "t_end": ("time", "t_end"),
         "gamma": ("mesh", "shear"),
     }[column]

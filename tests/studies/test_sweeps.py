@@ -189,6 +189,7 @@ def test_the_myosin_columns_set_the_seeded_harmonic_the_law_and_the_turnover():
             "turnover": "0.05",
             "nodes": "642",
             "tol": "6.4e-05",  # bdf2's default at 642 nodes
+            "dt_max": "0.2",  # bdf2's default
             "t_end": "10",
         }
     ]
