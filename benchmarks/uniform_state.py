@@ -103,8 +103,11 @@ def t0_rows(nodes_list, forces=FORCES) -> list[dict]:
     return rows
 
 
-def run_rows(nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float = 0.01, where=None) -> list[dict]:
-    """Uniform myosin to ``t_end`` with each mesh motion: its deviation from uniform over time."""
+def run_rows(
+    nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float = 0.01, where=None, scheme: str = "euler"
+) -> list[dict]:
+    """Uniform myosin to ``t_end`` with each mesh motion: its deviation from uniform over time
+    (``scheme``: ``time.scheme``; ``dt`` its step, bdf2's first step)."""
     import xarray as xr
 
     from cortex_ti.simulation.core import Simulation
@@ -120,6 +123,7 @@ def run_rows(nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float
                         f"mesh.motion={motion}",
                         f"time.t_end={t_end}",
                         f"time.dt={dt}",
+                        f"time.scheme={scheme}",
                         f"time.save_every={max(dt, t_end / 200):g}",
                     ]
                     sim = Simulation(_scene(nodes, sets))
@@ -137,6 +141,9 @@ def run_rows(nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float
                             "active_force": force,
                             "nodes": nodes,
                             "motion": motion,
+                            "scheme": scheme,
+                            "tol": f"{sim.settings.time.tol:.2g}" if scheme == "bdf2" else "-",
+                            "steps": sim.summary()["steps"],
                             "t_end": float(ds.time.values[-1]),
                             "max dev": max(dev),
                             "dev(t_end)": dev[-1],
@@ -210,6 +217,7 @@ def main(argv=None) -> None:
     ap.add_argument("--final-nodes", type=int, nargs="*", default=[], help="further meshes run with normal motion only")
     ap.add_argument("--t-end", type=float, default=20.0)
     ap.add_argument("--dt", type=float, default=0.01)
+    ap.add_argument("--schemes", nargs="+", default=["euler"], help="time.scheme of the runs (bdf2: dt its first step)")
     ap.add_argument("--motions", nargs="+", default=list(MOTIONS), choices=MOTIONS)
     ap.add_argument("--forces", nargs="+", default=list(FORCES), choices=FORCES)
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
@@ -234,19 +242,22 @@ def main(argv=None) -> None:
         print(orders(rows, "max|v_t|"))
         print(orders(rows, "max|f_t|/A"))
     if args.what in ("run", "all"):
-        rows = run_rows(args.run_nodes, args.t_end, args.motions, args.forces, args.dt, where)
-        if args.final_nodes:
-            rows += run_rows(args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where)
-            rows.sort(key=lambda r: (r["active_force"] != "gradient", r["motion"], r["nodes"]))
+        rows = []
+        for scheme in args.schemes:
+            rows += run_rows(args.run_nodes, args.t_end, args.motions, args.forces, args.dt, where, scheme)
+            if args.final_nodes:
+                rows += run_rows(args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where, scheme)
+        rows.sort(key=lambda r: (r["active_force"] != "gradient", r["scheme"], r["motion"], r["nodes"]))
         print(f"## Uniform myosin to t = {args.t_end:g}\n")
         print(
             "c = c0 = 1 with D = 0.05, k = 1, linear law zeta0 = gamma = 1 (subcritical: the slowest mode, "
-            "l = 1, decays at -0.1), furrow_p4_a1's viscosities, Euler dt = "
-            f"{args.dt:g} with the semi-implicit tension. max dev: the largest max_i |c_i - <c>| / <c> over "
+            "l = 1, decays at -0.1), furrow_p4_a1's viscosities; Euler at dt = "
+            f"{args.dt:g}, bdf2 at its default tolerance from a first step {args.dt:g}; the semi-implicit "
+            "tension. max dev: the largest max_i |c_i - <c>| / <c> over "
             "the frames (every t_end/200), dev(t_end) at the end, t of max when it peaked; max|v| at the end.\n"
         )
         print(table(rows))
-        print(orders(rows, "max dev", by=("active_force", "motion")))
+        print(orders(rows, "max dev", by=("active_force", "scheme", "motion")))
     if args.what in ("axisym", "all"):
         rows = axisym_rows(args.axisym_nodes, args.axisym_t_end, args.forces, where)
         print(
