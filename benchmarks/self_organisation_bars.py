@@ -19,7 +19,7 @@ and prints:
 
 Usage::
 
-    python benchmarks/self_organisation_bars.py STORE [--ring-trajectories 3D.h5 ...]
+    python benchmarks/self_organisation_bars.py STORE [--ring-trajectories 3D.h5 ...] [--compare LABEL=FILE ...]
     python benchmarks/self_organisation_bars.py --smoke
 """
 
@@ -141,6 +141,39 @@ def _first(t, v, level):
     return f"{t[above[0]]:g}" if above.size else f"> {t[-1]:g}"
 
 
+def furrow(path: Path):
+    """Frame times and furrow radius of a trajectory (3D or axisymmetric)."""
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return f["time"][...], f["furrow_radius"][...]
+
+
+def compare(ds, runs) -> None:
+    """Further runs of the ring (``LABEL=PATH``) against the store's twin, at the ring's times."""
+    from cortex_ti.studies import self_organisation as so
+
+    t = ds["time"].values
+    for scene, (_, j) in so.ring_runs(ds).items():
+        twin = ds["furrow_radius"].values[j]
+        series = {}
+        for item in runs:
+            label, path = item.split("=", 1)
+            series[label] = furrow(Path(path))
+        print(f"\n## {scene}: further runs against the store's twin (furrow radius, R0)\n")
+        print("| t | twin | " + " | ".join(f"{label} - twin" for label in series) + " |")
+        print("|---|---|" + "---|" * len(series))
+        for tq in RING_TIMES:
+            k = int(np.argmin(np.abs(t - tq)))
+            if abs(t[k] - tq) > 1e-6 or not np.isfinite(twin[k]):
+                continue
+            cells = []
+            for tt, r in series.values():
+                kk = int(np.argmin(np.abs(tt - tq)))
+                cells.append(f"{r[kk] - twin[k]:+.2e}" if abs(tt[kk] - tq) < 1e-6 else "-")
+            print(f"| {t[k]:g} | {twin[k]:.6f} | " + " | ".join(cells) + " |")
+
+
 def ring(ds, trajectories) -> None:
     from cortex_ti.studies import self_organisation as so
 
@@ -220,13 +253,20 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("store", nargs="?", type=Path)
     ap.add_argument("--ring-trajectories", nargs="*", default=[], help="the 3D ring runs' trajectory.h5")
+    ap.add_argument(
+        "--compare", nargs="*", default=[], metavar="LABEL=PATH", help="further ring runs to set against the twin"
+    )
+    ap.add_argument("--ring-times", type=float, nargs="+", default=None, help="the times of the ring's tables")
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = ap.parse_args(argv)
+    global RING_TIMES
+    if args.ring_times:
+        RING_TIMES = tuple(args.ring_times)
     where = None
     if args.smoke:
-        global RING_TIMES
         where = _smoke.folder()
         args.store, args.ring_trajectories = _smoke_store(where)
+        args.compare = [f"again={args.ring_trajectories[0]}"]
         RING_TIMES = (0.0, 0.2, 0.4)
     if args.store is None:
         ap.error("give the store (results/aggregate/self_organisation.nc)")
@@ -236,6 +276,8 @@ def main(argv=None) -> int:
     rates(ds)
     onsets(ds)
     ring(ds, args.ring_trajectories)
+    if args.compare:
+        compare(ds, args.compare)
     if where is not None:
         import shutil
 
