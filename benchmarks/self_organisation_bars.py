@@ -158,7 +158,7 @@ def compare(ds, runs) -> None:
         twin = ds["furrow_radius"].values[j]
         series = {}
         for item in runs:
-            label, path = item.split("=", 1)
+            label, path = item.rsplit("=", 1)
             series[label] = furrow(Path(path))
         print(f"\n## {scene}: further runs against the store's twin (furrow radius, R0)\n")
         print("| t | twin | " + " | ".join(f"{label} - twin" for label in series) + " |")
