@@ -12,7 +12,7 @@ areas of the frame's nodes) and the area ``A``:
   ``max |M - M_ode| / M(0)`` over the frames, and ``max |M - c0 A| / M(0)`` (how far the total is
   from the turnover's target at all, for scale). The run integrates the turnover by bdf2 with
   steps of its own, so this difference is the time error of the run, not round-off; it falls with
-  ``time.tol`` (``--tols``).
+  ``time.tol`` (``--tols``) and, where the step is at its cap, with ``time.dt_max`` (``--dt-max``).
 
 Usage::
 
@@ -76,7 +76,8 @@ def main(argv=None) -> int:
         "--t-end-free", type=float, default=15.0, help="t_end without turnover (the ring then collapses into a spot)"
     )
     ap.add_argument("--motions", nargs="+", default=list(MESH_MOTIONS), choices=list(MESH_MOTIONS))
-    ap.add_argument("--tols", nargs="+", default=["default"], help="time.tol of the turnover runs")
+    ap.add_argument("--tols", nargs="+", default=["default"], help="time.tol of the runs")
+    ap.add_argument("--dt-max", type=float, default=None, help="time.dt_max of the runs (default: the scene's)")
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = ap.parse_args(argv)
     if args.smoke:
@@ -95,6 +96,8 @@ def main(argv=None) -> int:
         f"With the scene's turnover k = {k:g} (to t = {args.t_end:g}): max |M - M_ode| / M(0), M_ode the solution "
         "of dM/dt = -k (M - c0 A(t)) with the run's area; max |M - c0 A| / M(0) for scale.\n"
     )
+    if args.dt_max is not None:
+        print(f"Every run with time.dt_max = {args.dt_max:g}.\n")
     print(
         "| nodes | motion | time.tol | steps, k = 0 | no turnover: max abs(M - M(0)) / M(0) "
         "| steps, k = 0.2 | with turnover: max abs(M - M_ode) / M(0) | max abs(M - c0 A) / M(0) |"
@@ -105,6 +108,7 @@ def main(argv=None) -> int:
             for tol in args.tols:
                 base = [f"mesh.nodes={nodes}", f"mesh.motion={motion}"]
                 base += [] if tol == "default" else [f"time.tol={tol}"]
+                base += [] if args.dt_max is None else [f"time.dt_max={args.dt_max:g}"]
                 out = {}
                 free = ["fields.myosin.turnover=0", f"time.t_end={args.t_end_free:g}"]
                 for name, extra in (("free", free), ("turn", [f"time.t_end={args.t_end:g}"])):
