@@ -174,6 +174,39 @@ def compare(ds, runs) -> None:
             print(f"| {t[k]:g} | {twin[k]:.6f} | " + " | ".join(cells) + " |")
 
 
+def lag(ds, scene: str, nodes, dev, twin) -> None:
+    """How far behind the twin each 3D ring is in time, against what its linear rate's error makes.
+
+    With the initial offset (the polyhedron's furrow radius) taken off, the lag ``s`` solves
+    ``twin(t - s) = 3D(t) - offset`` on the twin's falling branch; a growth rate
+    ``lambda (1 + eps)`` alone lags ``-eps t`` (``eps`` the spectrum tool's relative error of the
+    scene's l = 2 rate at its activity and turnover)."""
+    from cortex_ti.studies import self_organisation as so
+
+    t = ds["time"].values
+    ok = np.isfinite(twin)
+    tt, tw = t[ok], twin[ok]
+    start = tt[int(np.argmax(-np.diff(tw) > 0))] if tt.size > 2 else tt[0]
+    falling = (tt >= start) & np.concatenate([[True], np.diff(tw) < 0])
+    i0 = next(i for i in so.ring_runs(ds)[scene][0])
+    act = so.activity(ds, i0)
+    k = float(ds["turnover"].values[i0])
+    closed = so.closed_rate(scene, 2, act, k)
+    eps = {n: so.spectrum_rate(scene, n, 2, act, k) / closed - 1 for n in nodes}
+    times = [tq for tq in RING_TIMES if tq >= 0.5 * tt[-1]]
+    print("\nThe lag of the 3D ring behind the twin (t_a), measured and from its l = 2 rate's error alone:\n")
+    print("| nodes | l = 2 rate / closed - 1 | " + " | ".join(f"t = {tq:g}: lag / -eps t" for tq in times) + " |")
+    print("|---|---|" + "---|" * len(times))
+    for n in nodes:
+        cells = []
+        for tq in times:
+            kq = int(np.argmin(np.abs(t - tq)))
+            target = twin[kq] + dev[n][kq] - dev[n][0]
+            s = tq - float(np.interp(target, tw[falling][::-1], tt[falling][::-1]))
+            cells.append(f"{s:.3f} / {-eps[n] * tq:.3f}")
+        print(f"| {n} | {eps[n]:+.2e} | " + " | ".join(cells) + " |")
+
+
 def ring(ds, trajectories) -> None:
     from cortex_ti.studies import self_organisation as so
 
@@ -215,6 +248,7 @@ def ring(ds, trajectories) -> None:
             inside = np.flatnonzero(e <= BAR)
             last = f"{tt[inside[-1]]:g}" if inside.size else "never within"
             print(f"| {n} | {e[0]:.2e} | {last} | {_first(tt, e, BAR)} | {tt[-1]:g} |")
+        lag(ds, scene, nodes, dev, twin)
         if sym:
             print("\nThe 3D runs' departure from mirror symmetry (shape, R0): the first frame beyond each level\n")
             print("| nodes | mirror map at t = 0 | > 1e-8 | > 1e-6 | > 1e-4 | > 2e-3 | myosin > 1e-4 |")
