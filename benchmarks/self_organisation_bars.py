@@ -172,6 +172,18 @@ def compare(ds, runs) -> None:
                 kk = int(np.argmin(np.abs(tt - tq)))
                 cells.append(f"{r[kk] - twin[k]:+.2e}" if abs(tt[kk] - tq) < 1e-6 else "-")
             print(f"| {t[k]:g} | {twin[k]:.6f} | " + " | ".join(cells) + " |")
+        ok = np.isfinite(twin)
+        times = [tq for tq in RING_TIMES if tq >= 0.5 * t[ok][-1]]
+        print("\nTheir lag behind the twin (t_a; the initial offset taken off, as in the lag table above):\n")
+        print("| run | " + " | ".join(f"t = {tq:g}" for tq in times) + " |")
+        print("|---|" + "---|" * len(times))
+        for label, (tt, r) in series.items():
+            cells = []
+            for tq in times:
+                kk = int(np.argmin(np.abs(tt - tq)))
+                target = r[kk] - (r[0] - twin[ok][0])
+                cells.append(f"{tq - float(np.interp(target, twin[ok][::-1], t[ok][::-1])):.3f}")
+            print(f"| {label} | " + " | ".join(cells) + " |")
 
 
 def lag(ds, scene: str, nodes, dev, twin) -> None:
