@@ -156,10 +156,10 @@ def compare(ds, runs) -> None:
     t = ds["time"].values
     for scene, (_, j) in so.ring_runs(ds).items():
         twin = ds["furrow_radius"].values[j]
-        series = {}
+        series, paths = {}, {}
         for item in runs:
             label, path = item.rsplit("=", 1)
-            series[label] = furrow(Path(path))
+            series[label], paths[label] = furrow(Path(path)), path
         print(f"\n## {scene}: further runs against the store's twin (furrow radius, R0)\n")
         print("| t | twin | " + " | ".join(f"{label} - twin" for label in series) + " |")
         print("|---|---|" + "---|" * len(series))
@@ -175,15 +175,27 @@ def compare(ds, runs) -> None:
         ok = np.isfinite(twin)
         times = [tq for tq in RING_TIMES if tq >= 0.5 * t[ok][-1]]
         print("\nTheir lag behind the twin (t_a; the initial offset taken off, as in the lag table above):\n")
-        print("| run | " + " | ".join(f"t = {tq:g}" for tq in times) + " |")
-        print("|---|" + "---|" * len(times))
+        print(
+            "| run | "
+            + " | ".join(f"t = {tq:g}" for tq in times)
+            + f" | last t within {BAR:g} | mirror asymmetry > 1e-6 / 1e-4 / 2e-3 |"
+        )
+        print("|---|" + "---|" * (len(times) + 2))
         for label, (tt, r) in series.items():
+            e = np.abs(r - np.interp(tt, t[ok], twin[ok]))
+            inside = np.flatnonzero(e <= BAR)
+            within = f"{tt[inside[-1]]:g}" if inside.size else "never within"
+            try:
+                ts, _, shape, _, _ = mirror(Path(paths[label]))
+                sym = " / ".join(_first(ts, shape, v) for v in (1e-6, 1e-4, BAR))
+            except (KeyError, ValueError):  # an axisymmetric file: no nodes to mirror
+                sym = "-"
             cells = []
             for tq in times:
                 kk = int(np.argmin(np.abs(tt - tq)))
                 target = r[kk] - (r[0] - twin[ok][0])
                 cells.append(f"{tq - float(np.interp(target, twin[ok][::-1], t[ok][::-1])):.3f}")
-            print(f"| {label} | " + " | ".join(cells) + " |")
+            print(f"| {label} | " + " | ".join(cells) + f" | {within} | {sym} |")
 
 
 def lag(ds, scene: str, nodes, dev, twin) -> None:
