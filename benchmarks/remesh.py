@@ -46,8 +46,25 @@ SIZINGS = {
         "mesh.remesh.coarser=null",
     ],  # h = clip(s / kappa, 0.01, 3 mean edges), s keeping the node count
     "budget+coarser": ["mesh.remesh.size=budget", "mesh.remesh.coarser=1.5"],  # and on resolution
+    # h within 2 % of the initial mean edge {h} everywhere: no curvature sizing at all
+    "uniform": [
+        "mesh.remesh.size=curvature",
+        "mesh.remesh.coarser=null",
+        "mesh.remesh.h_min={lo}",
+        "mesh.remesh.h_max={h}",
+    ],
 }
 TIMES = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0)
+
+
+def _sizing(sizing: str, nodes: int) -> list[str]:
+    """The scene settings of a sizing; ``{h}``/``{lo}``: the initial icosphere's mean edge and 0.98 of it."""
+    from cortex_ti.surface.mesh import icosphere
+    from cortex_ti.surface.remesh import mean_edge_length
+
+    m = icosphere(nodes)
+    h = mean_edge_length(m.points, m.faces)
+    return [x.format(h=f"{h:.5g}", lo=f"{0.98 * h:.5g}") for x in SIZINGS[sizing]]
 
 
 def one(
@@ -65,7 +82,7 @@ def one(
         f"mesh.remesh.min_angle={min_angle}",
         f"mesh.remesh.quality={max(30.0, min_angle + 5.0)}",
         *MOTIONS[motion],
-        *SIZINGS[sizing],
+        *_sizing(sizing, nodes),
     ]
     sim = Simulation(load_scene(scene, sets))
     out = where / f"a{amplitude:g}_{nodes}_{motion.split()[0]}_{sizing}.h5"
@@ -192,7 +209,8 @@ def main(argv=None) -> int:
     print(
         "Sizings: curvature = h = clip(0.25 / kappa, 0.01, initial mean edge) (before the budget); budget = "
         "h = clip(s / kappa, 0.01, 3 initial mean edges) with s keeping the initial node count; "
-        "budget+coarser = that, remeshed also where the mesh is 1.5 times coarser than its field.\n"
+        "budget+coarser = that, remeshed also where the mesh is 1.5 times coarser than its field; "
+        "uniform = h within 2 % of the initial mean edge everywhere.\n"
     )
     print(
         "| amplitude | nodes | motion | sizing | t reached | stopped | smallest angle (deg) | smallest neck (R0) | "
