@@ -22,6 +22,7 @@ from cortex_ti.surface.remesh import (
     grade,
     mean_edge_length,
     min_angles,
+    node_coarseness,
     predicted_nodes,
     remesh,
     remesh_available,
@@ -244,3 +245,14 @@ def test_budgeted_remeshing_returns_the_budget(shape, n, nodes):
         length = np.linalg.norm(res.points[res.faces] - res.points[res.faces][:, [1, 2, 0]], axis=2)
         neck, far = np.abs(mid[..., 2]) < 0.05, np.abs(mid[..., 2]) > 0.6
         assert length[neck].mean() < 0.5 * length[far].mean()
+
+
+def test_node_coarseness_against_its_definition():
+    """The largest ratio of a node's mean edge length to its target: 1 when the target is that mean
+    (to round-off), 2 when it is half of it."""
+    p, f = _pinched(642, depth=0.6)
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    length = np.linalg.norm(p[e[:, 0]] - p[e[:, 1]], axis=1)
+    mean = np.bincount(e.ravel(), np.repeat(length, 2), len(p)) / np.bincount(e.ravel(), minlength=len(p))
+    assert abs(node_coarseness(p, f, mean) - 1.0) < 8 * EPS
+    assert abs(node_coarseness(p, f, 0.5 * mean) - 2.0) < 16 * EPS
