@@ -108,6 +108,11 @@ def _check_remesh(data: dict) -> None:
             f"mesh.remesh.quality = {fmt_value(rem['quality'])} must be above mesh.remesh.min_angle = "
             f"{fmt_value(trigger)}: a remeshed surface would trigger the next remeshing at once"
         )
+    if rem.get("nodes") is not None and rem["size"] != "budget":
+        raise SceneError(
+            f"mesh.remesh.nodes = {fmt_value(rem['nodes'])} is a node budget: it needs mesh.remesh.size = budget "
+            f"(not {rem['size']})"
+        )
     if rem.get("h_max") is not None and rem["h_max"] <= rem["h_min"]:
         raise SceneError(
             f"mesh.remesh.h_max = {fmt_value(rem['h_max'])} must be larger than mesh.remesh.h_min = "

@@ -39,11 +39,15 @@ __all__ = [
 
 @dataclass(frozen=True)
 class RemeshSettings:
-    """Remeshing in a run (``mesh.remesh``): below ``min_angle`` (deg) the surface is remeshed
-    with ``options`` (:class:`cortex_ti.surface.remesh.RemeshOptions`)."""
+    """Remeshing in a run (``mesh.remesh``): below ``min_angle`` (deg), or where the mesh is
+    ``coarser`` than its size field by that factor (None: never), the surface is remeshed with
+    ``options`` (:class:`cortex_ti.surface.remesh.RemeshOptions`). ``size``: ``budget`` (the node
+    count ``options.nodes``; None there: the initial mesh's) or ``curvature``."""
 
     min_angle: float
     options: RemeshOptions
+    size: str = "budget"
+    coarser: float | None = None
 
 
 @dataclass(frozen=True)
@@ -318,5 +322,8 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
         hausd=opt("hausd"),
         hgrad=float(data["hgrad"]),
         quality=float(data["quality"]),
+        nodes=None if data.get("nodes") is None else int(data["nodes"]),
     )
-    return RemeshSettings(min_angle=float(data["min_angle"]), options=options)
+    return RemeshSettings(
+        min_angle=float(data["min_angle"]), options=options, size=str(data["size"]), coarser=opt("coarser")
+    )

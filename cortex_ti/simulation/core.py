@@ -29,7 +29,17 @@ from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
-from ..surface.remesh import REMESH_EXTRA_HINT, mean_edge_length, min_angles, remesh, remesh_available
+from ..surface.remesh import (
+    REMESH_EXTRA_HINT,
+    budget_scale,
+    edge_curvature,
+    mean_edge_length,
+    min_angles,
+    node_coarseness,
+    remesh,
+    remesh_available,
+    sizes,
+)
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import advective_rate, triangle_gradients
 from .run import run_scene, run_summary
@@ -41,6 +51,13 @@ log = logging.getLogger(__name__)
 
 #: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
 RETRIGGER = 0.9
+#: with a node budget (mesh.remesh.size: budget) and no mesh.remesh.h_max, the largest target edge
+#: length is this many times the initial mesh's mean edge length
+BUDGET_H_MAX = 3.0
+#: the resolution trigger (mesh.remesh.coarser) is checked every this many accepted steps
+COARSE_EVERY = 10
+#: a remeshed surface coarser than the resolution trigger is remeshed again past this multiple of it
+COARSE_RETRIGGER = 1.25
 
 
 @dataclass
@@ -105,8 +122,15 @@ class Simulation:
         if rem is not None:
             if not remesh_available():
                 raise CortexError(f"scene '{self.settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
-            h_max = rem.options.h_max or mean_edge_length(self.mesh.points, self.mesh.faces)
-            self.remesh_options = dataclasses.replace(rem.options, h_max=h_max)
+            mean = mean_edge_length(self.mesh.points, self.mesh.faces)
+            if rem.size == "budget":  # the run keeps its node count; the flat parts may coarsen 3-fold
+                nodes = rem.options.nodes or self.mesh.n_nodes
+                h_max = rem.options.h_max or BUDGET_H_MAX * mean
+                self.remesh_options = dataclasses.replace(rem.options, h_max=h_max, nodes=nodes)
+            else:
+                self.remesh_options = dataclasses.replace(rem.options, h_max=rem.options.h_max or mean, nodes=None)
+        self.coarse_below = None if rem is None else rem.coarser  # the resolution trigger for the current mesh
+        self._checks = 0  # accepted steps since the last check of the resolution
 
     def use_mesh(self, points: np.ndarray, faces: np.ndarray, reference: np.ndarray | None = None) -> None:
         """Solve on a new triangulation from now on (a remeshing, or resuming after one): the
@@ -128,6 +152,9 @@ class Simulation:
         if self.remesh_below is not None:
             after = float(min_angles(reference, triangles).min())
             self.remesh_below = min(self.settings.mesh.remesh.min_angle, RETRIGGER * after)
+        if self.coarse_below is not None:
+            own = self._coarseness(State(reference, {}, triangles), now=True)
+            self.coarse_below = max(self.settings.mesh.remesh.coarser, COARSE_RETRIGGER * own)
 
     def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
         """The state on a new mesh when its smallest triangle angle fell below
@@ -138,21 +165,30 @@ class Simulation:
             return None
         angle = float(min_angles(state.points, state.faces).min())
         if angle >= self.remesh_below:
-            return None
+            coarse = self._coarseness(state)
+            if coarse is None or coarse < self.coarse_below:
+                return None
+            why = f"mesh {coarse:.2f} times coarser than its size field (> {self.coarse_below:.3g})"
+        else:
+            why = f"smallest angle {angle:.2f} deg < {self.remesh_below:.3g}"
         kinds = {spec.name: spec.kind for spec in self.fields}
         res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
         after = float(min_angles(res.points, res.faces).min())
         log.info(
-            "t = %.4g: smallest angle %.2f deg < %.3g: remeshed %d -> %d nodes (smallest angle %.1f deg, volume "
-            "offset %.2e)",
+            "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
+            "volume offset %.2e)",
             t,
-            angle,
-            self.remesh_below,
+            why,
             res.n_before,
             res.n_after,
+            res.scale,
+            res.predicted,
             after,
             res.offset,
         )
+        if self.coarse_below is not None:  # a new mesh is judged against its own coarseness, like its angle
+            own = self._coarseness(State(res.points, {}, res.faces), now=True)
+            self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)
         # a new mesh that misses the trigger itself would be remeshed at every step: its own trigger
         # is then RETRIGGER times its smallest angle (said in the log; the run's min_angle_deg shows it)
         self.remesh_below = min(rem.min_angle, RETRIGGER * after)
@@ -171,6 +207,23 @@ class Simulation:
         if self.on_remesh is not None:
             self.on_remesh(new)
         return new
+
+    def _coarseness(self, state: State, now: bool = False) -> float | None:
+        """How much coarser than its size field the mesh is where it is coarsest (the largest ratio
+        of a node's mean edge length to its target length, the field scaled by the budget on this
+        mesh, ungraded); None when the resolution trigger is off or not due (every COARSE_EVERY steps)."""
+        if self.coarse_below is None:
+            return None
+        self._checks += 1
+        if not now and self._checks < COARSE_EVERY:
+            return None
+        self._checks = 0
+        o = self.remesh_options
+        kappa = edge_curvature(state.points, state.faces)
+        scale = o.edge_angle
+        if o.nodes is not None:
+            scale = budget_scale(state.points, state.faces, o.nodes, o.h_min, o.h_max, None, kappa)
+        return node_coarseness(state.points, state.faces, sizes(kappa, scale, o.h_min, o.h_max))
 
     def _moves(self, spec) -> bool:
         """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""

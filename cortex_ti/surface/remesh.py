@@ -5,9 +5,14 @@ bindings of the ``remesh`` extra): edge splits, collapses, flips and vertex smoo
 isotropic size field, with the new nodes kept within a Hausdorff distance ``hausd`` of the old
 surface. Around it, this module does what MMG does not know about:
 
-* the **size field**: ``h_i = clip(edge_angle / kappa_i, h_min, h_max)`` with ``kappa_i`` the
+* the **size field**: ``h_i = clip(s / kappa_i, h_min, h_max)`` with ``kappa_i`` the
   largest normal curvature along the edges at node ``i`` (:func:`edge_curvature`), so that a circle
-  of curvature ``kappa`` gets about ``2 pi / edge_angle`` edges (a furrow's neck stays resolved);
+  of curvature ``kappa`` gets about ``2 pi / s`` edges (a furrow's neck stays resolved). With a
+  **node budget** (``RemeshOptions.nodes``) the scale ``s`` is chosen so that the predicted node
+  count of the new mesh, ``sum_i A_i 2 / (sqrt(3) h_i^2)`` over the dual areas with the field graded
+  as MMG grades it (:func:`grade`), is the budget (:func:`budget_scale`), and corrected by the count
+  MMG actually returned when that misses it by more than ``BUDGET_RTOL``: the nodes move from the
+  flat parts into the curved ones, their number stays. Without it ``s = edge_angle``;
 * the **enclosed volume** is restored afterwards by a uniform offset ``delta`` of every node along
   its normal, solved by Newton's method to round-off (:func:`restore_volume`);
 * the **fields**: each new node takes the linear interpolant of every nodal field at its closest
@@ -40,6 +45,12 @@ __all__ = [
     "min_angles",
     "edge_curvature",
     "size_field",
+    "grade",
+    "predicted_nodes",
+    "budget_scale",
+    "sizes",
+    "node_coarseness",
+    "BUDGET_RTOL",
     "mean_edge_length",
     "enclosed_volume",
     "restore_volume",
@@ -67,13 +78,15 @@ def remesh_available() -> bool:
 class RemeshOptions:
     """How to remesh (lengths in units of R0).
 
-    ``edge_angle``: the angle (rad) a new edge subtends on a circle of the local curvature;
-    ``h_min``/``h_max``: bounds of the target edge length (``h_max`` None: the mean edge length of
-    the mesh being remeshed); ``hausd``: the largest distance of the new nodes from the old
-    surface (None: ``0.05 h_max``, looser than the sagitta ``edge_angle**2 / (8 kappa)`` of the size
-    field wherever ``h < h_max``, so that the size field decides); ``hgrad``: the largest ratio of
-    neighbouring edge lengths; ``quality``: the smallest angle (deg) the repair after MMG (edge flips
-    and tangential smoothing of the worst triangles' nodes) aims at.
+    ``edge_angle``: the angle (rad) a new edge subtends on a circle of the local curvature (the
+    scale ``s`` of the size field without a budget); ``nodes``: the node budget (None: none, the
+    scale is ``edge_angle``; else the scale is chosen so that the new mesh has about this many
+    nodes, :func:`budget_scale`); ``h_min``/``h_max``: bounds of the target edge length (``h_max``
+    None: the mean edge length of the mesh being remeshed); ``hausd``: the largest distance of the
+    new nodes from the old surface (None: ``max(0.05, 0.15 s) h_max``, looser than the sagitta
+    ``h^2 kappa / 8 <= s h_max / 8`` of the size field, so that the size field decides); ``hgrad``:
+    the largest ratio of neighbouring edge lengths; ``quality``: the smallest angle (deg) the repair
+    after MMG (edge flips and tangential smoothing of the worst triangles' nodes) aims at.
     """
 
     edge_angle: float = 0.25
@@ -82,6 +95,7 @@ class RemeshOptions:
     hausd: float | None = None
     hgrad: float = 1.3
     quality: float = 30.0
+    nodes: int | None = None
 
 
 @dataclass(frozen=True)
@@ -94,6 +108,8 @@ class RemeshResult:
     offset: float  # the normal offset that restored the volume
     n_before: int
     n_after: int
+    scale: float = float("nan")  # the scale s of the size field h = clip(s / kappa, h_min, h_max)
+    predicted: float = float("nan")  # the node count the (graded) size field predicted
 
 
 # ---------------------------------------------------------------------------
@@ -152,12 +168,126 @@ def mean_edge_length(points: np.ndarray, faces: np.ndarray) -> float:
     return float(np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1).mean())
 
 
-def size_field(points: np.ndarray, faces: np.ndarray, options: RemeshOptions, h_max: float) -> np.ndarray:
-    """Target edge length at each node: ``clip(edge_angle / kappa, h_min, h_max)``."""
-    kappa = edge_curvature(points, faces)
+def size_field(
+    points: np.ndarray, faces: np.ndarray, options: RemeshOptions, h_max: float, scale: float | None = None
+) -> np.ndarray:
+    """Target edge length at each node: ``clip(s / kappa, h_min, h_max)``, ``s = scale`` (None:
+    ``options.edge_angle``)."""
+    return sizes(edge_curvature(points, faces), options.edge_angle if scale is None else scale, options.h_min, h_max)
+
+
+def sizes(kappa: np.ndarray, scale, h_min: float, h_max: float) -> np.ndarray:
+    """``clip(scale / kappa, h_min, h_max)``; ``scale`` a number or a column ``(S, 1)`` of them."""
     with np.errstate(divide="ignore"):
-        h = np.where(kappa > 0.0, options.edge_angle / kappa, h_max)
-    return np.clip(h, min(options.h_min, h_max), h_max)
+        h = np.where(kappa > 0.0, scale / np.where(kappa > 0.0, kappa, 1.0), h_max)
+    return np.clip(h, min(h_min, h_max), h_max)
+
+
+#: MMG's calibration: a surface remeshed afresh to a uniform size ``h`` gets ``2 A / (sqrt(3) h^2)``
+#: nodes (equilateral triangles of side ``h``) times this (measured 0.97 - 1.05 on spheres from 642
+#: and 2562 nodes to h = 0.04 and 0.1; docs/derivations/remeshing.md)
+MMG_DENSITY = 1.0
+#: the relative miss of the node budget past which the scale is corrected by MMG's own count
+BUDGET_RTOL = 0.1
+
+
+def grade(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hgrad: float) -> np.ndarray:
+    r"""The size field limited as MMG grades it (``MMG5_gradsiz_iso``): along every edge ``ij`` of
+    length ``l_ij``, ``h_j <= h_i + ln(hgrad) l_ij``, swept until nothing changes. ``h`` may be
+    ``(N,)`` or ``(S, N)`` (several fields at once).
+
+    >>> import numpy as np
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> h = np.full(162, 1.0); h[0] = 0.01
+    >>> g = grade(m.points, m.faces, h, 1.3)
+    >>> bool(g[0] == 0.01 and g.max() < 1.0 and np.all(g <= h))
+    True
+    """
+    e = _edges(faces)
+    slope = math.log(hgrad) * np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1)
+    h = np.array(h, dtype=float)
+    for _ in range(10 * len(points)):
+        a, b = h[..., e[:, 0]], h[..., e[:, 1]]
+        new = h.copy()
+        if h.ndim == 1:
+            np.minimum.at(new, e[:, 1], a + slope)
+            np.minimum.at(new, e[:, 0], b + slope)
+        else:
+            for row in range(h.shape[0]):
+                np.minimum.at(new[row], e[:, 1], a[row] + slope)
+                np.minimum.at(new[row], e[:, 0], b[row] + slope)
+        if np.array_equal(new, h):
+            break
+        h = new
+    return h
+
+
+def predicted_nodes(area: np.ndarray, h: np.ndarray) -> np.ndarray | float:
+    """The node count of a mesh of equilateral triangles of the local side ``h`` (``(N,)`` or
+    ``(S, N)``) over the dual areas ``area``: ``MMG_DENSITY sum_i A_i 2 / (sqrt(3) h_i^2)``."""
+    return MMG_DENSITY * np.sum(area * 2.0 / (math.sqrt(3.0) * h * h), axis=-1)
+
+
+def budget_scale(
+    points: np.ndarray,
+    faces: np.ndarray,
+    nodes: float,
+    h_min: float,
+    h_max: float,
+    hgrad: float | None = None,
+    kappa: np.ndarray | None = None,
+) -> float:
+    r"""The scale ``s`` of the size field ``clip(s / kappa, h_min, h_max)`` (graded by ``hgrad``;
+    None: not graded) whose :func:`predicted_nodes` is ``nodes``. The count falls monotonically
+    with ``s`` (grading only lowers sizes, monotonically in them); it is bracketed by the clips
+    (``s`` below ``h_min kappa_min`` asks ``h_min`` everywhere, above ``h_max kappa_max`` ``h_max``
+    everywhere, returned when the budget lies outside) and bisected in ``log s`` to 1e-3.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> from cortex_ti.surface.transport import dual_areas
+    >>> m = icosphere(642)
+    >>> s = budget_scale(m.points, m.faces, 2562, 0.01, 1.0)
+    >>> k = edge_curvature(m.points, m.faces)
+    >>> n = predicted_nodes(dual_areas(m.points, m.faces), sizes(k, s, 0.01, 1.0))
+    >>> bool(abs(n / 2562 - 1.0) < 2e-3)
+    True
+    """
+    area = dual_areas(points, faces)
+    kappa = edge_curvature(points, faces) if kappa is None else kappa
+    pos = kappa[kappa > 0.0]
+    if pos.size == 0:
+        return float("inf")
+    lo, hi = math.log(h_min * pos.min()), math.log(h_max * pos.max())
+
+    def count(log_s):
+        h = sizes(kappa, np.exp(np.atleast_1d(log_s))[:, None], h_min, h_max)
+        if hgrad is not None:
+            h = grade(points, faces, h, hgrad)
+        return predicted_nodes(area, h)
+
+    if count(np.array([hi]))[0] >= nodes:
+        return float(math.exp(hi))
+    if count(np.array([lo]))[0] <= nodes:
+        return float(math.exp(lo))
+    # bisection, 8 points at a time: each pass shrinks the bracket 9-fold
+    while hi - lo > 1e-3:
+        grid = np.linspace(lo, hi, 10)[1:-1]
+        above = count(grid) > nodes  # too many nodes: s too small
+        k = int(np.count_nonzero(above))
+        lo, hi = (grid[k - 1] if k else lo), (grid[k] if k < grid.size else hi)
+    return float(math.exp(0.5 * (lo + hi)))
+
+
+def node_coarseness(points: np.ndarray, faces: np.ndarray, h: np.ndarray) -> float:
+    """The largest ratio of a node's mean edge length to its target length ``h``: how much
+    coarser than the size field the mesh is where it is coarsest (the mean over a node's edges
+    smooths the noise of the curvature estimate that a single edge's ratio carries)."""
+    e = _edges(faces)
+    length = np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1)
+    total = np.bincount(e[:, 0], length, len(points)) + np.bincount(e[:, 1], length, len(points))
+    count = np.bincount(e[:, 0], minlength=len(points)) + np.bincount(e[:, 1], minlength=len(points))
+    return float(np.max(total / count / h))
 
 
 def enclosed_volume(points: np.ndarray, faces: np.ndarray) -> float:
@@ -429,15 +559,36 @@ def remesh(
     faces = np.ascontiguousarray(faces, dtype=np.int32)
     target = enclosed_volume(points, faces) if volume is None else float(volume)
     h_max = mean_edge_length(points, faces) if options.h_max is None else float(options.h_max)
-    h = size_field(points, faces, options, h_max)
-    hausd = options.hausd if options.hausd is not None else 0.05 * h_max
-    mesh = MmgMeshS(points, faces)
-    mesh.set_field("metric", h[:, None])
-    info = mesh.remesh(hausd=hausd, hgrad=options.hgrad, angle=0, verbose=-1)
-    if info.get("return_code", 0) != 0:
-        raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
-    new_points = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
-    new_faces = np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32)
+    kappa = edge_curvature(points, faces)
+    area = dual_areas(points, faces)
+    scale = options.edge_angle
+    if options.nodes is not None:
+        scale = budget_scale(points, faces, options.nodes, options.h_min, h_max, options.hgrad, kappa)
+
+    def mmg(scale):
+        h = grade(points, faces, sizes(kappa, scale, options.h_min, h_max), options.hgrad)
+        hausd = options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
+        mesh = MmgMeshS(points, faces)
+        mesh.set_field("metric", h[:, None])
+        info = mesh.remesh(hausd=hausd, hgrad=options.hgrad, angle=0, verbose=-1)
+        if info.get("return_code", 0) != 0:
+            raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
+        got = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
+        return got, np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32), float(predicted_nodes(area, h))
+
+    new_points, new_faces, predicted = mmg(scale)
+    if options.nodes is not None:
+        # MMG leaves an edge alone within a factor sqrt(2) of its target and may refine for hausd:
+        # the count it returns is the calibration; the scale is corrected by it (N ~ 1 / s^2)
+        for _ in range(2):
+            miss = len(new_points) / options.nodes
+            if abs(miss - 1.0) <= BUDGET_RTOL:
+                break
+            trial = mmg(scale * math.sqrt(miss))
+            if abs(len(trial[0]) / options.nodes - 1.0) >= abs(miss - 1.0):
+                break
+            scale *= math.sqrt(miss)
+            new_points, new_faces, predicted = trial
     if enclosed_volume(new_points, new_faces) < 0:
         new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
     new_faces = flip_bad_edges(new_points, new_faces, options.quality)
@@ -445,4 +596,6 @@ def remesh(
     new_faces = flip_bad_edges(new_points, new_faces, options.quality)
     new_points, delta = restore_volume(new_points, new_faces, target)
     new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new_faces)
-    return RemeshResult(new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0])
+    return RemeshResult(
+        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted
+    )

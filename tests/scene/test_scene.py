@@ -211,6 +211,9 @@ def test_defaults_and_canonical_numbers():
         "remesh": {
             "min_angle": None,
             "quality": 30.0,
+            "size": "budget",
+            "nodes": None,
+            "coarser": None,
             "edge_angle": 0.25,
             "h_min": 0.01,
             "h_max": None,

@@ -16,7 +16,7 @@ from cortex_ti.dynamics.state import State
 from cortex_ti.io.trajectory import Trajectory, partial_path
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.surface.remesh import enclosed_volume, min_angles, remesh_available
+from cortex_ti.surface.remesh import BUDGET_RTOL, enclosed_volume, min_angles, remesh_available
 from cortex_ti.surface.transport import dual_areas
 from cortex_ti.surface.validation import validate_mesh
 
@@ -56,6 +56,23 @@ BAD = {
     "h_max below h_min": (
         ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.h_max=0.005"],
         ["mesh.remesh.h_max", "mesh.remesh.h_min"],
+    ),
+    "budget below 12 nodes": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.nodes=4"],
+        ["mesh.remesh.nodes"],
+    ),
+    "budget of another sizing": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.size=curvature", "--set", "mesh.remesh.nodes=600"],
+        ["mesh.remesh.nodes", "size = budget"],
+    ),
+    "unknown sizing": (["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.size=even"], ["mesh.remesh.size"]),
+    "resolution trigger inside MMG's band": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.coarser=1.2"],
+        ["mesh.remesh.coarser"],
+    ),
+    "resolution trigger too loose": (
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.coarser=20"],
+        ["mesh.remesh.coarser"],
     ),
     "axisymmetric model": (
         ["--set", "mesh.remesh.min_angle=25", "--set", "model=axisymmetric"],
@@ -110,6 +127,7 @@ def test_remesh_state_keeps_volume_and_amount_and_solves():
     assert sim.solver.n_analyses == analyses + (analyses == 0)  # same mesh: no new analysis
     new = sim.remesh_state(state, 0.0)
     assert new is not None and sim.segment == 1
+    assert abs(len(new.points) / len(p) - 1.0) <= BUDGET_RTOL  # the default sizing keeps the node count
     validate_mesh(new.points, new.faces)
     assert abs(enclosed_volume(new.points, new.faces) / enclosed_volume(p, s0.faces) - 1) < 1e-13
     before = np.dot(state.fields["myosin"], dual_areas(p, s0.faces))
