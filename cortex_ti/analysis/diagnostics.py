@@ -68,6 +68,7 @@ __all__ = [
     "pole_radius",
     "furrow_radius",
     "furrow_radius_range",
+    "neck_radius",
     "orientation_angle",
     "frame_diagnostics",
     "fold_radii",
@@ -632,6 +633,51 @@ def furrow_radius(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> float:
     axis = _unit(axis, "axis")
     surf = _Surface(points, faces)
     return _furrow(surf, axis, surf.center(center))[0]
+
+
+def neck_radius(points, faces, axis=(0.0, 0.0, 1.0), center=None, planes: int = 64) -> tuple[float, float]:
+    """The neck: the smallest interior local minimum, over the planes perpendicular to ``axis``, of
+    the section radius of :func:`furrow_radius` (mean distance from the axis line through ``center``,
+    default the area centroid). Returns ``(radius, height)``, the height along ``axis`` from
+    ``center``; ``(nan, nan)`` when the profile has no interior minimum (a convex body).
+
+    :func:`furrow_radius` measures in the plane through the area centroid, which is the neck only
+    while the two sides of a furrow keep equal sizes: once one lobe grows at the other's expense the
+    centroid moves off the neck and that radius grows while the neck keeps closing (amplitude 12 of
+    ``constriction_p4``, docs/validation/remesh_constriction.md). The profile is sampled on
+    ``planes`` planes between the extreme nodes, and the smallest interior local minimum refined by a
+    bounded scalar minimisation between its two neighbouring planes (the profile is continuous).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> bool(np.isnan(neck_radius(m.points, m.faces)[0]))  # a sphere has no neck
+    True
+    """
+    from scipy.optimize import minimize_scalar  # only a neck search needs it
+
+    ax = _unit(axis, "axis")
+    surf = _Surface(points, faces)
+    c = surf.center(center)
+    height = ax @ (surf.pts - c[:, None])
+    lo, hi = float(height.min()), float(height.max())
+    pad = 1e-9 * max(hi - lo, 1e-300)
+    zs = np.linspace(lo + pad, hi - pad, int(planes) + 2)[1:-1]
+
+    def radius(z: float) -> float:
+        try:
+            return _furrow(surf, ax, c + z * ax)[0]
+        except ValueError:  # the plane only touches the surface
+            return float("inf")
+
+    r = np.array([radius(z) for z in zs])
+    interior = np.flatnonzero((r[1:-1] <= r[:-2]) & (r[1:-1] <= r[2:]) & np.isfinite(r[1:-1])) + 1
+    if interior.size == 0:
+        return float("nan"), float("nan")
+    k = int(interior[np.argmin(r[interior])])
+    best = minimize_scalar(radius, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
+    if best.fun <= r[k]:
+        return float(best.fun), float(best.x)
+    return float(r[k]), float(zs[k])
 
 
 def furrow_radius_range(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float, float]:
