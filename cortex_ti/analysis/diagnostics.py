@@ -69,6 +69,7 @@ __all__ = [
     "furrow_radius",
     "furrow_radius_range",
     "neck_radius",
+    "surface_stress",
     "orientation_angle",
     "frame_diagnostics",
     "fold_radii",
@@ -721,6 +722,46 @@ def fold_radii(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float,
     surf = _Surface(points, faces)
     c = surf.center(center)
     return _pole_radius(surf, e2, c), _pole_radius(surf, e1, c)
+
+
+def surface_stress(points, faces, velocity, zeta, eta_s: float, eta_b: float) -> np.ndarray:
+    r"""The principal in-plane stresses ``(T, 2)`` (ascending) of the cortex on every flat triangle:
+    the active tension plus the viscous stress of the P1 velocity,
+
+    .. math:: \sigma = \zeta_T P + 2 \eta_s (U - \tfrac12 \operatorname{tr} U\, P) + \eta_b \operatorname{tr} U\, P,
+              \qquad U = \tfrac12 (P G + G^T P), \quad G = \sum_k v_k \nabla\phi_k^T,
+
+    ``zeta_T`` the mean of the corners' tension, ``P`` the projector on the triangle's plane (the
+    strain rate the dissipation of formulation ``rayleigh_p1`` integrates). Without bending
+    resistance a cortex whose stress is compressive (a negative principal value) wrinkles at any
+    wavelength, the shorter the faster: on a mesh, at the mesh scale
+    (docs/validation/remesh_constriction.md).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> s = surface_stress(m.points, m.faces, 0.1 * m.points, np.ones(162), 1.0, 2.0)
+    >>> bool(np.allclose(s, 1.0 + 2.0 * 0.2))  # uniform dilation: zeta + eta_b tr U, no shear
+    True
+    """
+    x = np.asarray(points, dtype=float)[np.asarray(faces)]
+    v = np.asarray(velocity, dtype=float)[np.asarray(faces)]
+    e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    nt = np.cross(e1, e2)
+    twice = np.linalg.norm(nt, axis=1)
+    nt = nt / twice[:, None]
+    # gradients of the barycentric functions: n x (opposite edge) / (2 A)
+    grads = np.stack([np.cross(nt, x[:, (k + 2) % 3] - x[:, (k + 1) % 3]) / twice[:, None] for k in range(3)], 1)
+    g = np.einsum("tkc,tkd->tcd", v, grads)  # G = sum_k v_k grad phi_k^T
+    t1 = e1 / np.linalg.norm(e1, axis=1)[:, None]
+    basis = np.stack([t1, np.cross(nt, t1)], 1)  # (T, 2, 3) in-plane orthonormal
+    du = np.einsum("tbd,tcd->tcb", basis, g)  # d_b v = G t_b, (T, 3, 2)
+    u = np.einsum("tac,tcb->tab", basis, du)  # t_a . d_b v
+    u = 0.5 * (u + np.transpose(u, (0, 2, 1)))
+    tr = u[:, 0, 0] + u[:, 1, 1]
+    iso = np.asarray(zeta, dtype=float)[np.asarray(faces)].mean(axis=1) + (eta_b - eta_s) * tr
+    mean = iso + eta_s * tr  # half the trace of sigma
+    half = eta_s * np.hypot(u[:, 0, 0] - u[:, 1, 1], 2.0 * u[:, 0, 1])  # deviatoric radius
+    return np.stack([mean - half, mean + half], axis=1)
 
 
 def _guarded(name: str, func, *args) -> float:

@@ -450,3 +450,28 @@ def test_neck_radius_of_a_symmetric_neck_is_in_the_centroid_plane():
     r, h = neck_radius(pts, faces)
     assert abs(h) < 0.02
     assert abs(r - furrow_radius(pts, faces)) < 1e-3 * r_true
+
+
+def test_surface_stress_of_a_rigid_rotation_is_the_tension():
+    """A rigid rotation strains nothing: the stress is the tension, whatever the viscosities."""
+    from cortex_ti.analysis.diagnostics import surface_stress
+
+    m = icosphere(642)
+    zeta = 1.0 + m.points[:, 2] ** 2
+    s = surface_stress(m.points, m.faces, np.cross([0.3, -1.2, 0.7], m.points), zeta, 1.0, 5.0)
+    assert np.allclose(s, zeta[m.faces].mean(axis=1)[:, None], atol=1e-12)
+
+
+def test_surface_stress_of_a_plane_shear_flow():
+    """v = eps (x, -y, 0) on a plane: traceless strain diag(eps, -eps), sigma = zeta -/+ 2 eta_s eps;
+    a compressive one (negative) once 2 eta_s eps > zeta."""
+    from cortex_ti.analysis.diagnostics import surface_stress
+
+    g = np.linspace(0.0, 1.0, 6)
+    x, y = np.meshgrid(g, g)
+    pts = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    k = np.arange(36).reshape(6, 6)[:-1, :-1].ravel()
+    faces = np.concatenate([np.column_stack([k, k + 1, k + 7]), np.column_stack([k, k + 7, k + 6])])
+    eps, zeta = 0.8, np.full(36, 1.0)
+    s = surface_stress(pts, faces, eps * pts * [1.0, -1.0, 0.0], zeta, 1.0, 3.0)
+    assert np.allclose(s, [1.0 - 2.0 * eps, 1.0 + 2.0 * eps], atol=1e-12)
