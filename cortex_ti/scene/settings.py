@@ -44,6 +44,8 @@ class RemeshSettings:
 
     min_angle: float
     options: RemeshOptions
+    settle_steps: int = 0  # pseudo-steps settling the new mesh into its discrete equilibrium (0: off)
+    settle_dt: float = 1e-3  # their length (t_a)
 
 
 @dataclass(frozen=True)
@@ -319,4 +321,9 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
         hgrad=float(data["hgrad"]),
         quality=float(data["quality"]),
     )
-    return RemeshSettings(min_angle=float(data["min_angle"]), options=options)
+    return RemeshSettings(
+        min_angle=float(data["min_angle"]),
+        options=options,
+        settle_steps=int(data.get("settle_steps", 0)),
+        settle_dt=float(data.get("settle_dt", 1e-3)),
+    )
