@@ -3,7 +3,9 @@ mesh moving normally (tension glued to the nodes, the paper's) or by ALE (tensio
 material), each with remeshing below 25 deg, to t = 5 or until the run stops.
 
 Per run: the time reached and why it stopped, the smallest triangle angle over the run, the
-smallest neck (furrow radius), the largest volume drift |V/V0 - 1|, the remeshings, their share
+smallest neck (the smallest section radius along the axis, cortex_ti.analysis.diagnostics.neck_radius;
+the furrow radius in the plane through the centroid where the shape has no neck), the largest
+volume drift |V/V0 - 1|, the remeshings, their share
 of the run's wall time, the node count at the end and the symbolic analyses of the factorisation;
 the steps: accepted, the share rejected, the median step before the first remeshing and after
 it; then the neck radius over time against the axisymmetric twin (model: axisymmetric, the same
@@ -99,6 +101,7 @@ def one(
     steps = np.asarray(ds["dt"].values, dtype=float)
     first = next((k for k in range(ds.sizes["time"]) if len(tr.mesh(k)[0]) != len(tr.mesh(0)[0])), None)
     volume = ds["volume"].values
+    necks = np.array([_neck(*tr.mesh(k), f) for k, f in enumerate(ds["furrow_radius"].values)])
     return {
         "amplitude": amplitude,
         "nodes": nodes,
@@ -109,7 +112,7 @@ def one(
         "stopped": sim.report.stopped if sim.report is not None else "?",
         "why": why,
         "min_angle": float(np.min(ds["min_angle_deg"].values)),
-        "neck": float(np.min(ds["furrow_radius"].values)),
+        "neck": float(np.min(necks)),
         "drift": float(np.max(np.abs(volume / volume[0] - 1.0))),
         "remeshes": stats.remeshes if stats is not None else 0,
         "share": (stats.remesh_wall / wall) if stats is not None and wall > 0 else float("nan"),
@@ -121,8 +124,18 @@ def one(
         "dt_after": float(np.median(steps[first:])) if first is not None else float("nan"),
         "analyses": sim.solver.n_analyses,
         "times": ds["time"].values,
-        "furrow": ds["furrow_radius"].values,
+        "furrow": necks,
     }
+
+
+def _neck(points, faces, furrow: float) -> float:
+    """The neck of a frame: its smallest section radius along the axis; the furrow radius if it has none.
+    Once one lobe of a deep furrow grows at the other's expense (amplitude 12 from t ~ 2) the plane
+    through the centroid leaves the neck: its radius then grows while the neck closes."""
+    from cortex_ti.analysis.diagnostics import neck_radius
+
+    r = neck_radius(points, faces)[0]
+    return furrow if np.isnan(r) else r
 
 
 def twin(amplitude: float, t_end: float, where, scene: str) -> dict:

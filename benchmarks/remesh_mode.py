@@ -12,6 +12,11 @@ mode) or not (a smooth one). With the semi-implicit tension the linearisation de
 A growing mode (Re lambda > 0) grows at any time step: the step is not the cause. A stiff one
 (Re lambda < 0) bounds the step of the extrapolated BDF2 at ``4/3 / |lambda|`` (its explicit
 interval, cortex_ti.dynamics.schemes.BDF2.explicit_interval): the column "BDF2 step limit".
+
+The last column is the smaller principal value of the state's surface stress (tension plus viscous,
+cortex_ti.analysis.diagnostics.surface_stress) at the mode's largest entry: without bending
+resistance a compressed cortex wrinkles at the mesh scale, so a growing mode on a few nodes where it
+is negative is that (docs/validation/remesh_constriction.md, "The mode after a remeshing").
 """
 
 from __future__ import annotations
@@ -22,8 +27,10 @@ import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 
-def _describe(pts, tri, w, v, j, area, hmin, explicit) -> str:
-    """One table row: the eigenvalue, the step limit, and the mode's size, place, edge and sign flips."""
+def _describe(pts, tri, w, v, j, area, hmin, explicit, stress) -> str:
+    """One table row: the eigenvalue, the step limit, and the mode's size, place, edge, sign flips and
+    the smaller principal stress of the state at its largest entry (``stress``: per node, the least
+    over its triangles)."""
     s = np.real(v[:, j])
     p = s * s * area / np.sum(s * s * area)
     top = int(np.argmax(p))
@@ -34,7 +41,8 @@ def _describe(pts, tri, w, v, j, area, hmin, explicit) -> str:
     limit = f"{explicit / abs(w[j]):.3g}" if w[j].real < 0 else "-"
     return (
         f"| {w[j].real:.4g}{w[j].imag:+.2g}i | {limit} | {1.0 / np.sum(p * p):.0f} | "
-        f"z = {pts[top, 2]:.3f}, r = {np.hypot(pts[top, 0], pts[top, 1]):.3f} | {hmin[top]:.4f} | {100 * flips:.0f} % |"
+        f"z = {pts[top, 2]:.3f}, r = {np.hypot(pts[top, 0], pts[top, 1]):.3f} | {hmin[top]:.4f} | "
+        f"{100 * flips:.0f} % | {stress[top]:.3g} |"
     )
 
 
@@ -55,6 +63,7 @@ def main(argv=None) -> int:
         args.trajectory, args.stiffest = str(_smoke.tiny_run("furrow_p4_a1", t_end=0.02)), 1
     if not args.trajectory:
         ap.error("give a trajectory")
+    from cortex_ti.analysis.diagnostics import surface_stress
     from cortex_ti.dynamics.schemes import BDF2
     from cortex_ti.dynamics.spectrum import normal_spectrum
     from cortex_ti.io.trajectory import Trajectory
@@ -79,19 +88,26 @@ def main(argv=None) -> int:
             sim.zeta = tr.nodal("active_stress", k)  # the tension the frame's nodes carried
             sp = normal_spectrum(sim, pts, dt=dt, modes=True, dense=True)
             w, v = np.asarray(sp.eigenvalues), np.asarray(sp.modes)
+            phys = sim.physics
+            principal = surface_stress(pts, tri, sim.solve(pts, dt=dt).velocity, sim.zeta, phys.eta_s, phys.eta_b)
+            stress = np.full(len(pts), np.inf)
+            for c in range(3):
+                np.minimum.at(stress, tri[:, c], principal[:, 0])
             print(
                 f"# t = {float(tr.times[k]):.4g}: {len(pts)} nodes, edges {length.min():.4f} - {length.max():.4f} R0, "
-                f"smallest angle {min_angles(pts, tri).min():.1f} deg; linearised at dt = {dt:g}\n"
+                f"smallest angle {min_angles(pts, tri).min():.1f} deg; linearised at dt = {dt:g}; surface stress "
+                f"(tension + viscous) compressive on {int(np.sum(principal[:, 0] < 0))} of {len(tri)} triangles "
+                f"(smallest principal value {principal[:, 0].min():.3g})\n"
             )
             print(
                 "| lambda (1/t_a) | BDF2 step limit | effective nodes | where (z, r of its largest entry) | "
-                "shortest edge there | sign changes between neighbours |"
+                "shortest edge there | sign changes between neighbours | smaller principal stress there |"
             )
-            print("|---|---|---|---|---|---|")
+            print("|---|---|---|---|---|---|---|")
             shown = list(range(min(args.modes, len(w))))
             shown += [j for j in range(len(w) - 1, len(w) - 1 - args.stiffest, -1) if j not in shown]
             for j in shown:
-                print(_describe(pts, tri, w, v, j, area, hmin, BDF2.explicit_interval))
+                print(_describe(pts, tri, w, v, j, area, hmin, BDF2.explicit_interval, stress))
             print()
     return 0
 

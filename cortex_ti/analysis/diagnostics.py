@@ -68,6 +68,8 @@ __all__ = [
     "pole_radius",
     "furrow_radius",
     "furrow_radius_range",
+    "neck_radius",
+    "surface_stress",
     "orientation_angle",
     "frame_diagnostics",
     "fold_radii",
@@ -634,6 +636,51 @@ def furrow_radius(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> float:
     return _furrow(surf, axis, surf.center(center))[0]
 
 
+def neck_radius(points, faces, axis=(0.0, 0.0, 1.0), center=None, planes: int = 64) -> tuple[float, float]:
+    """The neck: the smallest interior local minimum, over the planes perpendicular to ``axis``, of
+    the section radius of :func:`furrow_radius` (mean distance from the axis line through ``center``,
+    default the area centroid). Returns ``(radius, height)``, the height along ``axis`` from
+    ``center``; ``(nan, nan)`` when the profile has no interior minimum (a convex body).
+
+    :func:`furrow_radius` measures in the plane through the area centroid, which is the neck only
+    while the two sides of a furrow keep equal sizes: once one lobe grows at the other's expense the
+    centroid moves off the neck and that radius grows while the neck keeps closing (amplitude 12 of
+    ``constriction_p4``, docs/validation/remesh_constriction.md). The profile is sampled on
+    ``planes`` planes between the extreme nodes, and the smallest interior local minimum refined by a
+    bounded scalar minimisation between its two neighbouring planes (the profile is continuous).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> bool(np.isnan(neck_radius(m.points, m.faces)[0]))  # a sphere has no neck
+    True
+    """
+    from scipy.optimize import minimize_scalar  # only a neck search needs it
+
+    ax = _unit(axis, "axis")
+    surf = _Surface(points, faces)
+    c = surf.center(center)
+    height = ax @ (surf.pts - c[:, None])
+    lo, hi = float(height.min()), float(height.max())
+    pad = 1e-9 * max(hi - lo, 1e-300)
+    zs = np.linspace(lo + pad, hi - pad, int(planes) + 2)[1:-1]
+
+    def radius(z: float) -> float:
+        try:
+            return _furrow(surf, ax, c + z * ax)[0]
+        except ValueError:  # the plane only touches the surface
+            return float("inf")
+
+    r = np.array([radius(z) for z in zs])
+    interior = np.flatnonzero((r[1:-1] <= r[:-2]) & (r[1:-1] <= r[2:]) & np.isfinite(r[1:-1])) + 1
+    if interior.size == 0:
+        return float("nan"), float("nan")
+    k = int(interior[np.argmin(r[interior])])
+    best = minimize_scalar(radius, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
+    if best.fun <= r[k]:
+        return float(best.fun), float(best.x)
+    return float(r[k]), float(zs[k])
+
+
 def furrow_radius_range(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float, float]:
     """Smallest and largest distance from the axis line along the section polygon of :func:`furrow_radius`.
 
@@ -675,6 +722,46 @@ def fold_radii(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float,
     surf = _Surface(points, faces)
     c = surf.center(center)
     return _pole_radius(surf, e2, c), _pole_radius(surf, e1, c)
+
+
+def surface_stress(points, faces, velocity, zeta, eta_s: float, eta_b: float) -> np.ndarray:
+    r"""The principal in-plane stresses ``(T, 2)`` (ascending) of the cortex on every flat triangle:
+    the active tension plus the viscous stress of the P1 velocity,
+
+    .. math:: \sigma = \zeta_T P + 2 \eta_s (U - \tfrac12 \operatorname{tr} U\, P) + \eta_b \operatorname{tr} U\, P,
+              \qquad U = \tfrac12 (P G + G^T P), \quad G = \sum_k v_k \nabla\phi_k^T,
+
+    ``zeta_T`` the mean of the corners' tension, ``P`` the projector on the triangle's plane (the
+    strain rate the dissipation of formulation ``rayleigh_p1`` integrates). Without bending
+    resistance a cortex whose stress is compressive (a negative principal value) wrinkles at any
+    wavelength, the shorter the faster: on a mesh, at the mesh scale
+    (docs/validation/remesh_constriction.md).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> s = surface_stress(m.points, m.faces, 0.1 * m.points, np.ones(162), 1.0, 2.0)
+    >>> bool(np.allclose(s, 1.0 + 2.0 * 0.2))  # uniform dilation: zeta + eta_b tr U, no shear
+    True
+    """
+    x = np.asarray(points, dtype=float)[np.asarray(faces)]
+    v = np.asarray(velocity, dtype=float)[np.asarray(faces)]
+    e1, e2 = x[:, 1] - x[:, 0], x[:, 2] - x[:, 0]
+    nt = np.cross(e1, e2)
+    twice = np.linalg.norm(nt, axis=1)
+    nt = nt / twice[:, None]
+    # gradients of the barycentric functions: n x (opposite edge) / (2 A)
+    grads = np.stack([np.cross(nt, x[:, (k + 2) % 3] - x[:, (k + 1) % 3]) / twice[:, None] for k in range(3)], 1)
+    g = np.einsum("tkc,tkd->tcd", v, grads)  # G = sum_k v_k grad phi_k^T
+    t1 = e1 / np.linalg.norm(e1, axis=1)[:, None]
+    basis = np.stack([t1, np.cross(nt, t1)], 1)  # (T, 2, 3) in-plane orthonormal
+    du = np.einsum("tbd,tcd->tcb", basis, g)  # d_b v = G t_b, (T, 3, 2)
+    u = np.einsum("tac,tcb->tab", basis, du)  # t_a . d_b v
+    u = 0.5 * (u + np.transpose(u, (0, 2, 1)))
+    tr = u[:, 0, 0] + u[:, 1, 1]
+    iso = np.asarray(zeta, dtype=float)[np.asarray(faces)].mean(axis=1) + (eta_b - eta_s) * tr
+    mean = iso + eta_s * tr  # half the trace of sigma
+    half = eta_s * np.hypot(u[:, 0, 0] - u[:, 1, 1], 2.0 * u[:, 0, 1])  # deviatoric radius
+    return np.stack([mean - half, mean + half], axis=1)
 
 
 def _guarded(name: str, func, *args) -> float:

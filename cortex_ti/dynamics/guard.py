@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..analysis.diagnostics import mesh_quality
+from ..analysis.diagnostics import mesh_quality, surface_stress
 from ..errors import StabilityError
 from .schemes import RESOLUTION_HINT, Evaluation
 
@@ -163,6 +163,8 @@ class StabilityGuard:
     angle_fraction: float = 0.2
     faces: np.ndarray | None = None
     zeta: np.ndarray | None = None  # the tension the nodes carry: tells a physical instability
+    viscosity: tuple[float, float] | None = None  # (eta_s, eta_b) of a cortex without bending resistance
+    tension: object = None  # (fields, N) -> the tension of a state's fields (default: ``zeta`` if it fits)
     _history: list = field(default_factory=list)
     _angle0: float | None = None
     _largest_dt: float = 0.0
@@ -190,9 +192,42 @@ class StabilityGuard:
         if self._largest_dt > 0 and dt < STEP_COLLAPSE * self._largest_dt:
             return (
                 f"the adaptive step has already fallen from {self._largest_dt:.3g} to {dt:.3g}, so a shorter "
-                "one will not help: a mode of this shape or mesh grows at any step "
+                f"one will not help: {self.compression(ev) or 'a mode of this shape or mesh grows at any step'} "
                 "(benchmarks/remesh_mode.py lists the growing modes of a frame)"
             )
+        return None
+
+    def compression(self, ev: Evaluation) -> str | None:
+        """A sentence on the triangles where the cortex's surface stress (tension plus viscous,
+        :func:`~cortex_ti.analysis.diagnostics.surface_stress`) is compressive, None if there are none
+        (or the guard was not given the viscosities). Without bending resistance a compressed cortex
+        wrinkles at the mesh scale whatever the step: after a remeshing of a deep furrow the new
+        mesh's relaxation compresses a few triangles at the neck where the continuum stays under
+        tension (docs/validation/remesh_constriction.md, "The mode after a remeshing")."""
+        if self.viscosity is None or self.faces is None or ev.velocity is None:
+            return None
+        zeta = self._tension(ev)
+        if zeta is None:
+            return None
+        sigma = surface_stress(ev.points, self.faces, ev.velocity, zeta, *self.viscosity)[:, 0]
+        bad = np.flatnonzero(sigma < 0.0)
+        if bad.size == 0:
+            return None
+        k = int(bad[np.argmin(sigma[bad])])
+        where = np.asarray(ev.points)[self.faces[k]].mean(axis=0)
+        return (
+            f"the surface stress (tension + viscous) is compressive on {bad.size} triangle"
+            f"{'s' if bad.size > 1 else ''} (down to {float(sigma[k]):.3g} at ({where[0]:.3f}, {where[1]:.3f}, "
+            f"{where[2]:.3f})), where a cortex without bending resistance wrinkles at the mesh scale at any step"
+        )
+
+    def _tension(self, ev: Evaluation):
+        """The tension of the evaluated state (its fields), else the one the guard was given if it fits."""
+        n = len(ev.points)
+        if self.tension is not None and ev.state is not None:
+            return np.asarray(self.tension(ev.state.fields, n), dtype=float)
+        if self.zeta is not None and np.shape(self.zeta) == (n,):
+            return np.asarray(self.zeta, dtype=float)
         return None
 
     def failed_solve(self, error: Exception, ev: Evaluation) -> Exception:

@@ -48,6 +48,8 @@ class RemeshSettings:
     options: RemeshOptions
     size: str = "budget"
     coarser: float | None = None
+    settle_steps: int = 0  # pseudo-steps settling the new mesh into its discrete equilibrium (0: off)
+    settle_dt: float = 1e-3  # their length (t_a)
 
 
 @dataclass(frozen=True)
@@ -325,5 +327,10 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
         nodes=None if data.get("nodes") is None else int(data["nodes"]),
     )
     return RemeshSettings(
-        min_angle=float(data["min_angle"]), options=options, size=str(data["size"]), coarser=opt("coarser")
+        min_angle=float(data["min_angle"]),
+        options=options,
+        size=str(data["size"]),
+        coarser=opt("coarser"),
+        settle_steps=int(data["settle_steps"]),
+        settle_dt=float(data["settle_dt"]),
     )

@@ -32,16 +32,19 @@ from ..surface.mesh import Mesh
 from ..surface.remesh import (
     REMESH_EXTRA_HINT,
     budget_scale,
+    closest_points,
     edge_curvature,
+    enclosed_volume,
     mean_edge_length,
     min_angles,
     node_coarseness,
     remesh,
     remesh_available,
+    restore_volume,
     sizes,
 )
 from ..surface.topology import Topology, build_topology
-from ..surface.transport import advective_rate, triangle_gradients
+from ..surface.transport import DENSITY, advective_rate, dual_areas, triangle_gradients
 from .run import run_scene, run_summary
 from .setup import initial_fields, initial_mesh, initial_shape
 
@@ -172,6 +175,10 @@ class Simulation:
         else:
             why = f"smallest angle {angle:.2f} deg < {self.remesh_below:.3g}"
         kinds = {spec.name: spec.kind for spec in self.fields}
+        flow = None
+        if rem.settle_steps > 0:  # the old mesh's flow, before the solver turns to the new mesh
+            zeta = tension_of(state.fields, state.n_nodes, self.settings)
+            flow = self.solve(state.points, rem.settle_dt, zeta).velocity
         res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
         after = float(min_angles(res.points, res.faces).min())
         log.info(
@@ -202,8 +209,13 @@ class Simulation:
                 self.remesh_below,
             )
         self.use_mesh(res.points, res.faces)
+        fields = res.fields
+        if flow is not None:
+            points, fields, moved = self._settle(state, flow, res.points, res.faces, res.fields, kinds, rem)
+            self.use_mesh(points, res.faces)
+            log.info("t = %.4g: the remeshed surface settled, nodes moved %.2e at most", t, moved)
         self.segment += 1
-        new = State(self.mesh.points, res.fields, self.mesh.faces)
+        new = State(self.mesh.points, fields, self.mesh.faces)
         if self.on_remesh is not None:
             self.on_remesh(new)
         return new
@@ -224,6 +236,36 @@ class Simulation:
         if o.nodes is not None:
             scale = budget_scale(state.points, state.faces, o.nodes, o.h_min, o.h_max, None, kappa)
         return node_coarseness(state.points, state.faces, sizes(kappa, scale, o.h_min, o.h_max))
+
+    def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
+        """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
+
+        The tension's nodal force is not a pointwise-consistent curvature on an irregular mesh, so a
+        shape relaxed on the old triangles is off the new ones' equilibrium by an O(1) curvature at
+        the mesh scale; its relaxation strains a few triangles of a deep neck into compression, where
+        a cortex without bending resistance wrinkles at the mesh scale
+        (docs/validation/remesh_constriction.md, "The mode after a remeshing"). Here the new nodes
+        move, in ``settle_steps`` pseudo-steps of ``settle_dt`` that do not advance the clock, by the
+        part of their semi-implicit normal velocity that the old mesh's flow ``flow`` (interpolated
+        at their foot points) does not have: ``x += settle_dt ((v - v_old) . n) n``. The stiff
+        mesh-scale part decays, the flow the two meshes share is not integrated. Then the volume is
+        restored as the remeshing restores it, the densities' amounts rescaled. Returns the points,
+        the fields and the largest move."""
+        tri, bary = closest_points(state.points, state.faces, points)
+        old = np.einsum("qk,qkc->qc", bary, flow[state.faces[tri]])
+        zeta = tension_of(fields, len(points), self.settings)
+        x = np.array(points, dtype=float)
+        for _ in range(rem.settle_steps):
+            sol = self.solve(x, rem.settle_dt, zeta)
+            excess = np.einsum("nc,nc->n", sol.velocity - old, sol.normal)
+            x = x + rem.settle_dt * excess[:, None] * sol.normal
+        x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
+        out = dict(fields)
+        before, after = dual_areas(points, faces), dual_areas(x, faces)
+        for name, values in fields.items():
+            if kinds.get(name) == DENSITY:
+                out[name] = values * (float(np.dot(values, before)) / float(np.dot(values, after)))
+        return x, out, float(np.linalg.norm(x - points, axis=1).max())
 
     def _moves(self, spec) -> bool:
         """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""

@@ -392,7 +392,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             progress=watch,
             write_first=state is None,
             implicit=st.implicit_tension,
-            guard=StabilityGuard(faces=sim.mesh.faces, zeta=sim.zeta),
+            guard=_guard(sim),
             save_times=st.save_times,
             remesh=remesh,
         )
@@ -511,3 +511,19 @@ class _ProgressBar:
 
     def close(self):
         self._bar.close()
+
+
+def _guard(sim) -> StabilityGuard:
+    """The run's stability guard: the mesh, the tension, and (for a cortex without bending resistance,
+    which a compressive stress wrinkles at the mesh scale) the in-plane viscosities, so that a stop
+    can say where the stress is compressive."""
+    ph = sim.physics
+    flat = "bending_viscosity" not in ph.effects or (ph.eta_bar == 0.0 and ph.eta_bar_b == 0.0)
+    eta_s = ph.eta_s if "shear_viscosity" in ph.effects else 0.0
+    eta_b = ph.eta_b if "bulk_viscosity" in ph.effects else 0.0
+    return StabilityGuard(
+        faces=sim.mesh.faces,
+        zeta=sim.zeta,
+        viscosity=(eta_s, eta_b) if flat else None,
+        tension=lambda fields, n: tension_of(fields, n, sim.settings),
+    )

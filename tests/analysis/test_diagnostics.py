@@ -408,3 +408,70 @@ def test_diagnostic_attrs():
     assert DIAGNOSTIC_ATTRS["max_normal_speed"]["units"] == "R0/t_a"
     assert DIAGNOSTIC_ATTRS["orientation_angle"]["units"] == "degrees"
     assert D.__all__ and all(hasattr(D, name) for name in D.__all__)
+
+
+def _unequal_dumbbell(nodes: int = 2562, z0: float = 0.25):
+    """An icosphere mapped onto the surface of revolution of radius R(z) = sqrt(1 - (z/1.3)^2) rho(z),
+    rho(z) = 1 - 0.6 exp(-((z - z0) / 0.35)^2): a neck off the centre, lobes of unequal sizes."""
+    from cortex_ti.surface.mesh import icosphere
+
+    m = icosphere(nodes)
+    p = m.points
+    z = 1.3 * p[:, 2]
+    rho = 1.0 - 0.6 * np.exp(-(((z - z0) / 0.35) ** 2))
+    out = np.column_stack([p[:, 0] * rho, p[:, 1] * rho, z])
+    zz = np.linspace(-1.0, 1.0, 200001)
+    profile = np.sqrt(1.0 - (zz / 1.3) ** 2) * (1.0 - 0.6 * np.exp(-(((zz - z0) / 0.35) ** 2)))
+    k = int(np.argmin(np.where(np.abs(zz) < 0.8, profile, np.inf)))
+    return out, m.faces, float(profile[k]), float(zz[k])
+
+
+def test_neck_radius_finds_an_off_centre_neck_the_centroid_plane_misses():
+    from cortex_ti.analysis.diagnostics import area_centroid, neck_radius
+
+    pts, faces, r_true, z_true = _unequal_dumbbell()
+    r, h = neck_radius(pts, faces)
+    c = area_centroid(pts, faces)
+    # below: the section polygon's chords sit inside the circle, 1 - cos(pi/n) ~ 1e-3 at ~70 chords;
+    # above: along the axis the polyhedron interpolates the profile linearly between its nodes, off by
+    # up to |R''| edge^2 / 8 at the minimum (|R''| < 10 here; the longest edge near the neck)
+    near = np.abs(pts[faces][:, :, 2] - z_true).max(axis=1) < 0.2
+    e = pts[faces[near]] - pts[faces[near]][:, [1, 2, 0]]
+    edge = float(np.linalg.norm(e, axis=2).max())
+    assert r_true * (1.0 - 3e-3) < r < r_true + 10.0 * edge**2 / 8.0
+    assert abs(c[2] + h - z_true) < 0.02  # within a fraction of the ~0.05 edges there
+    assert furrow_radius(pts, faces) > r_true + 0.02  # the centroid plane is off the neck
+
+
+def test_neck_radius_of_a_symmetric_neck_is_in_the_centroid_plane():
+    from cortex_ti.analysis.diagnostics import neck_radius
+
+    pts, faces, r_true, _ = _unequal_dumbbell(z0=0.0)
+    r, h = neck_radius(pts, faces)
+    assert abs(h) < 0.02
+    assert abs(r - furrow_radius(pts, faces)) < 1e-3 * r_true
+
+
+def test_surface_stress_of_a_rigid_rotation_is_the_tension():
+    """A rigid rotation strains nothing: the stress is the tension, whatever the viscosities."""
+    from cortex_ti.analysis.diagnostics import surface_stress
+
+    m = icosphere(642)
+    zeta = 1.0 + m.points[:, 2] ** 2
+    s = surface_stress(m.points, m.faces, np.cross([0.3, -1.2, 0.7], m.points), zeta, 1.0, 5.0)
+    assert np.allclose(s, zeta[m.faces].mean(axis=1)[:, None], atol=1e-12)
+
+
+def test_surface_stress_of_a_plane_shear_flow():
+    """v = eps (x, -y, 0) on a plane: traceless strain diag(eps, -eps), sigma = zeta -/+ 2 eta_s eps;
+    a compressive one (negative) once 2 eta_s eps > zeta."""
+    from cortex_ti.analysis.diagnostics import surface_stress
+
+    g = np.linspace(0.0, 1.0, 6)
+    x, y = np.meshgrid(g, g)
+    pts = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    k = np.arange(36).reshape(6, 6)[:-1, :-1].ravel()
+    faces = np.concatenate([np.column_stack([k, k + 1, k + 7]), np.column_stack([k, k + 7, k + 6])])
+    eps, zeta = 0.8, np.full(36, 1.0)
+    s = surface_stress(pts, faces, eps * pts * [1.0, -1.0, 0.0], zeta, 1.0, 3.0)
+    assert np.allclose(s, [1.0 - 2.0 * eps, 1.0 + 2.0 * eps], atol=1e-12)

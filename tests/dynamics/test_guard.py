@@ -154,3 +154,23 @@ def test_a_solve_failing_while_the_myosin_collapses_is_a_resolution_problem():
     e.state = State(x0, {"myosin": 1.0 + 0.5 * np.exp(-((angle / 0.6) ** 2))})  # a weak pattern
     assert guard.failed_solve(err, e) is err
     assert guard.failed_solve(err, _evaluation(x0, x0)) is err  # no myosin
+
+
+def test_guard_names_where_a_collapsed_step_meets_a_compressed_cortex():
+    """A sphere contracting uniformly, v = -x: strain rate -P, tr U = -2, no shear, so the stress is
+    zeta + eta_b tr U = 1 - 2 = -1 on every triangle (surface_stress's closed form): the guard that was
+    given the viscosities says the stress is compressive there; without them it says what it said."""
+    mesh = icosphere(162)
+    x = mesh.points
+
+    def ev(points):
+        e = _evaluation(points, points)
+        e.velocity = -points
+        return e
+
+    for viscosity, said in (((1.0, 1.0), "compressive on 320 triangles (down to -1 "), (None, "a mode of this")):
+        guard = StabilityGuard(faces=mesh.faces, zeta=np.ones(len(x)), viscosity=viscosity)
+        guard.check(0.1, 0.1, x, x.copy(), _evaluation(x, x), np.full(len(x), 1.0))
+        with pytest.raises(StabilityError, match="already fallen") as exc:
+            guard.check(0.1001, 1e-4, x, 1.3 * x, ev(x), np.full(len(x), 0.01))
+        assert said in str(exc.value)

@@ -219,6 +219,8 @@ def test_defaults_and_canonical_numbers():
             "h_max": None,
             "hausd": None,
             "hgrad": 1.3,
+            "settle_steps": 0,
+            "settle_dt": 1e-3,
         },
     }
     assert scene.settings.mesh.remesh is None  # off by default
