@@ -145,8 +145,15 @@ def evolution_options(settings: RunSettings) -> dict:
         tension="material" if settings.tension_carried else "nodes",
         parametrization="arclength" if a.neck_resolution > 0 or a.points == "arclength" else "auto",
         monitor=a.neck_resolution,
-        stop_neck=a.stop_neck if a.stop_neck < settings.mesh.radius else None,
+        stop_neck=_stop_neck(settings),
     )
+
+
+def _stop_neck(settings: RunSettings) -> float | None:
+    """Where the meridian run stops: the larger of ``time.stop_neck`` (a scene's request) and
+    ``axisymmetric.stop_neck`` (the model's floor); None when neither lies below the radius."""
+    stop = max(settings.axisymmetric.stop_neck, settings.time.stop_neck or 0.0)
+    return stop if stop < settings.mesh.radius else None
 
 
 def viscosities(settings: RunSettings) -> dict:

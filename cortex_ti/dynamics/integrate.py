@@ -38,7 +38,7 @@ class RunStats:
     solves: int = 0
     wall: float = 0.0
     t: float = 0.0  # the time reached
-    stopped: str = "t_end"  # why the run ended: t_end or steady
+    stopped: str = "t_end"  # why the run ended: t_end, steady, or what ``stop`` said
     remeshes: int = 0  # remeshings done (mesh.remesh)
     remesh_wall: float = 0.0  # seconds spent remeshing (the new mesh's set-up included)
 
@@ -59,6 +59,7 @@ def integrate(
     implicit: bool = False,
     save_times: tuple[float, ...] = (),
     remesh=None,
+    stop=None,
 ) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
@@ -70,7 +71,8 @@ def integrate(
     ``save_times`` (extra frame times, e.g. a figure's) between ``t0`` and ``t_end``.
     ``remesh(state, t) -> State | None`` is asked after every accepted step: a new state (on a new
     mesh) replaces the step's, the scheme forgets its history (:meth:`Scheme.restart`) and the
-    guard follows the new triangles; None: the mesh stays.
+    guard follows the new triangles; None: the mesh stays. ``stop(t) -> str | None``, asked where the
+    steady state is (after each step's frames): a reason ends the run there (``RunStats.stopped``).
     """
     stats = RunStats()
     start = _time.perf_counter()
@@ -105,6 +107,7 @@ def integrate(
             stats,
             start,
             remesh,
+            stop,
         )
 
     next_save = next_frame(t0)
@@ -133,6 +136,9 @@ def integrate(
             break
         if steady_tol > 0 and vmax < steady_tol:
             stats.stopped = "steady"
+            break
+        if stop is not None and (why := stop(t)) is not None:
+            stats.stopped = why
             break
         h = min(dt, t_end - t, next_save - t)
         try:
@@ -188,6 +194,7 @@ def _integrate_dense(
     stats,
     start,
     remesh=None,
+    stop=None,
 ) -> RunStats:
     """:func:`integrate` for a scheme that steps on its own and interpolates its frames (module
     docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
@@ -212,6 +219,9 @@ def _integrate_dense(
             break
         if steady_tol > 0 and float(np.max(np.abs(ev.normal_speed))) < steady_tol:
             stats.stopped = "steady"
+            break
+        if stop is not None and (why := stop(t)) is not None:
+            stats.stopped = why
             break
         h = min(dt, t_end - t)
         try:

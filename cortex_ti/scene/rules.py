@@ -29,6 +29,7 @@ def check_rules(data: dict) -> None:
     _check_effect_combinations(effects)
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
+    _check_stop_neck(data)
     _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
@@ -202,6 +203,16 @@ def _check_time(time: dict) -> None:
             f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
             f"second-order scheme time.scheme = {time['scheme']}: use euler, adaptive_euler or bdf2, or set "
             "time.implicit_tension: auto"
+        )
+
+
+def _check_stop_neck(data: dict) -> None:
+    """``time.stop_neck`` below the initial radius: a run would otherwise stop at its first frame."""
+    stop = (data.get("time") or {}).get("stop_neck")
+    if stop is not None and stop >= data["mesh"]["radius"]:
+        raise SceneError(
+            f"time.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
+            f"{fmt_value(data['mesh']['radius'])}: the run would stop at its first frame"
         )
 
 

@@ -133,6 +133,7 @@ class TimeSettings:
     tol: float
     dt_max: float
     implicit_tension: bool  # the semi-implicit tension, resolved for the scheme (False for a static scene)
+    stop_neck: float | None = None  # stop when the neck radius falls to this (R0); None: never
 
     @property
     def scheme_class(self):
@@ -239,6 +240,7 @@ class RunSettings:
                 save_every=float(tim["save_every"]),
                 save_times=tuple(sorted(float(x) for x in tim["save_times"])),
                 steady_tol=float(tim["steady_tol"]),
+                stop_neck=None if tim["stop_neck"] is None else float(tim["stop_neck"]),
                 tol=tol,
                 dt_max=dt_max,
                 implicit_tension=bool(implicit),

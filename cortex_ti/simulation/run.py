@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..about import provenance
-from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics, neck_radius
 from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
 from ..dynamics.motion import ale_step_limit, ale_stiffest_rate
@@ -71,6 +71,7 @@ STOP_REASONS = {
     "static": "a static scene: solved once",
     "t_end": "reached time.t_end",
     "steady": "max |v_n| fell below time.steady_tol",
+    "neck": "the neck radius fell to time.stop_neck (the axisymmetric model: or to axisymmetric.stop_neck)",
     "interrupted": "SIGINT (Ctrl-C) or SIGTERM: the frames so far are kept for --resume",
     "guard": "the stability guard stopped it (dynamics.guard)",
     "solver": "a solve failed",
@@ -338,8 +339,13 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         node_vars=field_values(sim),
     )
 
+    neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
+
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=axis)
+        if st.stop_neck is not None:
+            radius = neck_radius(ev.points, sim.mesh.faces, axis=axis)[0]
+            neck.update(radius=radius if np.isfinite(radius) else np.inf, t=t)
         fields = ev.state.fields
         writer.append(
             t,
@@ -371,6 +377,20 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
 
         sim.on_remesh = lambda new: writer.start_segment(new.faces, new.n_nodes, new.points)
 
+    def stop_at_neck(t):
+        """``time.stop_neck``: the run ends at the first frame whose neck is at or below it."""
+        if neck["radius"] > st.stop_neck:
+            return None
+        log.warning(
+            "%s: the neck radius %.4g R0 at t = %.6g fell to time.stop_neck = %g: the surface would pinch into "
+            "two, which this model does not go through; the run stops here, its frames kept",
+            sim.settings.name,
+            neck["radius"],
+            neck["t"],
+            st.stop_neck,
+        )
+        return "neck"
+
     def watch(t, ev, dt, stats):
         writer.commit()  # the frames of the step just made, in one write
         check_interrupted()
@@ -395,6 +415,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             guard=_guard(sim),
             save_times=st.save_times,
             remesh=remesh,
+            stop=stop_at_neck if st.stop_neck is not None else None,
         )
     except BaseException:
         sim.on_remesh = None
@@ -405,6 +426,8 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     finally:
         if bar is not None:
             bar.close()
+    if stats.stopped == "neck":  # a dense scheme's step may end past the frame that crossed
+        stats.t = neck["t"]
     seen["stats"] = stats
     sim.on_remesh = None
     path = writer.finish()

@@ -111,6 +111,7 @@ def test_shipped_scene_values(name):
         "save_every": 0.01,
         "save_times": [],
         "steady_tol": 0.0,
+        "stop_neck": None,
         "tol": None,  # the scheme's own default, resolved in the settings
         "dt_max": None,
         "implicit_tension": "auto",
