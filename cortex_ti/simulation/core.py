@@ -35,6 +35,7 @@ from ..surface.remesh import (
     closest_points,
     edge_curvature,
     enclosed_volume,
+    keep_amount,
     mean_edge_length,
     min_angles,
     node_coarseness,
@@ -153,11 +154,20 @@ class Simulation:
         self.use_mesh(points, triangles, reference)
         self.segment = segment
         if self.remesh_below is not None:
-            after = float(min_angles(reference, triangles).min())
-            self.remesh_below = min(self.settings.mesh.remesh.min_angle, RETRIGGER * after)
+            self._judge_new_mesh(reference, triangles)
+
+    def _judge_new_mesh(self, points: np.ndarray, faces: np.ndarray) -> float:
+        """Set the triggers a new mesh is remeshed by: a mesh that misses a trigger itself would be
+        remeshed at every step, so its own triggers are RETRIGGER times its smallest angle and
+        COARSE_RETRIGGER times its coarseness (said in the log; the run's min_angle_deg shows it).
+        Returns its smallest angle."""
+        rem = self.settings.mesh.remesh
+        after = float(min_angles(points, faces).min())
+        self.remesh_below = min(rem.min_angle, RETRIGGER * after)
         if self.coarse_below is not None:
-            own = self._coarseness(State(reference, {}, triangles), now=True)
-            self.coarse_below = max(self.settings.mesh.remesh.coarser, COARSE_RETRIGGER * own)
+            own = self._coarseness(State(points, {}, faces), now=True)
+            self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)
+        return after
 
     def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
         """The state on a new mesh when its smallest triangle angle fell below
@@ -180,7 +190,7 @@ class Simulation:
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
         res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
-        after = float(min_angles(res.points, res.faces).min())
+        after = self._judge_new_mesh(res.points, res.faces)
         log.info(
             "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
             "volume offset %.2e)",
@@ -193,12 +203,6 @@ class Simulation:
             after,
             res.offset,
         )
-        if self.coarse_below is not None:  # a new mesh is judged against its own coarseness, like its angle
-            own = self._coarseness(State(res.points, {}, res.faces), now=True)
-            self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)
-        # a new mesh that misses the trigger itself would be remeshed at every step: its own trigger
-        # is then RETRIGGER times its smallest angle (said in the log; the run's min_angle_deg shows it)
-        self.remesh_below = min(rem.min_angle, RETRIGGER * after)
         if after < rem.min_angle:
             log.warning(
                 "t = %.4g: the remeshed surface's smallest angle %.1f deg is below mesh.remesh.min_angle = %g; "
@@ -264,7 +268,7 @@ class Simulation:
         before, after = dual_areas(points, faces), dual_areas(x, faces)
         for name, values in fields.items():
             if kinds.get(name) == DENSITY:
-                out[name] = values * (float(np.dot(values, before)) / float(np.dot(values, after)))
+                out[name] = keep_amount(values, float(np.dot(values, before)), after)
         return x, out, float(np.linalg.norm(x - points, axis=1).max())
 
     def _moves(self, spec) -> bool:

@@ -58,6 +58,7 @@ __all__ = [
     "flip_bad_edges",
     "smooth_bad_vertices",
     "transfer_fields",
+    "keep_amount",
     "REMESH_EXTRA_HINT",
 ]
 
@@ -421,14 +422,18 @@ def transfer_fields(
         if kinds.get(name) == DENSITY:
             if a_old is None:
                 a_old, a_new = dual_areas(old_points, old_faces), dual_areas(new_points, new_faces)
-            total = float(np.dot(values, a_old))
-            got = float(np.dot(v, a_new))
-            if got != 0.0 and math.isfinite(total / got) and total / got > 0.0:
-                v = v * (total / got)
-            else:
-                v = v + (total - got) / float(a_new.sum())
+            v = keep_amount(v, float(np.dot(values, a_old)), a_new)
         out[name] = v
     return out
+
+
+def keep_amount(density: np.ndarray, total: float, area: np.ndarray) -> np.ndarray:
+    """``density`` on cells of ``area`` with its amount ``sum c A`` made ``total``: scaled, or, when
+    it has no content (or a scale would flip its sign), shifted by a constant."""
+    got = float(np.dot(density, area))
+    if got != 0.0 and math.isfinite(total / got) and total / got > 0.0:
+        return density * (total / got)
+    return density + (total - got) / float(area.sum())
 
 
 # ---------------------------------------------------------------------------
