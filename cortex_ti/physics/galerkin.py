@@ -45,6 +45,7 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from ..solve.system import EnergySystem
 from ..surface.geometry import Geometry
+from ..surface.mesh import per_connectivity
 from ..surface.transport import triangle_gradients  # the flat triangles' P1 gradients (one definition)
 from .model import Physics
 from .terms import P1Context, terms_for
@@ -89,12 +90,7 @@ _PATTERNS: dict = {}
 
 def _pattern(faces: np.ndarray, n_nodes: int) -> _Pattern:
     """The block pattern of a connectivity, computed once (a few kept)."""
-    key = (n_nodes, faces.shape, hash(faces.tobytes()))
-    if key not in _PATTERNS:
-        if len(_PATTERNS) >= 8:
-            _PATTERNS.clear()
-        _PATTERNS[key] = _Pattern(faces, n_nodes)
-    return _PATTERNS[key]
+    return per_connectivity(_PATTERNS, faces, n_nodes, lambda: _Pattern(faces, n_nodes), keep=8)
 
 
 def viscous_blocks(area: np.ndarray, normal: np.ndarray, grads: np.ndarray, eta_s: float, eta_b: float) -> np.ndarray:

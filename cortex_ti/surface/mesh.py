@@ -15,7 +15,15 @@ import numpy as np
 
 from ..errors import MeshError
 
-__all__ = ["Mesh", "icosphere_sizes", "icosphere", "affine", "vertex_normals", "MAX_ICOSPHERE_LEVEL"]
+__all__ = [
+    "Mesh",
+    "icosphere_sizes",
+    "icosphere",
+    "affine",
+    "vertex_normals",
+    "per_connectivity",
+    "MAX_ICOSPHERE_LEVEL",
+]
 
 #: Largest subdivision level :func:`icosphere` accepts (10 * 4**10 + 2 nodes).
 MAX_ICOSPHERE_LEVEL = 10
@@ -291,3 +299,22 @@ def affine(mesh: Mesh, matrix, offset=(0.0, 0.0, 0.0)) -> Mesh:
     pts = mesh.points @ a.T + b
     faces = mesh.faces[:, [0, 2, 1]] if det < 0 else mesh.faces.copy()
     return Mesh(points=pts, faces=faces)
+
+
+def per_connectivity(cache: dict, faces: np.ndarray, n_nodes: int, make, keep: int):
+    """What ``make()`` builds for one connectivity ``(faces, n_nodes)``, built once and kept in
+    ``cache``: at most ``keep`` connectivities (a remeshing run moves on to new ones, the cache is
+    then emptied).
+
+    >>> cache = {}
+    >>> m = icosphere(42)
+    >>> a = per_connectivity(cache, m.faces, 42, object, keep=2)
+    >>> per_connectivity(cache, m.faces.copy(), 42, object, keep=2) is a
+    True
+    """
+    key = (n_nodes, np.shape(faces), hash(np.asarray(faces).tobytes()))
+    if key not in cache:
+        if len(cache) >= keep:
+            cache.clear()
+        cache[key] = make()
+    return cache[key]

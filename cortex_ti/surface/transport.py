@@ -37,6 +37,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .mesh import per_connectivity
+
 __all__ = [
     "DENSITY",
     "PROPERTY",
@@ -243,9 +245,4 @@ def _diffusion_factor(faces: np.ndarray, n: int):
     orders the matrix anew each time). A few meshes are kept (a remeshing run moves on)."""
     from ..solve.factorizations import choose_factorization
 
-    key = (n, faces.shape, hash(np.asarray(faces).tobytes()))
-    if key not in _FACTORS:
-        if len(_FACTORS) >= 4:
-            _FACTORS.clear()
-        _FACTORS[key] = choose_factorization("auto")()
-    return _FACTORS[key]
+    return per_connectivity(_FACTORS, faces, n, choose_factorization("auto"), keep=4)
