@@ -1,6 +1,7 @@
 """The SLURM profile on a real cluster: tests/slurm_cluster.sh brings up a one-node SLURM cluster
 on this machine (munged, MariaDB, slurmdbd, slurmctld, slurmd; Debian's packages, installed when
-missing), the tiny configuration runs through profiles/slurm into a temporary folder, every
+missing), a small configuration (tests/data/slurm_workflow.yaml: nine simulation jobs, one of
+them failing on purpose) runs through profiles/slurm into a temporary folder, every
 simulation job is tracked to completion by snakemake-executor-plugin-slurm (which reads job
 states from sacct), and the cluster goes down again.
 
@@ -29,7 +30,7 @@ import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
-TINY = ROOT / "tests" / "data" / "tiny_workflow.yaml"
+CONFIG = ROOT / "tests" / "data" / "slurm_workflow.yaml"  # what the workflow computes: test_workflow.py
 CLUSTER_SH = Path(os.environ.get("CORTEX_TI_SLURM_CLUSTER", Path(__file__).parents[1] / "slurm_cluster.sh"))
 PACKAGES = ("munge", "mariadb-server", "slurmdbd", "slurmctld", "slurmd", "slurm-client")
 ACCOUNT, PARTITION = "cortex", "main"  # what slurm_cluster.sh creates (its defaults)
@@ -148,7 +149,7 @@ def _sacct(run_id: str, since: str) -> list[dict[str, str]]:
     return [dict(zip(fields, line.split("|"), strict=False)) for line in res.stdout.splitlines() if line.strip()]
 
 
-def test_tiny_configuration_through_the_slurm_profile(cluster, tmp_path):
+def test_small_configuration_through_the_slurm_profile(cluster, tmp_path):
     pytest.importorskip("snakemake_executor_plugin_slurm")
     xr = pytest.importorskip("xarray")
     from cortex_ti.studies.registry import TABLES, stores_of
@@ -169,7 +170,7 @@ def test_tiny_configuration_through_the_slurm_profile(cluster, tmp_path):
         "--profile",
         str(_profile(tmp_path)),
         "--configfile",
-        str(TINY),
+        str(CONFIG),
     ]
     t0 = time.monotonic()
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=900, cwd=workdir)
@@ -180,7 +181,7 @@ def test_tiny_configuration_through_the_slurm_profile(cluster, tmp_path):
     assert res.returncode == 0, log[-5000:]
 
     # every simulation job went through SLURM, the light rules ran here
-    config = yaml.safe_load(TINY.read_text())
+    config = yaml.safe_load(CONFIG.read_text())
     n_jobs = _n_simulation_jobs(config)
     submitted = re.findall(r"has been submitted with SLURM jobid (\d+)", log)
     assert len(submitted) == n_jobs, f"{len(submitted)} submissions, expected {n_jobs}"
