@@ -57,6 +57,7 @@ import numpy as np
 
 __all__ = [
     "DIAGNOSTIC_ATTRS",
+    "NECK_ATTRS",
     "ISOTROPY_TOLERANCE",
     "area_centroid",
     "axis_crossings",
@@ -163,6 +164,20 @@ DIAGNOSTIC_ATTRS: dict[str, dict] = {
         "description": "furrow radius (see furrow_radius) in the plane through the area centroid "
         "perpendicular to the current long axis, distances measured from the long axis; with the pattern "
         "axis when the long axis is undefined (orientation_angle NaN)",
+    },
+}
+
+#: The neck radius per frame (not one of :func:`frame_diagnostics`: its plane search costs about
+#: 0.1 s a frame at 2562 nodes, so a 3D run writes it only with ``time.stop_neck``, where it is
+#: measured anyway; the constriction study's store computes it for the other frames).
+NECK_ATTRS: dict[str, dict] = {
+    "neck_radius": {
+        "units": _R0,
+        "long_name": "neck radius",
+        "description": "the smallest interior local minimum along the pattern axis of the section radius "
+        "(mean distance from the axis of the polygon a plane perpendicular to it cuts), "
+        "diagnostics.neck_radius; the axisymmetric model: of r along its meridian. NaN without a neck "
+        "(a convex body)",
     },
 }
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..about import provenance
-from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics
 from ..errors import CortexError, SceneError, SolverError
 from ..io.trajectory import TrajectoryWriter
 from ..physics.patterns import evaluate_active_stress
@@ -333,6 +333,7 @@ class AxisymmetricRun:
         out.update({k: (("time", "meridian"), v) for k, v in MERIDIAN_VARIABLES.items()})
         if self.myosin is not None:
             out.update(MYOSIN_VARIABLES)
+        out.update({k: (("time",), v) for k, v in NECK_ATTRS.items()})
         if self.settings.dynamic:
             out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
             out["material_stretch"] = (("time",), MATERIAL_STRETCH_ATTRS)
@@ -365,6 +366,7 @@ class AxisymmetricRun:
             "furrow_radius": s.mesh.radius,
             "volume": 4.0 / 3.0 * np.pi * s.mesh.radius**3,
             "area": 4.0 * np.pi * s.mesh.radius**2,
+            "neck_radius": float("nan"),  # a sphere has none
         }
         if self.myosin is not None:  # oint c dA on the sphere (Gauss-Legendre in cos(theta))
             x, w = np.polynomial.legendre.leggauss(256)
@@ -383,6 +385,8 @@ class AxisymmetricRun:
             e = res.evaluate(i, labels, coordinate=coordinate)
             pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
             exact = {k: float(getattr(res, k)[i]) for k in _EXACT}
+            neck = float(res.neck_radius[i])
+            exact["neck_radius"] = neck if math.isfinite(neck) else float("nan")  # inf there: no neck
             if res.myosin_total is not None:
                 exact["myosin_total"] = float(res.myosin_total[i])
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..about import provenance
-from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, frame_diagnostics, neck_radius
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics, neck_radius
 from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
 from ..dynamics.motion import ale_step_limit, ale_stiffest_rate
@@ -333,6 +333,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         extra_vars={
             **FRAME_EXTRAS,
             **_DYNAMIC_EXTRAS,
+            **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
             **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
         },
         resume=state is not None,
@@ -346,6 +347,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         if st.stop_neck is not None:
             radius = neck_radius(ev.points, sim.mesh.faces, axis=axis)[0]
             neck.update(radius=radius if np.isfinite(radius) else np.inf, t=t)
+            diag["neck_radius"] = radius
         fields = ev.state.fields
         writer.append(
             t,

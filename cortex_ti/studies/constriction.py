@@ -21,15 +21,29 @@ from matplotlib.figure import Figure
 
 from ..axisymmetric.evolve import first_unresolved
 
-__all__ = ["ARREST_RATE", "outcome", "threshold", "constriction_figure", "constriction_numbers"]
+__all__ = ["ARREST_RATE", "neck", "outcome", "threshold", "constriction_figure", "constriction_numbers"]
 
 #: |d neck / dt| (R0/t_a) over the last frames below which a run counts as arrested
 #: (docs/validation/constriction.md: arrested runs end at 1e-6 or slower, closing ones at 3e-4 or faster)
 ARREST_RATE = 1e-4
 
 
-def _series(ds: xr.Dataset, i: int, name: str = "furrow_radius"):
-    v = ds[name].values[i]
+def neck(ds: xr.Dataset, i: int) -> np.ndarray:
+    """Run ``i``'s neck radius per frame: ``neck_radius`` (the narrowest section) where the shape has
+    one, and before it forms (a shallow furrow leaves the section radius largest in the ring's
+    plane) the ring plane's ``furrow_radius``, which it then equals for a symmetric ring. A store
+    written before ``neck_radius`` existed: ``furrow_radius`` throughout, which leaves the neck
+    once one lobe outgrows the other."""
+    furrow = ds["furrow_radius"].values[i]
+    if "neck_radius" not in ds:
+        return furrow
+    v = ds["neck_radius"].values[i]
+    return np.where(np.isfinite(v), v, furrow)
+
+
+def _series(ds: xr.Dataset, i: int, name: str = "neck"):
+    """Run ``i``'s finite values of ``name`` (``neck``: :func:`neck`) and their times."""
+    v = neck(ds, i) if name == "neck" else ds[name].values[i]
     ok = np.isfinite(v)
     return ds["time"].values[ok], v[ok]
 

@@ -128,7 +128,7 @@ _STUDIES += (
         "model with arc-length points (the truth, with its material stretch: past 100 not converged) and in 3D "
         "with remeshing; and, from the axisymmetric runs over the ring-to-pole tension ratio 1 + zeta_hat, the "
         "threshold above which the furrow closes (to a neck of 0.1 R0) instead of arresting.",
-        variables=("furrow_radius", "pole_radius", "volume", "min_angle_deg", "material_stretch"),
+        variables=("neck_radius", "furrow_radius", "pole_radius", "volume", "min_angle_deg", "material_stretch"),
     ),
 )
 

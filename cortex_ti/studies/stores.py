@@ -23,7 +23,7 @@ import xarray as xr
 
 from ..about import provenance
 from ..analysis import reference
-from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, fold_radii
+from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, fold_radii, neck_radius
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
 from .registry import STUDIES
@@ -65,6 +65,14 @@ def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
         off.append(b)
     on, off = np.array(on), np.array(off)
     return {"radius_stripe": on, "radius_off_stripe": off, "fold_depth": off - on}
+
+
+def neck_series(tr: Trajectory) -> np.ndarray:
+    """The neck radius of every frame (:func:`~cortex_ti.analysis.diagnostics.neck_radius`, NaN
+    without a neck), for a trajectory that does not carry it: a 3D run without ``time.stop_neck``,
+    or one written before the variable existed."""
+    axis = tr.settings.pattern_axis
+    return np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(tr.ds.sizes["time"])])
 
 
 #: The degrees of the myosin whose amplitude a self_organisation store keeps per frame.
@@ -141,6 +149,9 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             if study == "self_organisation":
                 data.update(myosin_series(tr))
                 attrs.update(_MYOSIN_ATTRS)
+            if study == "constriction" and "neck_radius" not in data:
+                data["neck_radius"] = neck_series(tr)
+                attrs.update(NECK_ATTRS)
             if "volume" in data:
                 data["volume_change"] = data["volume"] / data["volume"][0] - 1.0
         times.append(t)
