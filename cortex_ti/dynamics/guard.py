@@ -218,7 +218,8 @@ class StabilityGuard:
         return (
             f"the surface stress (tension + viscous) is compressive on {bad.size} triangle"
             f"{'s' if bad.size > 1 else ''} (down to {float(sigma[k]):.3g} at ({where[0]:.3f}, {where[1]:.3f}, "
-            f"{where[2]:.3f})), where a cortex without bending resistance wrinkles at the mesh scale at any step"
+            f"{where[2]:.3f})), where a cortex without bending resistance wrinkles at the mesh scale at any step "
+            "(after a remeshing, mesh.remesh.settle_steps removes the transient that compresses it)"
         )
 
     def _tension(self, ev: Evaluation):
