@@ -1,0 +1,119 @@
+"""Where the 3D neck converges to: Richardson extrapolation of a deep ring's neck radius over
+resolutions, against the axisymmetric twin.
+
+Reads the trajectories of one scene at several node counts (finished or ``.partial``: a run still
+going is measured up to its last flushed frame), takes each frame's neck (the narrowest section,
+``cortex_ti.analysis.diagnostics.neck_radius``; the ring plane's radius before a neck forms, as the
+constriction study does), runs the axisymmetric twin of the same ring, and prints at fixed times:
+
+- the neck at each resolution and the twin's;
+- the error e_N = 3D - twin and its observed order p = log2(e_coarse / e_fine) for each pair of
+  resolutions four times apart in nodes (h halves);
+- the Richardson extrapolation of the two finest, ``(4 n_fine - n_coarse) / 3`` (second order
+  assumed), and its distance from the twin.
+
+If the 3D discretisation converges to the continuum at second order, the last column falls to the
+twin's own error (converged to ~1e-8 while its material stretch is below ~5, to ~1e-5 below 100,
+docs/validation/constriction.md) plus the next order's remainder. Usage::
+
+    python benchmarks/remesh.py --scene constriction_p4 --motions normal --nodes 642 2562 10242 \\
+        --amplitudes 6 --sizings budget --keep RUNS
+    python benchmarks/neck_richardson.py RUNS/a6_642_normal_budget.h5 RUNS/a6_2562_normal_budget.h5 \\
+        RUNS/a6_10242_normal_budget.h5.partial --amplitude 6
+    python benchmarks/neck_richardson.py --smoke
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import numpy as np
+
+TIMES = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)
+
+
+def necks(path: Path) -> tuple[int, np.ndarray, np.ndarray]:
+    """(initial node count, frame times, neck radius per frame) of a trajectory (or its .partial)."""
+    from cortex_ti.analysis.diagnostics import neck_radius
+    from cortex_ti.io.trajectory import Trajectory
+
+    with Trajectory(path) as tr:
+        ds = tr.ds
+        axis = tr.settings.pattern_axis
+        furrow = ds["furrow_radius"].values
+        if "neck_radius" in ds:
+            r = ds["neck_radius"].values
+        else:
+            r = np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(ds.sizes["time"])])
+        return len(tr.mesh(0)[0]), ds["time"].values.astype(float), np.where(np.isfinite(r), r, furrow)
+
+
+def value_at(times: np.ndarray, values: np.ndarray, t: float) -> float:
+    """The value at the frame at ``t`` (NaN if no frame is within 1e-6 of it)."""
+    k = int(np.argmin(np.abs(times - t)))
+    return float(values[k]) if abs(times[k] - t) < 1e-6 else float("nan")
+
+
+def table(runs: list[tuple[int, np.ndarray, np.ndarray]], twin: dict, times) -> list[str]:
+    runs = sorted(runs, key=lambda r: r[0])
+    nodes = [r[0] for r in runs]
+    head = ["t", "twin"] + [f"N={n}" for n in nodes] + [f"e_{n}" for n in nodes]
+    pairs = [(i, i + 1) for i in range(len(runs) - 1)]
+    head += [f"order {nodes[i]}->{nodes[j]}" for i, j in pairs]
+    if len(runs) >= 2:
+        head += [f"Richardson {nodes[-2]}, {nodes[-1]}", "Richardson - twin"]
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for t in times:
+        tw = value_at(twin["times"], twin["neck"], t)  # a frame of the twin's: no interpolation error
+        n = [value_at(r[1], r[2], t) for r in runs]
+        if np.all(np.isnan(n)):
+            continue
+        e = [x - tw for x in n]
+        row = [f"{t:g}", f"{tw:.6f}"] + [f"{x:.6f}" for x in n] + [f"{x:+.2e}" for x in e]
+        for i, j in pairs:
+            ratio = 0.5 * np.log(nodes[j] / nodes[i])
+            ok = np.isfinite(e[i] / e[j]) and e[i] / e[j] > 0
+            row.append(f"{np.log(e[i] / e[j]) / ratio:.2f}" if ok else "-")
+        if len(runs) >= 2:
+            r4 = nodes[-1] / nodes[-2]  # h^2 ratio: 4 for 4x the nodes
+            rich = (r4 * n[-1] - n[-2]) / (r4 - 1.0)
+            row += [f"{rich:.6f}", f"{rich - tw:+.2e}"]
+        out.append("| " + " | ".join(row) + " |")
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("files", nargs="*", type=Path, help="trajectories of one scene at several node counts")
+    ap.add_argument("--amplitude", type=float, default=6.0, help="the ring's amplitude (the twin's)")
+    ap.add_argument("--scene", default="constriction_p4")
+    ap.add_argument("--times", type=float, nargs="+", default=list(TIMES))
+    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    args = ap.parse_args(argv)
+    logging.getLogger("cortex_ti").setLevel(logging.ERROR)
+    if args.smoke:
+        where = _smoke.folder()
+        sets = ["mesh.remesh.min_angle=null", "time.save_every=0.05"]
+        args.files = [_smoke.tiny_run(args.scene, 0.1, n, where, sets, name=f"n{n}") for n in (162, 642)]
+        args.times = [0.05, 0.1]
+    if len(args.files) < 2:
+        ap.error("give trajectories at two or more node counts")
+    from remesh import twin  # benchmarks/remesh.py: the axisymmetric twin of the same ring
+
+    t_end = max(float(necks(f)[1][-1]) for f in args.files)
+    where = _smoke.folder()
+    tw = twin(args.amplitude, t_end, where, args.scene)
+    tw["neck"] = tw["furrow"]  # the symmetric ring's neck is its equator's radius
+    runs = [necks(f) for f in args.files]
+    print(f"# {args.scene}, amplitude {args.amplitude:g}: the neck against the axisymmetric twin\n")
+    print("Files: " + ", ".join(f"`{f}` (to t = {r[1][-1]:.3g})" for f, r in zip(args.files, runs, strict=True)))
+    print(f"\nThe twin stopped: {tw['stopped']}; its material stretch passes 100 at t = {tw['resolved_until']:.3g}.\n")
+    print("\n".join(table(runs, tw, args.times)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
