@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CortexError
-from .mesh import vertex_normals
+from .mesh import per_connectivity, vertex_normals
 from .transport import DENSITY, dual_areas
 
 __all__ = [
@@ -135,9 +135,20 @@ def min_angles(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).min(axis=1)
 
 
+#: the edge lists of the last few connectivities (a remeshing asks for one mesh's edges ~10 times)
+_EDGES: dict = {}
+
+
 def _edges(faces: np.ndarray) -> np.ndarray:
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    return np.unique(np.sort(e, axis=1), axis=0)
+    """The sorted unique edges ``(E, 2)`` of ``faces`` (shared: read, do not modify)."""
+
+    def make():
+        e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+        out = np.unique(np.sort(e, axis=1), axis=0)
+        out.flags.writeable = False
+        return out
+
+    return per_connectivity(_EDGES, faces, 0, make, keep=4)
 
 
 def edge_curvature(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
