@@ -13,12 +13,17 @@ What it measures, and why each column is there:
   R0/t_a at t_end), closed (neck 0.1 R0), or unresolved (stretch > 100 first), in the arc-length
   parametrisation at two n, next to the lagrangian one.
 - ``carried``: with the tension carried by the material, when and where the label map folds.
+- ``adaptive``: the self-convergence of the adaptive points (``parametrization='adaptive'``:
+  equidistributing curvature, the label's log-stretch rate and the tension's gradient) to the
+  end points of issue 18 (t = 5 or a neck of 0.1 R0), in n (64 - 192) and rtol (1e-8 - 1e-12),
+  with the spectral tail of the state as the a-posteriori resolution indicator, then the
+  largest disagreement between the finest runs at each time.
 
 Usage (one core; a few minutes on a shared machine, seconds with --smoke):
 
     python benchmarks/constriction.py [--smoke] [--p P ...] [section ...]
 
-Sections: selfconv, sweep, carried (default: all). Markdown tables on stdout, headed by the
+Sections: selfconv, sweep, carried, adaptive (default: all). Markdown tables on stdout, headed by the
 machine, the date and the commit; docs/validation/constriction.md is written from it by
 ``python benchmarks/page.py constriction --title "..." -- constriction``.
 """
@@ -180,7 +185,77 @@ def carried():
     print()
 
 
-SECTIONS = {"selfconv": selfconv, "sweep": sweep, "carried": carried}
+def tail(res) -> float:
+    """The a-posteriori resolution indicator: the largest over the frames of the largest of the
+    last 8 spectral coefficients of r, z and (arc-length-type points) u - sigma, in R0 / rad."""
+    sp, worst = res._spectral, 0.0
+    for st in res._states:
+        parts = [sp.coeffs("R", st["r"]), sp.coeffs("Z", st["z"])]
+        if st.get("u") is not None:
+            parts.append(sp.coeffs("O", st["u"] - sp.u))
+        worst = max(worst, max(float(np.abs(c[-8:]).max()) for c in parts))
+    return worst
+
+
+def adaptive():
+    amps = (12.0,) if SMOKE else (6.0, 12.0, 20.0)
+    t_end = 0.2 if SMOKE else 5.0
+    checks = (0.1, 0.2) if SMOKE else (0.5, 1.0, 1.15, 2.0, 2.25, 2.35, 5.0)
+    ns = (8, 12) if SMOKE else (64, 96, 128, 192)
+    nr = 12 if SMOKE else 128
+    rows = [(n, 1e-10) for n in ns] + [(nr, rt) for rt in (1e-8, 1e-12)]
+    print("## Adaptive points: self-convergence to t = 5 or a neck of 0.1 R0 (tension on the nodes)\n")
+    print(
+        "Neck radius (R0) at t (the furrow radius before a neck forms; '-': the run had stopped); t(0.1): "
+        "when the neck reaches 0.1 R0; tail: the largest over the frames of the last 8 spectral coefficients "
+        "of r, z, u; wall: integration time (s).\n"
+    )
+    head = " | ".join(f"t={t:g}" for t in checks)
+    print(f"| amplitude | n | rtol | {head} | t(0.1) | tail | steps | wall |")
+    print("|---:|---:|---:|" + "---:|" * len(checks) + "---:|---:|---:|---:|")
+    spread = {}
+    for amp in amps:
+        runs = {}
+        for n, rt in rows:
+            r = evolve(amp, n, t_end=t_end, rtol=rt, parametrization="adaptive")
+            if isinstance(r, str):
+                print(f"| {amp:g} | {n} | {rt:g} | " + " | ".join("" for _ in checks) + f" | {r} | | | |")
+                continue
+            nk = neck(r)
+            vals = {t: float(nk[r.index(t)]) for t in checks if t <= r.t[-1] + 1e-9 and abs(r.t[r.index(t)] - t) < 1e-9}
+            tc = float(r.t[-1]) if r.stopped.startswith("neck") else None
+            if r.stopped != "t_end" and tc is None:
+                print(f"<!-- amplitude {amp:g}, n = {n}, rtol {rt:g}: {r.stopped} -->")
+            runs[(n, rt)] = (vals, tc)
+            cells = [f"{vals[t]:.9f}" if t in vals else "-" for t in checks]
+            tcs = "-" if tc is None else f"{tc:.7f}"
+            print(
+                f"| {amp:g} | {n} | {rt:g} | " + " | ".join(cells) + f" | {tcs} | {tail(r):.0e} | {r.n_steps} | "
+                f"{r.wall_time:.0f} |",
+                flush=True,
+            )
+        spread[amp] = runs
+    print()
+    fine, coarse = (ns[-1], 1e-10), (ns[-2], 1e-10)
+    print(
+        f"Largest disagreement among n = {coarse[0]}, {fine[0]} (rtol 1e-10) and n = {nr} at rtol 1e-8, 1e-12 "
+        "(neck radius at t, and the time of a neck of 0.1 R0), with the neck there:\n"
+    )
+    print("| amplitude | " + " | ".join(f"t={t:g}" for t in checks) + " | t(0.1) |")
+    print("|---:|" + "---|" * (len(checks) + 1))
+    for amp, runs in spread.items():
+        group = [runs[k] for k in (coarse, fine, (nr, 1e-8), (nr, 1e-12)) if k in runs]
+        cells = []
+        for t in checks:
+            v = [g[0][t] for g in group if t in g[0]]
+            cells.append(f"{max(v) - min(v):.1e} (neck {v[-1]:.3f})" if len(v) == len(group) and v else "-")
+        tc = [g[1] for g in group if g[1] is not None]
+        cells.append(f"{max(tc) - min(tc):.1e}" if len(tc) == len(group) and tc else "-")
+        print(f"| {amp:g} | " + " | ".join(cells) + " |")
+    print()
+
+
+SECTIONS = {"selfconv": selfconv, "sweep": sweep, "carried": carried, "adaptive": adaptive}
 
 
 def main():

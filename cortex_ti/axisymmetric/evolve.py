@@ -2,7 +2,8 @@ r"""Shape evolution of the axisymmetric cortex: the material points move with ``
 
 The state is the node positions ``(r, z)`` (``lagrangian``: the nodes are the normally moving
 material points, label fixed) or ``(r, z, u)`` (``arclength``: nodes kept equidistant in arc
-length, carrying the material label). The time stepping is scipy's Radau IIA (or BDF) with
+length, carrying the material label; ``adaptive``: the same, the spacing following a monitor of
+curvature, label stretch and tension gradient). The time stepping is scipy's Radau IIA (or BDF) with
 error control on the node positions and an exact Jacobian (complex step through one
 linearised solve): the normal modes are stiff (rates growing like l^2, bounded by the bending
 viscosity), which an L-stable implicit scheme takes in its stride.
@@ -50,6 +51,21 @@ ArrayF = np.ndarray
 #: the neck radius agrees between n = 96 and 128 to 1e-8 at a stretch of 3, 1e-5 at 16, 2e-4 at 65,
 #: 1e-3 at 480).
 STRETCH_LIMIT = 100.0
+
+#: The adaptive points (``parametrization='adaptive'``, derivation Sec. 13) equidistribute
+#: ``h rho``, ``rho^2 = 1 + ADAPT_CURVATURE^2 (k1^2 + k2^2) + ADAPT_STRETCH^2 (d ln|dX/du| / ds)^2
+#: + ADAPT_TENSION^2 (d zeta / ds / range(zeta))^2``: the curvature term (R0) keeps points in a
+#: closing neck, the stretch term where the label's rate changes (the flanks of a stretched neck),
+#: the tension term where the tension's front steepens. ``1/rho`` is low-pass filtered in sigma
+#: (Gaussian, ``exp(-(k ADAPT_WIDTH)^2)`` on mode k) so the spacing never has structure at the
+#: grid scale, and the spacing relaxes to its target at ``ADAPT_RATE`` (1/t_a), faster than a
+#: neck closes (``|d ln r_neck / dt|`` <= ~3 at amplitude 20). Measured in
+#: docs/validation/constriction.md ("Adaptive points").
+ADAPT_CURVATURE = 0.5
+ADAPT_STRETCH = 0.3
+ADAPT_TENSION = 0.6
+ADAPT_WIDTH = 0.03
+ADAPT_RATE = 20.0
 
 
 def first_unresolved(stretch: ArrayF, limit: float = STRETCH_LIMIT) -> int | None:
@@ -113,6 +129,11 @@ class _Dynamics:
         self.poles = _my.pole_rows(sp) if myosin is not None else None
         self.nrhs = 0
         self.njac = 0
+        if mode == "adaptive":
+            _, m = sp.waves["E"]
+            zr = _eval_zeta(zeta, np.linspace(0.0, np.pi, 1025))
+            self.zeta_range = max(float(zr.max() - zr.min()), 1e-3 * max(1.0, float(np.abs(zr).max())))
+            self.adapt_filter = sp.B["E"] @ (np.exp(-((m * ADAPT_WIDTH) ** 2))[:, None] * sp.Binv["E"])
         if not self.labelled:
             self.zeta_nodes = _eval_zeta(zeta, sp.u)
         else:
@@ -145,18 +166,22 @@ class _Dynamics:
         return g, x, lu
 
     def mesh_velocity(self, g: dict, x: ArrayF) -> ArrayF:
-        """Tangential velocity ``w`` of the computational points (arc-length mode)."""
+        """Tangential velocity ``w`` of the computational points (arc-length and adaptive modes)."""
         sp = self.sp
         vn = x[..., self.n : 2 * self.n]
         a = g["k1"] * vn * g["h"]  # d h / dt at fixed material label, per unit du
         a0 = a @ sp.Binv["E"][0]  # mean over [0, pi]
         h0 = g["h"] @ sp.Binv["E"][0]  # L / pi
-        if self.monitor > 0.0:  # equidistribute h * rho: target spacing L rho / <rho> (Sec. 11)
+        if self.mode == "adaptive":  # equidistribute h * rho: target spacing (L/pi) rho^-1 / <rho^-1>
+            q = self.adaptive_spacing(g)
+            target = h0[..., None] * q / (q @ sp.Binv["E"][0])[..., None]
+        elif self.monitor > 0.0:  # equidistribute h * rho: target spacing L rho / <rho> (Sec. 11)
             rho = self.density(g)
             target = h0[..., None] * rho / (rho @ sp.Binv["E"][0])[..., None]
         else:
             target = h0[..., None]
-        gw = a0[..., None] - a + self.relax * (target - g["h"])
+        rate = ADAPT_RATE if self.mode == "adaptive" else self.relax
+        gw = a0[..., None] - a + rate * (target - g["h"])
         return gw @ sp.IE.T
 
     def density(self, g: dict) -> ArrayF:
@@ -169,6 +194,24 @@ class _Dynamics:
             us = 1.0 + (g["u"] - self.sp.u) @ self.sp.D["O"].T
             rho2 = rho2 + self.monitor**2 * (us / g["h"]) ** 2
         return np.sqrt(rho2)
+
+    def adaptive_spacing(self, g: dict) -> ArrayF:
+        """The relative node spacing ``1/rho`` of the adaptive points (see ``ADAPT_CURVATURE``),
+        low-pass filtered in sigma; complex-step safe (no abs, no max)."""
+        sp = self.sp
+        us = 1.0 + (g["u"] - sp.u) @ sp.D["O"].T  # du/dsigma (E)
+        uss = us @ sp.D["E"].T  # (O)
+        hs = g["h"] @ sp.D["E"].T  # (O)
+        gs = (hs / g["h"] - uss / us) / g["h"]  # d ln(h / u_sigma) / ds (O)
+        zs = (g["zeta"] @ sp.D["E"].T) / (g["h"] * self.zeta_range)  # (O)
+        rho2 = (
+            1.0
+            + ADAPT_CURVATURE**2 * (g["k1"] ** 2 + g["k2"] ** 2)
+            + ADAPT_STRETCH**2 * gs**2
+            + ADAPT_TENSION**2 * zs**2
+        )
+        q = 1.0 / np.sqrt(rho2)
+        return q @ self.adapt_filter.T
 
     def velocity(self, g: dict, x: ArrayF) -> ArrayF:
         sp, n = self.sp, self.n
@@ -544,11 +587,16 @@ def simulate(
         Tolerances of the stiff integrator on the node positions (atol default ``rtol * radius``).
     symmetric : bool or None
         Solve only [0, pi/2] using the up-down symmetry (None: detect ``zeta(pi-t) == zeta(t)``).
-    parametrization : {'auto', 'lagrangian', 'arclength'}
+    parametrization : {'auto', 'lagrangian', 'arclength', 'adaptive'}
         ``lagrangian``: nodes are the normally moving material points (state r, z).
         ``arclength``: nodes stay equidistant in arc length and carry the material label
         (state r, z, u); needed when the material points cluster (e.g. a drifting non-symmetric
-        pattern).  ``auto``: lagrangian with symmetry, arclength without.
+        pattern).  ``adaptive``: like ``arclength``, but the nodes equidistribute
+        ``sqrt(1 + a^2 (k1^2 + k2^2) + b^2 (d ln|dX/du|/ds)^2 + c^2 (dzeta/ds / range)^2)``
+        (``ADAPT_*``), so a closing neck, the flanks of its stretched label map and the
+        tension's fronts keep their points: deep glued furrows converge to a neck of 0.1 R0
+        (docs/validation/constriction.md).  ``auto``: lagrangian with symmetry, arclength
+        without.
     gauge : {'velocity', 'centroid'}
         Full meridian only (irrelevant with symmetry): the rigid axial translation is fixed by
         ``oint v_z dA = 0`` (default, the 3D code's convention) or by ``oint z v_n dA = 0``
@@ -597,8 +645,10 @@ def simulate(
     st, atol = _check_times(t_end, save_times, rtol, atol, R)
     if method not in ("Radau", "BDF"):
         raise ValueError(f"method must be 'Radau' or 'BDF', got {method!r}")
-    if parametrization not in ("auto", "lagrangian", "arclength"):
-        raise ValueError(f"parametrization must be 'auto', 'lagrangian' or 'arclength', got {parametrization!r}")
+    if parametrization not in ("auto", "lagrangian", "arclength", "adaptive"):
+        raise ValueError(
+            f"parametrization must be 'auto', 'lagrangian', 'arclength' or 'adaptive', got {parametrization!r}"
+        )
     if tension not in ("nodes", "material"):
         raise ValueError(f"tension must be 'nodes' or 'material', got {tension!r}")
     if not (isinstance(monitor, (int, float)) and math.isfinite(monitor) and monitor >= 0):

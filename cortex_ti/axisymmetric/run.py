@@ -138,12 +138,16 @@ GAUGES = {"mean_velocity": "velocity", "centroid": "centroid"}
 
 def evolution_options(settings: RunSettings) -> dict:
     """The shape evolution's keywords from the scene: the tension carried by the material or
-    glued to the normally moving points, the meridian points (normally moving, or equally spaced
-    in arc length, weighted by curvature with ``neck_resolution``) and the neck stop."""
+    glued to the normally moving points, the meridian points (normally moving, equally spaced
+    in arc length, weighted by curvature with ``neck_resolution``, or adaptive) and the neck stop."""
     a = settings.axisymmetric
+    if a.points == "adaptive":
+        parametrization = "adaptive"
+    else:
+        parametrization = "arclength" if a.neck_resolution > 0 or a.points == "arclength" else "auto"
     return dict(
         tension="material" if settings.tension_carried else "nodes",
-        parametrization="arclength" if a.neck_resolution > 0 or a.points == "arclength" else "auto",
+        parametrization=parametrization,
         monitor=a.neck_resolution,
         stop_neck=_stop_neck(settings),
     )

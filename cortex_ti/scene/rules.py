@@ -275,7 +275,13 @@ def _check_axisymmetric(data: dict) -> None:
     checked when it is evaluated: :func:`cortex_ti.axisymmetric.run.axisymmetric_tension`.)"""
     why = "model = axisymmetric needs a scene symmetric about the z axis"
     mesh = data["mesh"]
-    stop = data["axisymmetric"]["stop_neck"]
+    ax = data["axisymmetric"]
+    if ax["points"] == "adaptive" and ax["neck_resolution"] > 0:
+        raise SceneError(
+            f"axisymmetric.neck_resolution = {fmt_value(ax['neck_resolution'])} weights the arc-length points; "
+            "axisymmetric.points = adaptive places its own: set neck_resolution: 0 or points: arclength"
+        )
+    stop = ax["stop_neck"]
     if stop >= mesh["radius"]:
         raise SceneError(
             f"axisymmetric.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "

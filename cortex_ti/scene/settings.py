@@ -158,7 +158,8 @@ class AxisymmetricSettings:
     azimuthal_points: int  # points around the axis
     neck_resolution: float = 0.0  # > 0: points placed by arc length and curvature (R0), 0: normal motion
     stop_neck: float = 0.05  # the run stops when the neck radius falls to this (R0)
-    points: str = "normal"  # "normal": meridian points move with v_n n; "arclength": equally spaced
+    points: str = "normal"  # "normal": meridian points move with v_n n; "arclength": equally spaced;
+    # "adaptive": equidistributing curvature, the label's stretch rate and the tension's gradient
 
 
 @dataclass(frozen=True)
