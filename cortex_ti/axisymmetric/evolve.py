@@ -51,6 +51,10 @@ ArrayF = np.ndarray
 #: the neck radius agrees between n = 96 and 128 to 1e-8 at a stretch of 3, 1e-5 at 16, 2e-4 at 65,
 #: 1e-3 at 480).
 STRETCH_LIMIT = 100.0
+#: The stretch limit of each parametrisation that carries the label: the adaptive points gather
+#: where the label's stretch changes and converge to 1e-9 at stretches of 1e5 (a neck of 0.1 R0),
+#: so only a folded map counts (docs/validation/constriction.md, "Adaptive points").
+STRETCH_LIMITS = {"arclength": STRETCH_LIMIT, "adaptive": math.inf}
 
 #: The adaptive points (``parametrization='adaptive'``, derivation Sec. 13) equidistribute
 #: ``h rho``, ``rho^2 = 1 + ADAPT_CURVATURE^2 (k1^2 + k2^2) + ADAPT_STRETCH^2 (d ln|dX/du| / ds)^2

@@ -29,7 +29,7 @@ from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
-from .evolve import STRETCH_LIMIT, StepFailed, first_unresolved, revolve, simulate
+from .evolve import STRETCH_LIMIT, STRETCH_LIMITS, StepFailed, first_unresolved, revolve, simulate
 from .myosin import Myosin
 
 log = logging.getLogger(__name__)
@@ -61,8 +61,18 @@ MERIDIAN_VARIABLES = {
 MATERIAL_STRETCH_ATTRS = {
     "units": "1",
     "long_name": "material stretch: max/min over the meridian of |dX/du| (u the material label)",
-    "description": f"inf once the label map has folded; above {STRETCH_LIMIT:g} the label map is not resolved "
+    "description": f"inf once the label map has folded; above {STRETCH_LIMIT:g} arc-length points do not resolve it "
     "(the neck radius stops converging in axisymmetric.n, docs/validation/constriction.md)",
+}
+#: Whether the frame's label map is resolved by the run's points (1) or not (0, from the first
+#: frame past its parametrisation's limit on; the study leaves such frames out of comparisons).
+LABEL_RESOLVED_ATTRS = {
+    "units": "1",
+    "long_name": "the label map is resolved (1) or not (0)",
+    "description": "0 from the first frame whose material stretch passes the parametrisation's limit "
+    "(arc-length points: "
+    f"{STRETCH_LIMIT:g}; adaptive points: none) or whose label map has folded; 1 before it, and always "
+    "for points that carry no label (docs/validation/constriction.md)",
 }
 #: With ``fields.myosin``: its density along the meridian and at the points (the 3D variable).
 MYOSIN_VARIABLES = {
@@ -235,22 +245,26 @@ class AxisymmetricRun:
             log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
         return res
 
+    def _unresolved(self, res) -> int | None:
+        """The first frame whose label map this run's points no longer resolve (None: all are, or
+        the points carry no label): past its parametrisation's
+        :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMITS`, or folded."""
+        limit = STRETCH_LIMITS.get(evolution_options(self.settings)["parametrization"])
+        return None if limit is None else first_unresolved(res.stretch, limit)
+
     def _warn_unresolved(self, res) -> None:
-        """One line when arc-length points carry a label map stretched past
-        :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` (or folded): from that frame on the
-        run's numbers stop converging with n."""
-        if evolution_options(self.settings)["parametrization"] != "arclength":
-            return
-        k = first_unresolved(res.stretch)
+        """One line when the points carry a label map they no longer resolve (:meth:`_unresolved`):
+        from that frame on the run's numbers stop converging with n."""
+        k = self._unresolved(res)
         if k is not None:
             log.warning(
-                "%s (axisymmetric): from t = %.4g (neck %.4g R0) the material stretch of the arc-length points' "
-                "label map is %.3g > %g: the frames after it are not converged in axisymmetric.n",
+                "%s (axisymmetric): from t = %.4g (neck %.4g R0) the label map of the %s points is %s: the "
+                "frames after it are not converged in axisymmetric.n",
                 self.settings.name,
                 res.t[k],
                 res.furrow_radius[k],
-                res.stretch[k],
-                STRETCH_LIMIT,
+                evolution_options(self.settings)["parametrization"],
+                "folded" if not np.isfinite(res.stretch[k]) else f"stretched {res.stretch[k]:.3g} > {STRETCH_LIMIT:g}",
             )
 
     # ------------------------------------------------------------------------------- writing
@@ -341,6 +355,7 @@ class AxisymmetricRun:
         if self.settings.dynamic:
             out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
             out["material_stretch"] = (("time",), MATERIAL_STRETCH_ATTRS)
+            out["label_resolved"] = (("time",), LABEL_RESOLVED_ATTRS)
         return out
 
     def _static_frames(self):
@@ -385,6 +400,7 @@ class AxisymmetricRun:
         # the written points: the normally moving ones (the 3D code's nodes) when the meridian
         # points move normally, whatever carries the tension; else the material points
         coordinate = "sigma" if res.params["parametrization"] == "lagrangian" else "label"
+        unresolved = self._unresolved(res)
         for i, t in enumerate(res.t):
             e = res.evaluate(i, labels, coordinate=coordinate)
             pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
@@ -394,7 +410,9 @@ class AxisymmetricRun:
             if res.myosin_total is not None:
                 exact["myosin_total"] = float(res.myosin_total[i])
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
-            yield float(t), {**self._frame(e, pressure, exact, dt=dt), "material_stretch": float(res.stretch[i])}
+            resolved = float(unresolved is None or i < unresolved)
+            frame = self._frame(e, pressure, exact, dt=dt)
+            yield float(t), {**frame, "material_stretch": float(res.stretch[i]), "label_resolved": resolved}
 
     def _frame(self, e: dict, pressure: float, exact: dict, dt) -> dict:
         """One frame: the meridian values ``e`` revolved about z, with the diagnostics."""

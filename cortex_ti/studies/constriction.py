@@ -6,8 +6,9 @@ axisymmetric model stops cleanly at its ``stop_neck``); ``arrested`` when the ne
 last frames is below :data:`ARREST_RATE`; ``closing`` otherwise (undecided at ``t_end``). The
 *threshold* (:func:`threshold`) lies between the largest ring-to-pole tension ratio
 ``1 + zeta_hat`` whose axisymmetric run arrests and the smallest whose run closes (same ``p``).
-The axisymmetric runs' frames past :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` of
-material stretch are drawn dotted and excluded from the 3D comparison: they are not converged.
+The axisymmetric runs' frames whose label map their points do not resolve (``label_resolved``: past
+:data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` of material stretch for arc-length points, a
+folded map for the adaptive ones) are drawn dotted and excluded from the 3D comparison.
 """
 
 from __future__ import annotations
@@ -60,7 +61,13 @@ def outcome(ds: xr.Dataset, i: int) -> str:
 
 
 def _unresolved_time(ds: xr.Dataset, i: int) -> float:
-    """The first time run ``i``'s material stretch passes the limit (inf: never, or a 3D run)."""
+    """The first time run ``i``'s label map is not resolved (inf: never, or a 3D run): where its
+    ``label_resolved`` turns 0 (the run judged it by its parametrisation's limit), in a store
+    written before that variable where its material stretch passes the arc-length points' limit."""
+    if "label_resolved" in ds and np.isfinite(ds["label_resolved"].values[i]).any():
+        t, ok = _series(ds, i, "label_resolved")
+        bad = np.flatnonzero(ok < 0.5)
+        return float(t[bad[0]]) if bad.size else math.inf
     if "material_stretch" not in ds:
         return math.inf
     t, s = _series(ds, i, "material_stretch")
@@ -185,7 +192,7 @@ def constriction_numbers(stores) -> pd.DataFrame:
             "t reached": f"{t[-1]:.4g}",
             "neck at the end": f"{v[-1]:.5f}",
             "outcome": outcome(ds, i),
-            "stretch > limit from t": f"{_unresolved_time(ds, i):.3g}",
+            "label map unresolved from t": f"{_unresolved_time(ds, i):.3g}",
         }
         if str(ds["model"].values[i]) != "axisymmetric":
             dev, until = deviation(ds, i)

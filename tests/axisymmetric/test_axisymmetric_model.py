@@ -272,7 +272,9 @@ def test_deep_ring_warns_once_its_label_map_is_unresolved(tmp_path, caplog):
 
     from cortex_ti.axisymmetric.evolve import STRETCH_LIMIT
 
-    run = AxisymmetricRun(load_scene("constriction_p4", [*AXISYM_DEEP, "time.t_end=0.1"]))
+    run = AxisymmetricRun(
+        load_scene("constriction_p4", [*AXISYM_DEEP, "time.t_end=0.1", "axisymmetric.points=arclength"])
+    )
     with caplog.at_level(logging.WARNING, logger="cortex_ti"):
         run.run(tmp_path / "a.h5")
     assert not [r for r in caplog.records if "material stretch" in r.getMessage()]
@@ -288,3 +290,10 @@ def test_deep_ring_warns_once_its_label_map_is_unresolved(tmp_path, caplog):
         run._warn_unresolved(past)
     lines = [r.getMessage() for r in caplog.records]
     assert len(lines) == 1 and "\n" not in lines[0] and "from t = 1 (neck 0.16 R0)" in lines[0]
+    # the adaptive points resolve any stretch (converged at 1e5): only the fold counts
+    adaptive = AxisymmetricRun(load_scene("constriction_p4", [*AXISYM_DEEP, "axisymmetric.points=adaptive"]))
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="cortex_ti"):
+        adaptive._warn_unresolved(past)
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 1 and "from t = 1.1 (neck 0.12 R0)" in lines[0] and "folded" in lines[0]
