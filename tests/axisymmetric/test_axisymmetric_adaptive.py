@@ -59,28 +59,12 @@ def test_deep_glued_furrow_closes_to_a_tenth_keeping_its_volume():
 def test_adaptive_points_from_the_scene(tmp_path, capsys):
     """axisymmetric.points = adaptive reaches the solver; with neck_resolution it is refused in one
     line (exit 2), as a value outside the key's vocabulary is."""
-    base = [
-        "--set",
-        "model=axisymmetric",
-        "--set",
-        "active_stress.0.amplitude=12",
-        "--set",
-        "effects=[active_stress, shear_viscosity, bulk_viscosity, normal_balance, incompressibility, shape_evolution]",
-        "--set",
-        "viscosity.bending=0",
-        "--set",
-        "viscosity.bending_bulk=0",
-        "--set",
-        "time.t_end=1.0",
-        "--set",
-        "time.save_every=0.5",
-        "--set",
-        "axisymmetric.n=40",
-        "--set",
-        "axisymmetric.rtol=1e-9",
-    ]
+    # constriction_p4: the deep glued ring without bending viscosity (adaptive points are its default)
+    sets = ["model=axisymmetric", "mesh.remesh.min_angle=null", "active_stress.0.amplitude=12", "time.t_end=1.0"]
+    sets += ["time.save_every=0.5", "axisymmetric.n=40", "axisymmetric.rtol=1e-9", "axisymmetric.points=arclength"]
+    base = [a for s in sets for a in ("--set", s)]
     out = tmp_path / "a.h5"
-    assert main(["run", "furrow_p4_a1", "-o", str(out), *base, "--set", "axisymmetric.points=adaptive"]) == 0
+    assert main(["run", "constriction_p4", "-o", str(out), *base, "--set", "axisymmetric.points=adaptive"]) == 0
     neck = Trajectory(out).ds["furrow_radius"].values[-1]
     assert abs(neck - 0.41659514) <= 3e-8
     capsys.readouterr()
@@ -88,7 +72,7 @@ def test_adaptive_points_from_the_scene(tmp_path, capsys):
         (["axisymmetric.points=adaptive", "axisymmetric.neck_resolution=0.3"], "neck_resolution"),
         (["axisymmetric.points=adaptiv"], "points"),
     ):
-        args = ["run", "furrow_p4_a1", "-o", str(tmp_path / "b.h5"), *base]
+        args = ["run", "constriction_p4", "-o", str(tmp_path / "b.h5"), *base]
         for b in bad:
             args += ["--set", b]
         assert main(args) == 2 and not (tmp_path / "b.h5").exists()
