@@ -37,18 +37,13 @@ TIMES = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)
 
 def necks(path: Path) -> tuple[int, np.ndarray, np.ndarray]:
     """(initial node count, frame times, neck radius per frame) of a trajectory (or its .partial)."""
-    from cortex_ti.analysis.diagnostics import neck_radius
     from cortex_ti.io.trajectory import Trajectory
+    from cortex_ti.studies.constriction import neck_or_furrow
+    from cortex_ti.studies.stores import neck_series
 
     with Trajectory(path) as tr:
-        ds = tr.ds
-        axis = tr.settings.pattern_axis
-        furrow = ds["furrow_radius"].values
-        if "neck_radius" in ds:
-            r = ds["neck_radius"].values
-        else:
-            r = np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(ds.sizes["time"])])
-        return len(tr.mesh(0)[0]), ds["time"].values.astype(float), np.where(np.isfinite(r), r, furrow)
+        neck = neck_or_furrow(neck_series(tr), tr.ds["furrow_radius"].values)
+        return len(tr.mesh(0)[0]), tr.ds["time"].values.astype(float), neck
 
 
 def value_at(times: np.ndarray, values: np.ndarray, t: float) -> float:

@@ -76,6 +76,8 @@ def one(
     from cortex_ti.io.trajectory import Trajectory
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
+    from cortex_ti.studies.constriction import neck_or_furrow
+    from cortex_ti.studies.stores import neck_series
 
     sets = [
         f"mesh.nodes={nodes}",
@@ -102,7 +104,9 @@ def one(
     steps = np.asarray(ds["dt"].values, dtype=float)
     first = next((k for k in range(ds.sizes["time"]) if len(tr.mesh(k)[0]) != len(tr.mesh(0)[0])), None)
     volume = ds["volume"].values
-    necks = np.array([_neck(*tr.mesh(k), f) for k, f in enumerate(ds["furrow_radius"].values)])
+    # the neck: once one lobe of a deep furrow grows at the other's expense (amplitude 12 from t ~ 2)
+    # the plane through the centroid leaves it, and that plane's radius grows while the neck closes
+    necks = neck_or_furrow(neck_series(tr), ds["furrow_radius"].values)
     return {
         "amplitude": amplitude,
         "nodes": nodes,
@@ -127,16 +131,6 @@ def one(
         "times": ds["time"].values,
         "furrow": necks,
     }
-
-
-def _neck(points, faces, furrow: float) -> float:
-    """The neck of a frame: its smallest section radius along the axis; the furrow radius if it has none.
-    Once one lobe of a deep furrow grows at the other's expense (amplitude 12 from t ~ 2) the plane
-    through the centroid leaves the neck: its radius then grows while the neck closes."""
-    from cortex_ti.analysis.diagnostics import neck_radius
-
-    r = neck_radius(points, faces)[0]
-    return furrow if np.isnan(r) else r
 
 
 def twin(amplitude: float, t_end: float, where, scene: str) -> dict:

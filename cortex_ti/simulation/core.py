@@ -276,12 +276,9 @@ class Simulation:
             sol = self.solve(x, rem.settle_dt, zeta)
             excess = np.einsum("nc,nc->n", sol.velocity - old, sol.normal)
             largest = float(np.abs(excess).max())
-            log.debug(
-                "settling step %d: largest excess normal speed %.3g, the old flow's %.3g",
-                k,
-                largest,
-                np.abs(np.einsum("nc,nc->n", old, sol.normal)).max(),
-            )
+            if log.isEnabledFor(logging.DEBUG):  # the old flow's normal speed only for the debug line
+                old_n = float(np.abs(np.einsum("nc,nc->n", old, sol.normal)).max())
+                log.debug("settling step %d: largest excess normal speed %.3g, the old flow's %.3g", k, largest, old_n)
             if largest > SETTLE_SLOWDOWN * last:  # the stiff part is gone: the rest is the new mesh's flow
                 break
             last, taken = largest, k + 1

@@ -22,7 +22,15 @@ from matplotlib.figure import Figure
 
 from ..axisymmetric.evolve import first_unresolved
 
-__all__ = ["ARREST_RATE", "neck", "outcome", "threshold", "constriction_figure", "constriction_numbers"]
+__all__ = [
+    "ARREST_RATE",
+    "neck",
+    "neck_or_furrow",
+    "outcome",
+    "threshold",
+    "constriction_figure",
+    "constriction_numbers",
+]
 
 #: |d neck / dt| (R0/t_a) over the last frames below which a run counts as arrested
 #: (docs/validation/constriction.md: arrested runs end at 1e-6 or slower, closing ones at 3e-4 or faster)
@@ -38,8 +46,13 @@ def neck(ds: xr.Dataset, i: int) -> np.ndarray:
     furrow = ds["furrow_radius"].values[i]
     if "neck_radius" not in ds:
         return furrow
-    v = ds["neck_radius"].values[i]
-    return np.where(np.isfinite(v), v, furrow)
+    return neck_or_furrow(ds["neck_radius"].values[i], furrow)
+
+
+def neck_or_furrow(neck_radius: np.ndarray, furrow_radius: np.ndarray) -> np.ndarray:
+    """Per frame, the neck radius where the shape has a neck (finite), else the ring plane's
+    furrow radius (:func:`neck`)."""
+    return np.where(np.isfinite(neck_radius), neck_radius, furrow_radius)
 
 
 def _series(ds: xr.Dataset, i: int, name: str = "neck"):

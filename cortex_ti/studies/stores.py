@@ -69,8 +69,11 @@ def fold_series(tr: Trajectory) -> dict[str, np.ndarray]:
 
 def neck_series(tr: Trajectory) -> np.ndarray:
     """The neck radius of every frame (:func:`~cortex_ti.analysis.diagnostics.neck_radius`, NaN
-    without a neck), for a trajectory that does not carry it: a 3D run without ``time.stop_neck``,
-    or one written before the variable existed."""
+    without a neck): the trajectory's own ``neck_radius`` where it carries one (runs with
+    ``time.stop_neck``, the axisymmetric model), else computed from its frames (a 3D run without
+    ``time.stop_neck``, or one written before the variable existed)."""
+    if "neck_radius" in tr.ds:
+        return np.asarray(tr.ds["neck_radius"].values, dtype=float)
     axis = tr.settings.pattern_axis
     return np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(tr.ds.sizes["time"])])
 

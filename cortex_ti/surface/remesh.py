@@ -44,7 +44,6 @@ __all__ = [
     "remesh_available",
     "min_angles",
     "edge_curvature",
-    "size_field",
     "grade",
     "predicted_nodes",
     "budget_scale",
@@ -178,14 +177,6 @@ def edge_curvature(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
 def mean_edge_length(points: np.ndarray, faces: np.ndarray) -> float:
     e = _edges(faces)
     return float(np.linalg.norm(points[e[:, 0]] - points[e[:, 1]], axis=1).mean())
-
-
-def size_field(
-    points: np.ndarray, faces: np.ndarray, options: RemeshOptions, h_max: float, scale: float | None = None
-) -> np.ndarray:
-    """Target edge length at each node: ``clip(s / kappa, h_min, h_max)``, ``s = scale`` (None:
-    ``options.edge_angle``)."""
-    return sizes(edge_curvature(points, faces), options.edge_angle if scale is None else scale, options.h_min, h_max)
 
 
 def sizes(kappa: np.ndarray, scale, h_min: float, h_max: float) -> np.ndarray:
