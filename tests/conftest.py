@@ -1,7 +1,9 @@
 """Shared fixtures of the numerical-core tests (test_geometry, test_solver, test_cli).
 
-* ``taichi_runtime``: Taichi initialised once per session with two CPU threads
-  (kernels are compiled on first use, or loaded from Taichi's offline cache).
+* ``taichi_runtime``: Taichi initialised once per session (per pytest-xdist worker) with the
+  worker's share of the cores (kernels are compiled on first use, or loaded from Taichi's offline
+  cache). The workers (``-n auto`` in pyproject.toml) are at most :data:`MAX_WORKERS`, and
+  ``CORTEX_TI_THREADS`` gives each its share, so the runs the tests start do not oversubscribe.
 * ``lab``: cached meshes, topologies, geometries and solves, so that the many
   assertions on one solution cost one solve.
 
@@ -19,6 +21,7 @@ Meshes used throughout:
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,11 +29,31 @@ import pytest
 
 from cortex_ti import runtime
 
+#: At most this many pytest-xdist workers for ``-n auto``: more would mostly add memory (each
+#: worker holds Taichi and its meshes) and start-up, not speed, to a suite of ~1000 tests.
+MAX_WORKERS = 4
+
+
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto``: one worker per core, at most :data:`MAX_WORKERS`."""
+    return max(1, min(MAX_WORKERS, os.cpu_count() or 1))
+
+
+def _threads() -> int:
+    """This process's share of the cores: all of them, or in one of W workers 1/W (at least 1)."""
+    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    return max(1, (os.cpu_count() or 1) // max(1, workers))
+
+
+if "PYTEST_XDIST_WORKER" in os.environ and "CORTEX_TI_THREADS" not in os.environ:
+    # the runs and workflows a test starts in its own processes inherit the share too
+    os.environ["CORTEX_TI_THREADS"] = str(_threads())
+
 
 @pytest.fixture(scope="session")
 def taichi_runtime():
-    """Taichi on the CPU with two threads, once per session."""
-    return runtime.init(threads=2)
+    """Taichi on the CPU with this process's share of the cores (at most two), once per session."""
+    return runtime.init(threads=min(2, _threads()))
 
 
 def mean_edge_length(points: np.ndarray, faces: np.ndarray) -> float:
