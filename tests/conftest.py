@@ -1,9 +1,10 @@
 """Shared fixtures of the numerical-core tests (test_geometry, test_solver, test_cli).
 
-* ``taichi_runtime``: Taichi initialised once per session (per pytest-xdist worker) with the
-  worker's share of the cores (kernels are compiled on first use, or loaded from Taichi's offline
-  cache). The workers (``-n auto`` in pyproject.toml) are at most :data:`MAX_WORKERS`, and
-  ``CORTEX_TI_THREADS`` gives each its share, so the runs the tests start do not oversubscribe.
+* ``taichi_runtime``: Taichi initialised once per session (per pytest-xdist worker; ``-n auto``
+  in pyproject.toml, at most :data:`MAX_WORKERS` workers) with two CPU threads (kernels are
+  compiled on first use, or loaded from Taichi's offline cache). Two threads in each of two
+  workers on two cores measured faster (13 min 23 s) than one each (14 min 29 s, with
+  ``--dist worksteal``).
 * ``lab``: cached meshes, topologies, geometries and solves, so that the many
   assertions on one solution cost one solve.
 
@@ -39,21 +40,18 @@ def pytest_xdist_auto_num_workers(config):
     return max(1, min(MAX_WORKERS, os.cpu_count() or 1))
 
 
-def _threads() -> int:
-    """This process's share of the cores: all of them, or in one of W workers 1/W (at least 1)."""
-    workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
-    return max(1, (os.cpu_count() or 1) // max(1, workers))
-
-
-if "PYTEST_XDIST_WORKER" in os.environ and "CORTEX_TI_THREADS" not in os.environ:
-    # the runs and workflows a test starts in its own processes inherit the share too
-    os.environ["CORTEX_TI_THREADS"] = str(_threads())
+def pytest_collection_modifyitems(session, config, items):
+    """The files with long tests (marked ``slow`` or ``slurm``) first, each file's order kept: the
+    workers take files in this order, so the long ones do not start last and leave one worker
+    running alone at the end."""
+    long = {item.path for item in items if item.get_closest_marker("slow") or item.get_closest_marker("slurm")}
+    items.sort(key=lambda item: item.path not in long)
 
 
 @pytest.fixture(scope="session")
 def taichi_runtime():
-    """Taichi on the CPU with this process's share of the cores (at most two), once per session."""
-    return runtime.init(threads=min(2, _threads()))
+    """Taichi on the CPU with two threads, once per session (per worker)."""
+    return runtime.init(threads=2)
 
 
 def mean_edge_length(points: np.ndarray, faces: np.ndarray) -> float:

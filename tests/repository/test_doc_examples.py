@@ -136,16 +136,26 @@ def small(argv: list[str]) -> list[str]:
     return out
 
 
+#: Fixture files already made in this process: name -> its copy in a folder of this session's
+#: (one run per fixture, not one per block that reads it: ``p8.h5`` is read by a dozen blocks).
+_MADE: dict[str, Path] = {}
+
+
 def make_fixture(name: str, folder: Path) -> None:
-    scene, extra = FIXTURES.get(name, ("furrow_p4_a1", []))
-    target = folder / name
-    final = folder / (name[: -len(".partial")] if name.endswith(".partial") else name)
-    argv = small(
-        ["run", scene, "-o", str(folder / ("fixture-" + final.name))] + [x for o in extra for x in ("--set", o)]
-    )
-    res = cortex(argv, folder)
-    assert res.returncode == 0, f"fixture {name}: {res.stderr}"
-    shutil.move(folder / ("fixture-" + final.name), target)
+    """``folder / name``, a copy of the fixture run made once per process (:data:`FIXTURES`)."""
+    if name not in _MADE:
+        import atexit
+        import tempfile
+
+        store = Path(tempfile.mkdtemp(prefix="cortex-ti-doc-fixtures-"))
+        atexit.register(shutil.rmtree, store, ignore_errors=True)
+        scene, extra = FIXTURES.get(name, ("furrow_p4_a1", []))
+        final = name[: -len(".partial")] if name.endswith(".partial") else name
+        argv = small(["run", scene, "-o", str(store / final)] + [x for o in extra for x in ("--set", o)])
+        res = cortex(argv, store)
+        assert res.returncode == 0, f"fixture {name}: {res.stderr}"
+        _MADE[name] = store / final
+    shutil.copy(_MADE[name], folder / name)
 
 
 def inputs(argv: list[str]) -> list[str]:
