@@ -1,6 +1,6 @@
 """The SLURM profile on a real cluster: tests/slurm_cluster.sh brings up a one-node SLURM cluster
 on this machine (munged, MariaDB, slurmdbd, slurmctld, slurmd; Debian's packages, installed when
-missing), a small configuration (tests/data/slurm_workflow.yaml: eight simulation jobs, one of
+missing), a small configuration (tests/data/slurm_workflow.yaml: nine simulation jobs, one of
 them failing on purpose) runs through profiles/slurm into a temporary folder, every
 simulation job is tracked to completion by snakemake-executor-plugin-slurm (which reads job
 states from sacct), and the cluster goes down again.
