@@ -287,7 +287,11 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=16)
     p.add_argument("--no-mount", action="store_true", help="use RLIMIT_FSIZE even where a tmpfs could be mounted")
     p.add_argument("--table", type=Path, default=None, help="also write the table (markdown) here")
-    p.add_argument("--smoke", action="store_true", help="1 kill and 1 full disk on 162 nodes to t = 0.1 (tests/io/test_faults.py tests more)")
+    p.add_argument(
+        "--smoke",
+        action="store_true",
+        help="1 kill and 1 full disk on 162 nodes to t = 0.1 (tests/io/test_faults.py tests more)",
+    )
     args = p.parse_args(argv)
     if args.smoke:
         args.kills, args.disk, args.nodes, args.t_end = 1, 1, 162, 0.1

@@ -92,12 +92,27 @@ def _axisymmetric(ds: xr.Dataset) -> list[int]:
     return [i for i in range(ds.sizes["run"]) if str(ds["model"].values[i]) == "axisymmetric"]
 
 
+def _prescribed(ds: xr.Dataset, i: int) -> bool:
+    """Whether run ``i``'s ring is prescribed (a pattern with ``zeta_hat`` and ``p``), not a myosin
+    ring that forms by itself (its pattern columns are nan)."""
+    return math.isfinite(float(ds["zeta_hat"].values[i])) and math.isfinite(float(ds["p"].values[i]))
+
+
+def _ring(ds: xr.Dataset, i: int) -> tuple:
+    """What makes two runs the same ring: the scene, and the pattern's ``zeta_hat`` and ``p`` (None
+    for a scene without one, so that two such runs compare equal)."""
+    if not _prescribed(ds, i):
+        return (str(ds["scene"].values[i]), None, None)
+    return (str(ds["scene"].values[i]), float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+
+
 def threshold(ds: xr.Dataset) -> dict[float, tuple[float, float]]:
     """Per ``p``: (the largest ratio 1 + zeta_hat that arrests, the smallest that closes) among the
-    axisymmetric runs (nan where the sweep has none)."""
+    axisymmetric runs of prescribed rings (nan where the sweep has none)."""
     out = {}
-    for p in sorted({float(ds["p"].values[i]) for i in _axisymmetric(ds)}):
-        runs = [i for i in _axisymmetric(ds) if float(ds["p"].values[i]) == p]
+    prescribed = [i for i in _axisymmetric(ds) if _prescribed(ds, i)]
+    for p in sorted({float(ds["p"].values[i]) for i in prescribed}):
+        runs = [i for i in prescribed if float(ds["p"].values[i]) == p]
         ratio = {i: 1.0 + float(ds["zeta_hat"].values[i]) for i in runs}
         arrested = [ratio[i] for i in runs if outcome(ds, i) == "arrested"]
         closed = [ratio[i] for i in runs if outcome(ds, i) == "closed"]
@@ -107,12 +122,7 @@ def threshold(ds: xr.Dataset) -> dict[float, tuple[float, float]]:
 
 def _twin(ds: xr.Dataset, i: int) -> int | None:
     """The axisymmetric run of the same ring as 3D run ``i`` (the longest one), if any."""
-    same = [
-        j
-        for j in _axisymmetric(ds)
-        if float(ds["zeta_hat"].values[j]) == float(ds["zeta_hat"].values[i])
-        and float(ds["p"].values[j]) == float(ds["p"].values[i])
-    ]
+    same = [j for j in _axisymmetric(ds) if _ring(ds, j) == _ring(ds, i)]
     return max(same, key=lambda j: float(ds["t_end"].values[j]), default=None)
 
 
@@ -130,12 +140,16 @@ def deviation(ds: xr.Dataset, i: int) -> tuple[float, float]:
 
 
 def constriction_figure(ds: xr.Dataset) -> Figure:
-    """Neck radius against time (axisymmetric lines, dotted past the stretch limit; 3D dots) and the
-    neck at the end of each axisymmetric run against the ring-to-pole ratio, with the threshold."""
-    fig = Figure(figsize=(10, 3.8), layout="constrained")
-    a0, a1 = fig.subplots(1, 2)
-    amps = sorted({float(z) for z in ds["zeta_hat"].values})
-    colour = {z: f"C{k % 10}" for k, z in enumerate(amps)}
+    """Neck radius against time (axisymmetric lines, dotted past the stretch limit; 3D dots) of the
+    prescribed rings, and of the myosin rings that form by themselves in a panel of their own (they
+    take ten times longer), and the neck at the end of each axisymmetric run against the
+    ring-to-pole ratio, with the threshold."""
+    own = [i for i in range(ds.sizes["run"]) if not _prescribed(ds, i)]
+    fig = Figure(figsize=(15 if own else 10, 3.8), layout="constrained")
+    axes = fig.subplots(1, 3 if own else 2)
+    a0, a1 = axes[0], axes[-1]
+    rings = sorted({_ring(ds, i) for i in range(ds.sizes["run"])}, key=str)
+    colour = {r: f"C{k % 10}" for k, r in enumerate(rings)}
     marker_of: dict[int, str] = {}
     labels: set[str] = set()
 
@@ -145,27 +159,33 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
         return None if seen else label
 
     for i in range(ds.sizes["run"]):
-        zh = float(ds["zeta_hat"].values[i])
+        ax = axes[1] if i in own else a0
+        ring = _ring(ds, i)
+        name = f"1 + $\\hat\\zeta$ = {1 + ring[1]:g}" if ring[1] is not None else ring[0]
         t, v = _series(ds, i)
         if str(ds["model"].values[i]) == "axisymmetric":
             tu = _unresolved_time(ds, i)
             ok = t <= tu
-            a0.plot(
-                t[ok], v[ok], "-", color=colour[zh], lw=1.2, label=once(f"axisymmetric, 1 + $\\hat\\zeta$ = {1 + zh:g}")
-            )
-            a0.plot(t[t >= tu], v[t >= tu], ":", color=colour[zh], lw=1.2)
+            ax.plot(t[ok], v[ok], "-", color=colour[ring], lw=1.2, label=once(f"axisymmetric, {name}"))
+            ax.plot(t[t >= tu], v[t >= tu], ":", color=colour[ring], lw=1.2)
         else:
             every = max(1, t.size // 40)
             n = int(ds["nodes"].values[i])
             marker = marker_of.setdefault(n, "osD^v"[len(marker_of) % 5])
-            a0.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[zh], label=once(f"3D N={n}"))
-    three_d = [float(ds["t_end"].values[i]) for i in range(ds.sizes["run"]) if i not in _axisymmetric(ds)]
-    if three_d:  # the axisymmetric threshold runs go on much longer: show the span the 3D runs cover
-        a0.set_xlim(0.0, max(three_d))
-    a0.set_xlabel(r"$t / t_a$")
-    a0.set_ylabel(r"neck radius / $R_0$")
-    a0.set_ylim(0.0, 1.05)
-    a0.legend(fontsize=6)
+            ax.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[ring], label=once(f"3D N={n}"))
+    for ax, runs in ((a0, [i for i in range(ds.sizes["run"]) if i not in own]), (axes[1], own)):
+        three_d = [float(ds["t_end"].values[i]) for i in runs if i not in _axisymmetric(ds)]
+        if three_d and ax is a0:  # the axisymmetric threshold runs go on much longer: show the 3D runs' span
+            ax.set_xlim(0.0, max(three_d))
+        ax.set_xlabel(r"$t / t_a$")
+        ax.set_ylabel(r"neck radius / $R_0$")
+        ax.set_ylim(0.0, 1.05)
+        ax.legend(fontsize=6)
+        if not own:
+            break
+    a0.set_title("prescribed rings", fontsize=9)
+    if own:
+        axes[1].set_title("myosin rings that form by themselves", fontsize=9)
     style = {
         "closed": ("v", "closed (0.1 $R_0$)"),
         "arrested": ("s", "arrested"),
@@ -174,7 +194,9 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
     seen = set()
     longest = {}  # per ring, its longest axisymmetric run
     for i in _axisymmetric(ds):
-        key = (float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+        if not _prescribed(ds, i):
+            continue
+        key = _ring(ds, i)
         if key not in longest or float(ds["t_end"].values[i]) > float(ds["t_end"].values[longest[key]]):
             longest[key] = i
     for i in longest.values():
@@ -201,7 +223,7 @@ def constriction_numbers(stores) -> pd.DataFrame:
         t, v = _series(ds, i)
         row = {
             "run": str(ds["label"].values[i]),
-            "ratio 1 + zeta_hat": f"{1.0 + float(ds['zeta_hat'].values[i]):g}",
+            "ratio 1 + zeta_hat": f"{1.0 + float(ds['zeta_hat'].values[i]):g}" if _prescribed(ds, i) else "myosin",
             "t reached": f"{t[-1]:.4g}",
             "neck at the end": f"{v[-1]:.5f}",
             "outcome": outcome(ds, i),

@@ -127,7 +127,9 @@ _STUDIES += (
         "Deep rings without bending viscosity (issue 18): the neck radius against time, by the axisymmetric "
         "model with adaptive points (the truth, converged to its neck of 0.1; frames whose label map it does "
         "not resolve are left out) and in 3D "
-        "with remeshing; and, from the axisymmetric runs over the ring-to-pole tension ratio 1 + zeta_hat, the "
+        "with remeshing, of prescribed rings (zeta_hat, p) and of the myosin ring that forms by itself "
+        "(scene myosin_constriction; its zeta_hat and p are null); and, from the axisymmetric runs of "
+        "prescribed rings over the ring-to-pole tension ratio 1 + zeta_hat, the "
         "threshold above which the furrow closes (to a neck of 0.1 R0) instead of arresting.",
         variables=(
             "neck_radius",
@@ -343,8 +345,9 @@ _FIGURES += (
         "8. Deep rings: does the furrow close?",
         "Not in the paper (issue 18): rings ``zeta = 1 + zeta_hat exp(-10 |theta - pi/2|^4)`` without bending "
         "viscosity, the tension glued to the normally moving points. Left: the neck radius against time, lines the "
-        "axisymmetric model (arc-length points; dotted where its material stretch exceeds 100 and the numbers stop "
-        "converging), dots the 3D runs with remeshing. Right: the neck at the end of each axisymmetric run against "
+        "axisymmetric model (adaptive points; dotted from the first frame whose label map they do not resolve), "
+        "dots the 3D runs with remeshing. Middle, when the study has it: the same for the myosin ring that "
+        "forms by itself (scene myosin_constriction). Right: the neck at the end of each axisymmetric run against "
         "the ring-to-pole tension ratio 1 + zeta_hat: closed (reached 0.1 R0), arrested (slower than 1e-4 R0/t_a "
         "at the end) or still closing, and the threshold between the largest ratio that arrests and the smallest "
         "that closes. Store: ``results/aggregate/constriction.nc``.",

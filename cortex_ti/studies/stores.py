@@ -15,6 +15,7 @@ writes (wall time, peak memory) and the run summaries of ``cortex-ti run --summa
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -31,6 +32,9 @@ from .registry import STUDIES
 __all__ = ["study_dataset", "cost_dataset", "run_label", "short_labels", "trajectory_deviation", "twin_deviation"]
 
 _TIME_DECIMALS = 9
+
+#: Numeric sweep columns whose ``null`` (the scene has no pattern) the store keeps as nan.
+_NULLABLE = ("zeta_hat", "p")
 
 
 def _number(text: str):
@@ -186,6 +190,9 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
         values = [_number(r[col]) for r in rows]
         if all(isinstance(v, (int, float)) for v in values):
             values = np.asarray(values)
+        elif all(isinstance(v, (int, float)) or v == "null" for v in values) and col in _NULLABLE:
+            # a pattern column of a scene without a pattern (a myosin ring) is null: nan keeps it numeric
+            values = np.asarray([math.nan if v == "null" else float(v) for v in values])
         else:
             values = np.asarray([str(v) for v in values], dtype=object)
         coords[col] = ("run", values, {"long_name": f"sweep parameter {col}"})

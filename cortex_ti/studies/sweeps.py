@@ -25,8 +25,9 @@ residual     ``numerics.fit_residual_weight``   weight of the fit-residual rows 
 dt           ``time.dt``                        (first) time step, t_a
 tol          ``time.tol``                       local error per step of an adaptive scheme, R0
 t_end        ``time.t_end``                     end time, t_a
-zeta_hat     ``active_stress.0.amplitude``      amplitude of the ring/fold pattern
-p            ``active_stress.0.p``              exponent of Eq. 59
+zeta_hat     ``active_stress.0.amplitude``      amplitude of the ring/fold pattern (null: the
+                                                scene has no pattern, and null sets nothing)
+p            ``active_stress.0.p``              exponent of Eq. 59 (null: as zeta_hat)
 gamma        ``mesh.shear``                     initial simple shear x -> x + gamma z
 tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
                                                 about +y, toward +x (the shear direction)
@@ -90,6 +91,10 @@ PARAMETERS: dict[str, str] = {
     "turnover": "fields.myosin.turnover",
 }
 
+#: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
+#: without a pattern has them ``null``, and a ``null`` sets nothing (:func:`scene_overrides`).
+_PATTERN = {"zeta_hat": "amplitude", "p": "p"}
+
 #: The columns read from the scene's myosin field: column -> path inside ``fields.myosin``.
 _MYOSIN = {
     "degree": ("initial", 0, "terms", 0, "l"),
@@ -138,10 +143,9 @@ def _settings_value(settings, column: str):
         # rounded: the axis is stored to 15 digits (tilt_axis), so 45 must not come back as
         # 44.999999999999964 and name another folder than the same run without the column
         return round(math.degrees(math.atan2(ax, az)), 9)
-    if column in ("zeta_hat", "p"):
-        if not settings.patterns:
-            raise SceneError(f"scene {settings.name!r} has no active-stress pattern for sweep column {column!r}")
-        return settings.patterns[0]["amplitude" if column == "zeta_hat" else "p"]
+    if column in _PATTERN:
+        # a scene without a prescribed pattern (a myosin ring that forms by itself) has none: null
+        return settings.patterns[0][_PATTERN[column]] if settings.patterns else None
     if column == "model":
         return settings.model
     if column == "remesh":
@@ -210,11 +214,10 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
 def twin_key(row: Mapping) -> tuple[str, str, str]:
     """What identifies a run's axisymmetric twin: its scene, ring amplitude and exponent."""
     settings = load_scene(str(row["scene"])).settings
-    ring = settings.patterns[0] if settings.patterns else {}
     return (
         str(row["scene"]),
-        format_value(row.get("zeta_hat", ring.get("amplitude", 0.0))),
-        format_value(row.get("p", ring.get("p", 0.0))),
+        str(row.get("zeta_hat", format_value(_settings_value(settings, "zeta_hat")))),
+        str(row.get("p", format_value(_settings_value(settings, "p")))),
     )
 
 
@@ -227,9 +230,7 @@ def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str,
         key = twin_key(row)
         if key not in latest:
             try:
-                load_scene(
-                    key[0], [f"active_stress.0.amplitude={key[1]}", f"active_stress.0.p={key[2]}", "model=axisymmetric"]
-                )
+                load_scene(key[0], scene_overrides({"zeta_hat": key[1], "p": key[2], "model": "axisymmetric"}))
             except SceneError:
                 continue
             latest[key] = float(row["t_end"])
@@ -272,6 +273,8 @@ def scene_overrides(row: Mapping) -> list[str]:
             continue
         if col not in PARAMETERS:
             raise SceneError(f"unknown sweep column {col!r}; known: scene, {', '.join(PARAMETERS)}")
+        if col in _PATTERN and value == "null":
+            continue
         if col == "tilt":
             out.append(f"{PARAMETERS[col]}={tilt_axis(float(value))}")
         else:

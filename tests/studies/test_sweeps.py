@@ -16,6 +16,7 @@ from cortex_ti.studies.sweeps import (
     job_resources,
     scene_overrides,
     tilt_axis,
+    twin_key,
 )
 
 
@@ -170,6 +171,32 @@ def test_the_remesh_column_turns_remeshing_off_for_the_axisymmetric_model():
     assert three_d.mesh.remesh is not None and three_d.mesh.remesh.min_angle == 25
     with pytest.raises(SceneError, match="no triangle mesh"):
         expand_runs("constriction", [{"scene": "constriction_p4", "model": "axisymmetric"}])
+
+
+def test_a_scene_without_a_pattern_has_null_pattern_columns_and_its_twin():
+    """myosin_constriction's ring forms by itself: its zeta_hat and p are null (not an error), a null
+    sets nothing (the run is the scene's), a given value still needs a pattern, and its twin key is
+    the same scene's with null pattern columns. A patterned scene given ``zeta_hat: null`` runs its own
+    amplitude, and the row says so."""
+    rows = expand_runs(
+        "constriction",
+        [
+            {"scene": "myosin_constriction", "model": "axisymmetric", "remesh": None},
+            {"scene": "myosin_constriction"},
+            {"scene": "constriction_p4", "zeta_hat": None},
+        ],
+    )
+    assert [(r["model"], r["zeta_hat"], r["p"]) for r in rows] == [
+        ("axisymmetric", "null", "null"),
+        ("3d", "null", "null"),
+        ("3d", "6", "4"),
+    ]
+    assert not any(o.startswith("active_stress") for o in scene_overrides(rows[0]))
+    settings = load_scene("myosin_constriction", scene_overrides(rows[1])).settings
+    assert not settings.patterns and settings.mesh.remesh.min_angle == 25
+    assert twin_key(rows[1]) == twin_key(rows[0]) == ("myosin_constriction", "null", "null")
+    with pytest.raises(SceneError, match="myosin_constriction"):
+        expand_runs("constriction", [{"scene": "myosin_constriction", "zeta_hat": 6}])
 
 
 def test_the_myosin_columns_set_the_seeded_harmonic_the_law_and_the_turnover():
