@@ -52,7 +52,7 @@ FURROWS = [
     "constriction_p4",
 ]
 #: issue 20's scenes: a myosin cortex that organises itself
-MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring"]
+MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
