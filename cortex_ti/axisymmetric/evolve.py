@@ -137,6 +137,12 @@ class _Dynamics:
             _, m = sp.waves["E"]
             zr = _eval_zeta(zeta, np.linspace(0.0, np.pi, 1025))
             self.zeta_range = max(float(zr.max() - zr.min()), 1e-3 * max(1.0, float(np.abs(zr).max())))
+            if myosin is not None:
+                # the myosin's tension is not in ``zeta`` (a uniform or absent pattern, whose range is
+                # the 1e-3 floor): its scale is the law's tension at c0, else the floor would weigh its
+                # gradients a thousandfold and crowd the points (112 s to t = 0.5 for myosin_constriction)
+                base = abs(complex(myosin.tension(np.asarray(float(myosin.c0)))).real)
+                self.zeta_range = max(self.zeta_range, base)
             self.adapt_filter = sp.B["E"] @ (np.exp(-((m * ADAPT_WIDTH) ** 2))[:, None] * sp.Binv["E"])
         if not self.labelled:
             self.zeta_nodes = _eval_zeta(zeta, sp.u)
