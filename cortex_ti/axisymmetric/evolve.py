@@ -141,8 +141,7 @@ class _Dynamics:
                 # the myosin's tension is not in ``zeta`` (a uniform or absent pattern, whose range is
                 # the 1e-3 floor): its scale is the law's tension at c0, else the floor would weigh its
                 # gradients a thousandfold and crowd the points (112 s to t = 0.5 for myosin_constriction)
-                base = abs(complex(myosin.tension(np.asarray(float(myosin.c0)))).real)
-                self.zeta_range = max(self.zeta_range, base)
+                self.zeta_range = max(self.zeta_range, abs(float(myosin.tension(float(myosin.c0)))))
             self.adapt_filter = sp.B["E"] @ (np.exp(-((m * ADAPT_WIDTH) ** 2))[:, None] * sp.Binv["E"])
         if not self.labelled:
             self.zeta_nodes = _eval_zeta(zeta, sp.u)
