@@ -69,6 +69,7 @@ def main(argv=None) -> int:
     from cortex_ti.dynamics.state import State
     from cortex_ti.io.trajectory import Trajectory
     from cortex_ti.simulation import Simulation
+    from cortex_ti.simulation.run import frame_fields
     from cortex_ti.surface.remesh import min_angles
     from cortex_ti.surface.transport import dual_areas
 
@@ -86,10 +87,10 @@ def main(argv=None) -> int:
         for dt in args.dt or [own]:
             sim = Simulation(tr.scene)
             sim.use_mesh(pts, tri)
-            # the fields the frame's nodes carried (a myosin density too), so the tension is the frame's; a
-            # tension glued to the nodes is stored only as the frame's active_stress
-            stored = {n: n if n in tr.ds else "active_stress" for n in sim.state0.fields}
-            sim.state0 = State(pts, {n: tr.nodal(stored[n], k) for n in sim.state0.fields}, tri)
+            # the fields the frame's nodes carried (a myosin density too), so the tension is the frame's
+            stored = {spec.var: tr.nodal(spec.var, k) for spec in sim.fields if spec.var in tr.ds}
+            where = f"{args.trajectory} at frame {k}"
+            sim.state0 = State(pts, frame_fields(sim, stored, tr.nodal("active_stress", k), where), tri)
             sp = normal_spectrum(sim, pts, dt=dt, modes=True, dense=True)
             w, v = np.asarray(sp.eigenvalues), np.asarray(sp.modes)
             phys = sim.physics

@@ -456,18 +456,25 @@ def stored_fields(sim: Simulation) -> list:
     return [spec for spec in specs if not (alone and spec.name == "prescribed_tension")]
 
 
-def resumed_state(sim: Simulation, resume: ResumeState) -> State:
-    """The state of the last complete frame of an interrupted run: its points and every field (a
-    prescribed tension that is the whole tension from ``active_stress``; files written before the
-    fields existed hold only that)."""
+def frame_fields(sim: Simulation, stored: dict, active_stress: np.ndarray, where: str) -> dict:
+    """``sim``'s fields at a stored frame: each from its variable in ``stored`` (variable name ->
+    nodal values), a prescribed tension that is the whole tension from ``active_stress`` (a
+    trajectory stores it only there; files written before the fields existed hold only that)."""
     fields = {}
     for spec in sim.fields:
-        if spec.var in resume.fields:
-            fields[spec.name] = np.asarray(resume.fields[spec.var], dtype=float)
+        if spec.var in stored:
+            fields[spec.name] = np.asarray(stored[spec.var], dtype=float)
         elif spec.name == "prescribed_tension":
-            fields[spec.name] = np.asarray(resume.active_stress, dtype=float)
+            fields[spec.name] = np.asarray(active_stress, dtype=float)
         else:
-            raise CortexError(f"cannot resume {resume.path}: it holds no values of the field {spec.var!r}")
+            raise CortexError(f"{where} holds no values of the field {spec.var!r}")
+    return fields
+
+
+def resumed_state(sim: Simulation, resume: ResumeState) -> State:
+    """The state of the last complete frame of an interrupted run: its points and every field
+    (:func:`frame_fields`)."""
+    fields = frame_fields(sim, resume.fields, resume.active_stress, f"cannot resume {resume.path}: it")
     points = np.asarray(resume.points, dtype=float)
     if resume.segment > 0:  # the run had remeshed: continue on the frame's mesh
         sim.continue_segment(points, resume.triangles, resume.reference, resume.segment)

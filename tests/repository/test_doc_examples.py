@@ -136,26 +136,28 @@ def small(argv: list[str]) -> list[str]:
     return out
 
 
-#: Fixture files already made in this process: name -> its copy in a folder of this session's
-#: (one run per fixture, not one per block that reads it: ``p8.h5`` is read by a dozen blocks).
-_MADE: dict[str, Path] = {}
+class Fixtures:
+    """The fixture runs (:data:`FIXTURES`), each made once per test process in a folder of
+    pytest's and copied into every test folder that reads it (``p8.h5`` is read by a dozen blocks)."""
+
+    def __init__(self, store: Path):
+        self.store = store
+        self.made: dict[str, Path] = {}
+
+    def copy(self, name: str, folder: Path) -> None:
+        if name not in self.made:
+            scene, extra = FIXTURES.get(name, ("furrow_p4_a1", []))
+            final = name[: -len(".partial")] if name.endswith(".partial") else name
+            argv = small(["run", scene, "-o", str(self.store / final)] + [x for o in extra for x in ("--set", o)])
+            res = cortex(argv, self.store)
+            assert res.returncode == 0, f"fixture {name}: {res.stderr}"
+            self.made[name] = self.store / final
+        shutil.copy(self.made[name], folder / name)
 
 
-def make_fixture(name: str, folder: Path) -> None:
-    """``folder / name``, a copy of the fixture run made once per process (:data:`FIXTURES`)."""
-    if name not in _MADE:
-        import atexit
-        import tempfile
-
-        store = Path(tempfile.mkdtemp(prefix="cortex-ti-doc-fixtures-"))
-        atexit.register(shutil.rmtree, store, ignore_errors=True)
-        scene, extra = FIXTURES.get(name, ("furrow_p4_a1", []))
-        final = name[: -len(".partial")] if name.endswith(".partial") else name
-        argv = small(["run", scene, "-o", str(store / final)] + [x for o in extra for x in ("--set", o)])
-        res = cortex(argv, store)
-        assert res.returncode == 0, f"fixture {name}: {res.stderr}"
-        _MADE[name] = store / final
-    shutil.copy(_MADE[name], folder / name)
+@pytest.fixture(scope="session")
+def fixtures(tmp_path_factory) -> Fixtures:
+    return Fixtures(tmp_path_factory.mktemp("doc-fixtures"))
 
 
 def inputs(argv: list[str]) -> list[str]:
@@ -169,10 +171,10 @@ def inputs(argv: list[str]) -> list[str]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("path, lang, text", all_blocks())
-def test_example_runs_as_written(path, lang, text, tmp_path):
+def test_example_runs_as_written(path, lang, text, tmp_path, fixtures):
     if lang == "python":
         for name in sorted(set(re.findall(r"[\"']([\w.-]+\.h5(?:\.partial)?)[\"']", text))):
-            make_fixture(name, tmp_path)
+            fixtures.copy(name, tmp_path)
         compile(text, f"{path.name} example", "exec")  # a syntax error names the page
         # in a fresh interpreter: an example that registers a term or a pattern must not change the
         # registries the other tests of this session see
@@ -195,7 +197,7 @@ def test_example_runs_as_written(path, lang, text, tmp_path):
                 if name.endswith((".yaml", ".yml")):
                     shutil.copy(REPO / "cortex_ti/scene/scenes/furrow_p4_a1.yaml", tmp_path / name)
                 else:
-                    make_fixture(name, tmp_path)
+                    fixtures.copy(name, tmp_path)
         res = cortex(small(argv), tmp_path)
         assert res.returncode == 0, f"{path.name}: `{line.strip()}` failed ({res.returncode}):\n{res.stderr[-2000:]}"
         assert "Traceback" not in res.stderr
