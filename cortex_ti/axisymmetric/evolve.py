@@ -184,9 +184,9 @@ class _Dynamics:
         if self.mode == "adaptive":  # equidistribute h * rho: target spacing (L/pi) rho^-1 / <rho^-1>
             q = self.adaptive_spacing(g)
             target = h0[..., None] * q / (q @ sp.Binv["E"][0])[..., None]
-        elif self.monitor > 0.0:  # equidistribute h * rho: target spacing L rho / <rho> (Sec. 11)
-            rho = self.density(g)
-            target = h0[..., None] * rho / (rho @ sp.Binv["E"][0])[..., None]
+        elif self.monitor > 0.0:  # equidistribute h * rho: target spacing (L/pi) rho^-1 / <rho^-1> (Sec. 11)
+            q = 1.0 / self.density(g)
+            target = h0[..., None] * q / (q @ sp.Binv["E"][0])[..., None]
         else:
             target = h0[..., None]
         rate = ADAPT_RATE if self.mode == "adaptive" else self.relax
