@@ -42,6 +42,7 @@ __all__ = [
     "normal_embedding",
     "STRETCH_LIMIT",
     "first_unresolved",
+    "label_matters",
 ]
 
 ArrayF = np.ndarray
@@ -80,6 +81,17 @@ def first_unresolved(stretch: ArrayF, limit: float = STRETCH_LIMIT) -> int | Non
     (2, None)"""
     bad = np.nonzero(~np.isfinite(stretch) | (np.asarray(stretch) > limit))[0]
     return int(bad[0]) if bad.size else None
+
+
+def label_matters(zeta: ZetaFn) -> bool:
+    """Whether the prescribed tension depends on the material label: not uniform over [0, pi] (to
+    1e-12 of its size). A uniform one (a scene whose only pattern is a myosin's) makes the label a
+    passive marker, whose stretch says nothing about what the run resolves.
+
+    >>> label_matters(lambda t: 1.0 + 0.0 * t), label_matters(lambda t: 1.0 + 0.1 * np.cos(t) ** 2)
+    (False, True)"""
+    zr = _eval_zeta(zeta, np.linspace(0.0, np.pi, 1025))
+    return float(zr.max() - zr.min()) > 1e-12 * max(1.0, float(np.abs(zr).max()))
 
 
 class _ZetaSeries:
@@ -137,6 +149,9 @@ class _Dynamics:
             _, m = sp.waves["E"]
             zr = _eval_zeta(zeta, np.linspace(0.0, np.pi, 1025))
             self.zeta_range = max(float(zr.max() - zr.min()), 1e-3 * max(1.0, float(np.abs(zr).max())))
+            # the stretch term resolves the label because the prescribed tension depends on it; a
+            # uniform one does not (a myosin ring's), and its points need not follow the label
+            self.adapt_stretch = ADAPT_STRETCH if label_matters(zeta) else 0.0
             if myosin is not None:
                 # the myosin's tension is not in ``zeta`` (a uniform or absent pattern, whose range is
                 # the 1e-3 floor): its scale is the law's tension at c0, else the floor would weigh its
@@ -216,7 +231,7 @@ class _Dynamics:
         rho2 = (
             1.0
             + ADAPT_CURVATURE**2 * (g["k1"] ** 2 + g["k2"] ** 2)
-            + ADAPT_STRETCH**2 * gs**2
+            + self.adapt_stretch**2 * gs**2
             + ADAPT_TENSION**2 * zs**2
         )
         q = 1.0 / np.sqrt(rho2)

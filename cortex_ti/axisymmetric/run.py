@@ -29,7 +29,15 @@ from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
-from .evolve import STRETCH_LIMIT, STRETCH_LIMITS, StepFailed, first_unresolved, revolve, simulate
+from .evolve import (
+    STRETCH_LIMIT,
+    STRETCH_LIMITS,
+    StepFailed,
+    first_unresolved,
+    label_matters,
+    revolve,
+    simulate,
+)
 from .myosin import Myosin
 
 log = logging.getLogger(__name__)
@@ -248,9 +256,12 @@ class AxisymmetricRun:
     def _unresolved(self, res) -> int | None:
         """The first frame whose label map this run's points no longer resolve (None: all are, or
         the points carry no label): past its parametrisation's
-        :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMITS`, or folded."""
+        :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMITS`, or folded. A tension that does not
+        depend on the label (a myosin's alone) makes the label a passive marker: None."""
         limit = STRETCH_LIMITS.get(evolution_options(self.settings)["parametrization"])
-        return None if limit is None else first_unresolved(res.stretch, limit)
+        if limit is None or not label_matters(self.zeta):
+            return None
+        return first_unresolved(res.stretch, limit)
 
     def _warn_unresolved(self, res) -> None:
         """One line when the points carry a label map they no longer resolve (:meth:`_unresolved`):

@@ -169,3 +169,18 @@ def test_the_parametrisations_agree_and_keep_the_total():
         assert np.max(np.abs(r.myosin_total / r.myosin_total[0] - 1.0)) < 1e-13
         assert abs(r.furrow_radius[-1] - ref.furrow_radius[-1]) < 1e-10
         np.testing.assert_allclose(r.evaluate(1, th)["c"], ref.evaluate(1, th)["c"], rtol=0, atol=1e-8)
+
+
+def test_a_label_the_tension_does_not_read_is_never_unresolved():
+    """A myosin ring's prescribed tension is uniform, so the material label is a passive marker:
+    its stretch (inf: folded) does not mark frames unresolved, while a glued ring's does (its
+    tension is a function of the label)."""
+    from types import SimpleNamespace
+
+    from cortex_ti.axisymmetric.run import AxisymmetricRun
+    from cortex_ti.scene import load_scene
+
+    stretched = SimpleNamespace(stretch=np.array([1.0, 250.0, np.inf]))
+    arclength = ["model=axisymmetric", "mesh.remesh.min_angle=null", "axisymmetric.points=arclength"]
+    assert AxisymmetricRun(load_scene("myosin_constriction", arclength))._unresolved(stretched) is None
+    assert AxisymmetricRun(load_scene("constriction_p4", arclength))._unresolved(stretched) == 1
