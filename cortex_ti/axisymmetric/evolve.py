@@ -311,7 +311,10 @@ class SimulationResult:
     smallest interior local minimum of r; inf without one), ``bending_margin`` (the smallest over
     the nodes of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C``, i = 1, 2: the bending-viscosity
     normal force damps short waves only while it is > 0, derivation Sec. 12; nan without bending
-    viscosity). With a myosin field: ``c`` its density at the nodes (c0 units) and
+    viscosity), ``min_stress`` (the smallest principal in-plane stress over the nodes, tension plus
+    viscous, as the 3D code's ``surface_stress``: below 0 the cortex is compressed, and without
+    bending resistance its short waves grow the faster the shorter, so the run stops converging in
+    n). With a myosin field: ``c`` its density at the nodes (c0 units) and
     ``myosin_total`` the amount ``oint c dA`` (None without). ``stopped``: ``'t_end'``, or what
     ended the run early and when (``stop_neck`` reached, or the model ill-posed:
     ``stop_ill_posed``).
@@ -339,6 +342,7 @@ class SimulationResult:
     grid_stretch: ArrayF
     neck_radius: ArrayF
     bending_margin: ArrayF
+    min_stress: ArrayF
     wall_time: float
     n_rhs: int
     n_steps: int
@@ -370,6 +374,22 @@ class SimulationResult:
             fp = 1.0 + sp.evaluate("O", du, sig, 1)
             sig = np.clip(sig - f / fp, 0.0, np.pi)
         return sig
+
+    def principal_stress(self, i: int, sigma: ArrayF | None = None) -> ArrayF:
+        """The principal in-plane stresses ``(len(sigma), 2)`` (meridional, azimuthal) at saved
+        time index ``i`` and computational parameters ``sigma`` (default 512 points over the
+        meridian): the tension plus the viscous stress ``2 eta_s e + (eta_b - eta_s) tr(e)``, the
+        strain rates ``e_ss = d v_s / ds + k1 v_n``, ``e_phiphi = v_r / r`` (the 3D code's
+        ``surface_stress`` on each triangle; derivation, Sec. 14)."""
+        sp, st = self._spectral, self._states[i]
+        sig = _MARGIN_GRID if sigma is None else np.asarray(sigma, dtype=float)
+        e = self.evaluate(i, sig, coordinate="sigma")
+        h = np.hypot(sp.evaluate("R", st["r"], sig, 1), sp.evaluate("Z", st["z"], sig, 1))
+        ess = sp.evaluate("O", st["v_s"], sig, 1) / h + e["k1"] * e["v_n"]
+        epp = np.where(e["r"] > 1e-12, e["v_r"] / np.where(e["r"] > 1e-12, e["r"], 1.0), ess)  # the poles: isotropic
+        es, eb = self.params["eta_s"], self.params["eta_b"]
+        base = e["zeta"] + (eb - es) * (ess + epp)
+        return np.stack([base + 2.0 * es * ess, base + 2.0 * es * epp], axis=-1)
 
     def evaluate(self, i: int, u: ArrayF, *, coordinate: str = "label") -> dict:
         """Curve and fields at arbitrary parameter values at saved time index ``i``.
@@ -989,7 +1009,7 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
     def series(key):
         return np.array([d[key] for d in diags])
 
-    return SimulationResult(
+    out = SimulationResult(
         t=np.array([s[0] for s in saved]),
         u=stack("u", -1, np.pi),
         r=stack("r", 1),
@@ -1010,6 +1030,7 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         grid_stretch=series("grid_stretch"),
         neck_radius=series("neck_radius"),
         bending_margin=series("bending_margin"),
+        min_stress=np.full(len(saved), np.nan),
         c=stack("c", 1) if dyn.myosin is not None else None,
         myosin_total=series("myosin_total") if dyn.myosin is not None else None,
         **stats,
@@ -1019,3 +1040,5 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         _zeta_fn=dyn.zeta_fn,
         _myosin=dyn.myosin,
     )
+    out.min_stress = np.array([float(np.min(out.principal_stress(i))) for i in range(len(out.t))])
+    return out

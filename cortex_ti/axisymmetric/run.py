@@ -72,6 +72,14 @@ MATERIAL_STRETCH_ATTRS = {
     "description": f"inf once the label map has folded; above {STRETCH_LIMIT:g} arc-length points do not resolve it "
     "(the neck radius stops converging in axisymmetric.n, docs/validation/constriction.md)",
 }
+#: A dynamic run's smallest principal in-plane stress per frame (:meth:`SimulationResult.principal_stress
+#: <cortex_ti.axisymmetric.evolve.SimulationResult.principal_stress>`).
+MIN_STRESS_ATTRS = {
+    "units": "zeta_0",
+    "long_name": "smallest principal in-plane stress over the meridian (tension plus viscous)",
+    "description": "below 0 the cortex is compressed: without bending resistance its short waves grow, and the "
+    "run stops converging in axisymmetric.n (docs/validation/constriction.md)",
+}
 #: Whether the frame's label map is resolved by the run's points (1) or not (0, from the first
 #: frame past its parametrisation's limit on; the study leaves such frames out of comparisons).
 LABEL_RESOLVED_ATTRS = {
@@ -245,10 +253,12 @@ class AxisymmetricRun:
         except StepFailed as exc:
             self.result = exc.result  # its frames are written, then the run fails (run)
             self._warn_unresolved(exc.result)
+            self._warn_compressed(exc.result)
             return exc.result
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         self._warn_unresolved(res)
+        self._warn_compressed(res)
         if res.stopped != "t_end":
             log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
         return res
@@ -276,6 +286,23 @@ class AxisymmetricRun:
                 res.furrow_radius[k],
                 evolution_options(self.settings)["parametrization"],
                 "folded" if not np.isfinite(res.stretch[k]) else f"stretched {res.stretch[k]:.3g} > {STRETCH_LIMIT:g}",
+            )
+
+    def _warn_compressed(self, res) -> None:
+        """One line when the cortex turns compressive without bending resistance: its short waves
+        then grow the faster the shorter, so the frames after it stop converging in n
+        (docs/validation/constriction.md, "Where the model ends")."""
+        bad = np.flatnonzero(np.asarray(res.min_stress) < 0.0)
+        if bad.size and not self.settings.has("bending_viscosity"):
+            k = int(bad[0])
+            log.warning(
+                "%s (axisymmetric): from t = %.4g (neck %.4g R0) the cortex is compressed (smallest principal "
+                "stress %.3g): without bending resistance its short waves grow, and the frames after it are "
+                "not converged in axisymmetric.n",
+                self.settings.name,
+                res.t[k],
+                res.neck_radius[k] if np.isfinite(res.neck_radius[k]) else res.furrow_radius[k],
+                res.min_stress[k],
             )
 
     # ------------------------------------------------------------------------------- writing
@@ -367,6 +394,7 @@ class AxisymmetricRun:
             out["dt"] = (("time",), {"units": "t_a", "long_name": "time between frames (the Radau steps are adaptive)"})
             out["material_stretch"] = (("time",), MATERIAL_STRETCH_ATTRS)
             out["label_resolved"] = (("time",), LABEL_RESOLVED_ATTRS)
+            out["min_stress"] = (("time",), MIN_STRESS_ATTRS)
         return out
 
     def _static_frames(self):
@@ -423,7 +451,15 @@ class AxisymmetricRun:
             dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
             resolved = float(unresolved is None or i < unresolved)
             frame = self._frame(e, pressure, exact, dt=dt)
-            yield float(t), {**frame, "material_stretch": float(res.stretch[i]), "label_resolved": resolved}
+            yield (
+                float(t),
+                {
+                    **frame,
+                    "material_stretch": float(res.stretch[i]),
+                    "label_resolved": resolved,
+                    "min_stress": float(res.min_stress[i]),
+                },
+            )
 
     def _frame(self, e: dict, pressure: float, exact: dict, dt) -> dict:
         """One frame: the meridian values ``e`` revolved about z, with the diagnostics."""
