@@ -162,12 +162,13 @@ class Simulation:
 
     def _judge_new_mesh(self, points: np.ndarray, faces: np.ndarray) -> float:
         """Set the triggers a new mesh is remeshed by: a mesh that misses a trigger itself would be
-        remeshed at every step, so its own triggers are RETRIGGER times its smallest angle and
+        remeshed at every step, so its own triggers are RETRIGGER times its smallest angle (only if it
+        is below min_angle: a mesh above it keeps min_angle) and
         COARSE_RETRIGGER times its coarseness (said in the log; the run's min_angle_deg shows it).
         Returns its smallest angle."""
         rem = self.settings.mesh.remesh
         after = float(min_angles(points, faces).min())
-        self.remesh_below = min(rem.min_angle, RETRIGGER * after)
+        self.remesh_below = rem.min_angle if after >= rem.min_angle else RETRIGGER * after
         if self.coarse_below is not None:
             own = self._coarseness(State(points, {}, faces), now=True)
             self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)

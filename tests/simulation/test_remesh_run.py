@@ -234,3 +234,32 @@ def test_a_remeshing_run_keeps_the_amount_and_resumes(tmp_path):
     hausd = 0.05 * sim.remesh_options.h_max
     for name in ("furrow_radius", "pole_radius"):
         assert np.abs(a[name].values - b[name].values).max() < hausd
+
+
+def test_a_new_mesh_at_or_above_the_trigger_keeps_it():
+    """After a remeshing the trigger stays at mesh.remesh.min_angle for a new mesh that meets it
+    (before 2026-12-03 any new mesh under min_angle / 0.9 lowered it to 0.9 times its own smallest
+    angle, so a 25.3 deg mesh was next remeshed at 22.8); only a new mesh below min_angle, which
+    would otherwise be remeshed at every step, gets 0.9 times its own."""
+    sim = Simulation(load_scene("furrow_p4_a1", [*RUN, "mesh.nodes=642", "time.t_end=0.1"]))
+    trigger = sim.settings.mesh.remesh.min_angle  # 40
+    pts, faces = sim.state0.points, sim.state0.faces
+
+    def squeezed(amount):
+        p = pts.copy()
+        p[:, :2] *= (1.0 - amount * np.exp(-((p[:, 2] / 0.3) ** 2)))[:, None]
+        return p
+
+    lo, hi = 0.0, 0.6  # the squeeze whose smallest angle is 42 deg, between the trigger and trigger / 0.9
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if min_angles(squeezed(mid), faces).min() > 42.0 else (lo, mid)
+    near = squeezed(lo)
+    assert trigger <= min_angles(near, faces).min() < trigger / 0.9
+    sim._judge_new_mesh(near, faces)
+    assert sim.remesh_below == trigger
+    bad = squeezed(0.6)
+    worst = float(min_angles(bad, faces).min())
+    assert worst < trigger
+    sim._judge_new_mesh(bad, faces)
+    assert sim.remesh_below == pytest.approx(0.9 * worst)
