@@ -43,11 +43,11 @@ SIZINGS = {
     "curvature": [
         "mesh.remesh.size=curvature",
         "mesh.remesh.coarser=null",
-    ],  # h = clip(0.25 / kappa, 0.01, mean edge): before issue 18's budget
+    ],  # h = clip(0.25 / kappa, h_min, mean edge): before issue 18's budget
     "budget": [
         "mesh.remesh.size=budget",
         "mesh.remesh.coarser=null",
-    ],  # h = clip(s / kappa, 0.01, 3 mean edges), s keeping the node count
+    ],  # h = clip(s / kappa, h_min, 3 mean edges), s keeping the node count (h_min: mean edge / 7.5)
     "budget+coarser": ["mesh.remesh.size=budget", "mesh.remesh.coarser=1.5"],  # and on resolution
     # h within 2 % of the initial mean edge {h} everywhere: no curvature sizing at all
     "uniform": [

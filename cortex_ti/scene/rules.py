@@ -114,7 +114,7 @@ def _check_remesh(data: dict) -> None:
             f"mesh.remesh.nodes = {fmt_value(rem['nodes'])} is a node budget: it needs mesh.remesh.size = budget "
             f"(not {rem['size']})"
         )
-    if rem.get("h_max") is not None and rem["h_max"] <= rem["h_min"]:
+    if rem.get("h_max") is not None and rem.get("h_min") is not None and rem["h_max"] <= rem["h_min"]:
         raise SceneError(
             f"mesh.remesh.h_max = {fmt_value(rem['h_max'])} must be larger than mesh.remesh.h_min = "
             f"{fmt_value(rem['h_min'])}"

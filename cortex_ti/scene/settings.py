@@ -322,7 +322,7 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
 
     options = RemeshOptions(
         edge_angle=float(data["edge_angle"]),
-        h_min=float(data["h_min"]),
+        h_min=opt("h_min"),
         h_max=opt("h_max"),
         hausd=opt("hausd"),
         hgrad=float(data["hgrad"]),

@@ -31,6 +31,7 @@ from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
+    H_MIN_DIVISOR,
     REMESH_EXTRA_HINT,
     budget_scale,
     closest_points,
@@ -131,12 +132,14 @@ class Simulation:
             if not remesh_available():
                 raise CortexError(f"scene '{self.settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
+            h_min = rem.options.h_min or mean / H_MIN_DIVISOR
             if rem.size == "budget":  # the run keeps its node count; the flat parts may coarsen 3-fold
                 nodes = rem.options.nodes or self.mesh.n_nodes
                 h_max = rem.options.h_max or BUDGET_H_MAX * mean
-                self.remesh_options = dataclasses.replace(rem.options, h_max=h_max, nodes=nodes)
+                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=nodes)
             else:
-                self.remesh_options = dataclasses.replace(rem.options, h_max=rem.options.h_max or mean, nodes=None)
+                h_max = rem.options.h_max or mean
+                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=None)
         self.coarse_below = None if rem is None else rem.coarser  # the resolution trigger for the current mesh
         self._checks = 0  # accepted steps since the last check of the resolution
 

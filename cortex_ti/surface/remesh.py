@@ -74,6 +74,13 @@ def remesh_available() -> bool:
     return True
 
 
+#: ``RemeshOptions.h_min`` None: the smallest target edge length is the mean edge length divided by
+#: this (a run takes its initial mesh's: 0.01 at 2562 nodes). A fixed floor held a 10242-node neck at
+#: the 2562-node one's edges, and its convergence order fell below 1
+#: (docs/validation/remesh_constriction.md).
+H_MIN_DIVISOR = 7.5
+
+
 @dataclass(frozen=True)
 class RemeshOptions:
     """How to remesh (lengths in units of R0).
@@ -81,7 +88,8 @@ class RemeshOptions:
     ``edge_angle``: the angle (rad) a new edge subtends on a circle of the local curvature (the
     scale ``s`` of the size field without a budget); ``nodes``: the node budget (None: none, the
     scale is ``edge_angle``; else the scale is chosen so that the new mesh has about this many
-    nodes, :func:`budget_scale`); ``h_min``/``h_max``: bounds of the target edge length (``h_max``
+    nodes, :func:`budget_scale`); ``h_min``/``h_max``: bounds of the target edge length (``h_min``
+    None: that mean edge length divided by :data:`H_MIN_DIVISOR`; ``h_max``
     None: the mean edge length of the mesh being remeshed); ``hausd``: the largest distance of the
     new nodes from the old surface (None: ``max(0.05, 0.15 s) h_max``, looser than the sagitta
     ``h^2 kappa / 8 <= s h_max / 8`` of the size field, so that the size field decides); ``hgrad``:
@@ -90,7 +98,7 @@ class RemeshOptions:
     """
 
     edge_angle: float = 0.25
-    h_min: float = 0.01
+    h_min: float | None = None
     h_max: float | None = None
     hausd: float | None = None
     hgrad: float = 1.3
@@ -565,15 +573,17 @@ def remesh(
     points = np.ascontiguousarray(points, dtype=np.float64)
     faces = np.ascontiguousarray(faces, dtype=np.int32)
     target = enclosed_volume(points, faces) if volume is None else float(volume)
-    h_max = mean_edge_length(points, faces) if options.h_max is None else float(options.h_max)
+    mean = mean_edge_length(points, faces)
+    h_max = mean if options.h_max is None else float(options.h_max)
+    h_min = mean / H_MIN_DIVISOR if options.h_min is None else float(options.h_min)
     kappa = edge_curvature(points, faces)
     area = dual_areas(points, faces)
     scale = options.edge_angle
     if options.nodes is not None:
-        scale = budget_scale(points, faces, options.nodes, options.h_min, h_max, options.hgrad, kappa)
+        scale = budget_scale(points, faces, options.nodes, h_min, h_max, options.hgrad, kappa)
 
     def mmg(scale):
-        h = grade(points, faces, sizes(kappa, scale, options.h_min, h_max), options.hgrad)
+        h = grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
         hausd = options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
         mesh = MmgMeshS(points, faces)
         mesh.set_field("metric", h[:, None])

@@ -216,7 +216,7 @@ def test_defaults_and_canonical_numbers():
             "nodes": None,
             "coarser": None,
             "edge_angle": 0.25,
-            "h_min": 0.01,
+            "h_min": None,
             "h_max": None,
             "hausd": None,
             "hgrad": 1.3,

@@ -57,7 +57,7 @@ BAD = {
         ["mesh.remesh.quality", "above mesh.remesh.min_angle"],
     ),
     "h_max below h_min": (
-        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.h_max=0.005"],
+        ["--set", "mesh.remesh.min_angle=25", "--set", "mesh.remesh.h_min=0.01", "--set", "mesh.remesh.h_max=0.005"],
         ["mesh.remesh.h_max", "mesh.remesh.h_min"],
     ),
     "budget below 12 nodes": (
@@ -263,3 +263,19 @@ def test_a_new_mesh_at_or_above_the_trigger_keeps_it():
     assert worst < trigger
     sim._judge_new_mesh(bad, faces)
     assert sim.remesh_below == pytest.approx(0.9 * worst)
+
+
+def test_the_edge_floor_refines_with_the_mesh():
+    """Without mesh.remesh.h_min the smallest target edge follows the initial mesh's edges (a fixed
+    0.01 held a 10242-node neck at the 2562-node one's edges, where the neck's order fell to 0.8:
+    docs/validation/remesh_constriction.md): it halves when the edges halve, is 0.01 at 2562 nodes
+    to 1 %, and a given h_min is kept."""
+    floors = {}
+    for nodes in (642, 2562):
+        sim = Simulation(load_scene("constriction_p4", [f"mesh.nodes={nodes}"]))
+        floors[nodes] = sim.remesh_options.h_min
+        assert floors[nodes] < sim.remesh_options.h_max
+    assert floors[2562] / floors[642] == pytest.approx(0.5, rel=0.01)
+    assert floors[2562] == pytest.approx(0.01, rel=0.01)
+    given = Simulation(load_scene("constriction_p4", ["mesh.nodes=642", "mesh.remesh.h_min=0.02"]))
+    assert given.remesh_options.h_min == 0.02
