@@ -311,7 +311,8 @@ class SimulationResult:
     smallest interior local minimum of r; inf without one), ``bending_margin`` (the smallest over
     the nodes of ``2 eta_bar k_i + (eta_bar_b - eta_bar) C``, i = 1, 2: the bending-viscosity
     normal force damps short waves only while it is > 0, derivation Sec. 12; nan without bending
-    viscosity), ``min_stress`` (the smallest principal in-plane stress over the nodes, tension plus
+    viscosity), ``min_stress`` (the smallest principal in-plane stress along the meridian,
+    :meth:`principal_stress` on 512 points, tension plus
     viscous, as the 3D code's ``surface_stress``: below 0 the cortex is compressed, and without
     bending resistance its short waves grow the faster the shorter, so the run stops converging in
     n). With a myosin field: ``c`` its density at the nodes (c0 units) and
