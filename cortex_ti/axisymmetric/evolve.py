@@ -15,6 +15,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import scipy.linalg as sla
@@ -343,7 +344,6 @@ class SimulationResult:
     grid_stretch: ArrayF
     neck_radius: ArrayF
     bending_margin: ArrayF
-    min_stress: ArrayF
     wall_time: float
     n_rhs: int
     n_steps: int
@@ -375,6 +375,12 @@ class SimulationResult:
             fp = 1.0 + sp.evaluate("O", du, sig, 1)
             sig = np.clip(sig - f / fp, 0.0, np.pi)
         return sig
+
+    @cached_property
+    def min_stress(self) -> ArrayF:
+        """Per saved time, the smallest principal in-plane stress along the meridian
+        (:meth:`principal_stress` on its default 512 points)."""
+        return np.array([float(np.min(self.principal_stress(i))) for i in range(len(self.t))])
 
     def principal_stress(self, i: int, sigma: ArrayF | None = None) -> ArrayF:
         """The principal in-plane stresses ``(len(sigma), 2)`` (meridional, azimuthal) at saved
@@ -1010,7 +1016,7 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
     def series(key):
         return np.array([d[key] for d in diags])
 
-    out = SimulationResult(
+    return SimulationResult(
         t=np.array([s[0] for s in saved]),
         u=stack("u", -1, np.pi),
         r=stack("r", 1),
@@ -1031,7 +1037,6 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         grid_stretch=series("grid_stretch"),
         neck_radius=series("neck_radius"),
         bending_margin=series("bending_margin"),
-        min_stress=np.full(len(saved), np.nan),
         c=stack("c", 1) if dyn.myosin is not None else None,
         myosin_total=series("myosin_total") if dyn.myosin is not None else None,
         **stats,
@@ -1041,5 +1046,3 @@ def _result(dyn, saved, R: float, stats: dict, params: dict) -> SimulationResult
         _zeta_fn=dyn.zeta_fn,
         _myosin=dyn.myosin,
     )
-    out.min_stress = np.array([float(np.min(out.principal_stress(i))) for i in range(len(out.t))])
-    return out
