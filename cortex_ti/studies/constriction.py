@@ -173,16 +173,14 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
             n = int(ds["nodes"].values[i])
             marker = marker_of.setdefault(n, "osD^v"[len(marker_of) % 5])
             ax.plot(t[::every], v[::every], marker, ms=3, mfc="none", color=colour[ring], label=once(f"3D N={n}"))
-    for ax, runs in ((a0, [i for i in range(ds.sizes["run"]) if i not in own]), (axes[1], own)):
-        three_d = [float(ds["t_end"].values[i]) for i in runs if i not in _axisymmetric(ds)]
-        if three_d and ax is a0:  # the axisymmetric threshold runs go on much longer: show the 3D runs' span
-            ax.set_xlim(0.0, max(three_d))
+    three_d = [float(ds["t_end"].values[i]) for i in range(ds.sizes["run"]) if i not in own + _axisymmetric(ds)]
+    if three_d:  # the axisymmetric threshold runs go on much longer: show the 3D runs' span
+        a0.set_xlim(0.0, max(three_d))
+    for ax in axes[:-1]:  # the neck against time: the prescribed rings, and the myosin rings if any
         ax.set_xlabel(r"$t / t_a$")
         ax.set_ylabel(r"neck radius / $R_0$")
         ax.set_ylim(0.0, 1.05)
         ax.legend(fontsize=6)
-        if not own:
-            break
     a0.set_title("prescribed rings", fontsize=9)
     if own:
         axes[1].set_title("myosin rings that form by themselves", fontsize=9)

@@ -28,13 +28,11 @@ from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, fold_radii, nec
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
 from .registry import STUDIES
+from .sweeps import PATTERN_COLUMNS
 
 __all__ = ["study_dataset", "cost_dataset", "run_label", "short_labels", "trajectory_deviation", "twin_deviation"]
 
 _TIME_DECIMALS = 9
-
-#: Numeric sweep columns whose ``null`` (the scene has no pattern) the store keeps as nan.
-_NULLABLE = ("zeta_hat", "p")
 
 
 def _number(text: str):
@@ -190,7 +188,7 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
         values = [_number(r[col]) for r in rows]
         if all(isinstance(v, (int, float)) for v in values):
             values = np.asarray(values)
-        elif all(isinstance(v, (int, float)) or v == "null" for v in values) and col in _NULLABLE:
+        elif all(isinstance(v, (int, float)) or v == "null" for v in values) and col in PATTERN_COLUMNS:
             # a pattern column of a scene without a pattern (a myosin ring) is null: nan keeps it numeric
             values = np.asarray([math.nan if v == "null" else float(v) for v in values])
         else:

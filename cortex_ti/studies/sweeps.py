@@ -58,6 +58,7 @@ from .registry import STUDIES
 
 __all__ = [
     "PARAMETERS",
+    "PATTERN_COLUMNS",
     "expand_runs",
     "twin_rows",
     "twin_key",
@@ -92,8 +93,9 @@ PARAMETERS: dict[str, str] = {
 }
 
 #: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
-#: without a pattern has them ``null``, and a ``null`` sets nothing (:func:`scene_overrides`).
-_PATTERN = {"zeta_hat": "amplitude", "p": "p"}
+#: without a pattern has them ``null``, and a ``null`` sets nothing (:func:`scene_overrides`); the
+#: stores keep it as nan.
+PATTERN_COLUMNS = {"zeta_hat": "amplitude", "p": "p"}
 
 #: The columns read from the scene's myosin field: column -> path inside ``fields.myosin``.
 _MYOSIN = {
@@ -143,9 +145,9 @@ def _settings_value(settings, column: str):
         # rounded: the axis is stored to 15 digits (tilt_axis), so 45 must not come back as
         # 44.999999999999964 and name another folder than the same run without the column
         return round(math.degrees(math.atan2(ax, az)), 9)
-    if column in _PATTERN:
+    if column in PATTERN_COLUMNS:
         # a scene without a prescribed pattern (a myosin ring that forms by itself) has none: null
-        return settings.patterns[0][_PATTERN[column]] if settings.patterns else None
+        return settings.patterns[0][PATTERN_COLUMNS[column]] if settings.patterns else None
     if column == "model":
         return settings.model
     if column == "remesh":
@@ -273,7 +275,7 @@ def scene_overrides(row: Mapping) -> list[str]:
             continue
         if col not in PARAMETERS:
             raise SceneError(f"unknown sweep column {col!r}; known: scene, {', '.join(PARAMETERS)}")
-        if col in _PATTERN and value == "null":
+        if col in PATTERN_COLUMNS and value == "null":
             continue
         if col == "tilt":
             out.append(f"{PARAMETERS[col]}={tilt_axis(float(value))}")
