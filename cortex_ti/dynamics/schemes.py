@@ -395,11 +395,14 @@ class BDF2(Scheme):
 
     @classmethod
     def implicit_tension(cls, setting, formulation: str = "rayleigh_p1") -> bool:
-        """``auto``: on with ``rayleigh_p1``, the one formulation with the tension centred on a rate;
-        with ``paper`` the scheme runs explicit (extrapolated BDF2, the step then also bounded by the
-        explicit limit through the error estimate). ``true`` with ``paper`` is refused by the scene rules."""
+        """``auto``: on with the formulations that have the tension centred on a rate (``rayleigh_p1``,
+        ``rayleigh_p2``); with ``paper`` the scheme runs explicit (extrapolated BDF2, the step then also
+        bounded by the explicit limit through the error estimate). ``true`` with ``paper`` is refused by
+        the scene rules."""
         if setting == "auto":
-            return formulation == "rayleigh_p1"
+            from ..physics.formulations import FORMULATIONS
+
+            return FORMULATIONS[formulation].centred_implicit
         return bool(setting)
 
     def __init__(

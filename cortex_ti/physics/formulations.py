@@ -14,6 +14,9 @@ its geometry needs the fit residuals.
   velocities integrated exactly over the flat triangles (:mod:`cortex_ti.physics.galerkin`):
   symmetric positive semidefinite, the active force the exact gradient of the discrete energy,
   so no spurious mode can grow; second order.
+* ``rayleigh_p2``: the same Rayleighian on curved six-node cells with quadratic velocities whose
+  normal part goes along the fitted surface's normal (:mod:`cortex_ti.physics.galerkin_p2`):
+  symmetric positive semidefinite as well; third order.
 
 Every term of :mod:`cortex_ti.physics.terms` says what it adds to each formulation in a method
 named after it (``paper``, ``rayleigh_p1``); a new formulation names its method there.
@@ -49,6 +52,8 @@ class Formulation:
     build: Callable  # (geometry, physics, zeta, faces, numerics, dt, implicit_rate) -> system
     keys: tuple[str, ...]  # the numerics keys only this formulation reads
     uses_fit_residual: Callable = staticmethod(lambda numerics: False)
+    #: it has the semi-implicit tension centred on the last step's rate (what ``bdf2`` needs)
+    centred_implicit: bool = False
 
     def system(
         self,
@@ -89,6 +94,12 @@ def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt, implicit_rate=Non
     )
 
 
+def _rayleigh_p2(geometry, physics, zeta, faces, numerics, dt, implicit_rate=None):
+    from .galerkin_p2 import assemble_p2
+
+    return assemble_p2(geometry, physics, zeta, faces, implicit_dt=dt, implicit_rate=implicit_rate)
+
+
 #: name -> :class:`Formulation`
 FORMULATIONS: dict[str, Formulation] = {
     "paper": Formulation(
@@ -106,6 +117,15 @@ FORMULATIONS: dict[str, Formulation] = {
         "exactly on the flat triangles: symmetric positive semidefinite, no growing spurious modes; second order",
         _rayleigh_p1,
         keys=("pressure_weights", "active_force"),
+        centred_implicit=True,
+    ),
+    "rayleigh_p2": Formulation(
+        "rayleigh_p2",
+        "the same Rayleighian on curved six-node cells (midpoints on the fitted surface) with quadratic "
+        "velocities, the normal speed along the smooth normal: symmetric positive semidefinite; third order",
+        _rayleigh_p2,
+        keys=(),
+        centred_implicit=True,
     ),
 }
 

@@ -56,6 +56,7 @@ from .terms.constraints import PRESSURE_WEIGHTS
 __all__ = [
     "PRESSURE_WEIGHTS",
     "assemble_p1",
+    "block_pattern",
     "normal_blocks",
     "normal_form_force",
     "triangle_gradients",
@@ -64,13 +65,15 @@ __all__ = [
 
 
 class _Pattern:
-    """CSR structure of a (3N, 3N) matrix assembled from per-triangle 9x9 blocks and the
-    position of every block entry in its data array (the connectivity is fixed over a run)."""
+    """CSR structure of a (3N, 3N) matrix assembled from per-cell blocks (9x9 for a triangle's
+    three nodes, 18x18 for a curved cell's six) and the position of every block entry in its data
+    array (the connectivity is fixed over a run)."""
 
     def __init__(self, faces: np.ndarray, n_nodes: int):
-        dof = (faces[:, :, None] * 3 + np.arange(3)[None, None, :]).reshape(-1, 9)
-        rows = np.broadcast_to(dof[:, :, None], (len(faces), 9, 9)).ravel()
-        cols = np.broadcast_to(dof[:, None, :], (len(faces), 9, 9)).ravel()
+        k = 3 * faces.shape[1]
+        dof = (faces[:, :, None] * 3 + np.arange(3)[None, None, :]).reshape(-1, k)
+        rows = np.broadcast_to(dof[:, :, None], (len(faces), k, k)).ravel()
+        cols = np.broadcast_to(dof[:, None, :], (len(faces), k, k)).ravel()
         size = 3 * n_nodes
         key = rows.astype(np.int64) * size + cols
         uniq, self.position = np.unique(key, return_inverse=True)
@@ -88,7 +91,7 @@ class _Pattern:
 _PATTERNS: dict = {}
 
 
-def _pattern(faces: np.ndarray, n_nodes: int) -> _Pattern:
+def block_pattern(faces: np.ndarray, n_nodes: int) -> _Pattern:
     """The block pattern of a connectivity, computed once (a few kept)."""
     return per_connectivity(_PATTERNS, faces, n_nodes, lambda: _Pattern(faces, n_nodes), keep=8)
 
@@ -225,7 +228,7 @@ def assemble_p1(
     for term in terms:
         term.rayleigh_p1(ctx)
 
-    pattern = _pattern(faces, n)
+    pattern = block_pattern(faces, n)
     local = viscous_blocks(area, tnormal, grads, ctx.shear, ctx.bulk)
     if ctx.normal_form is not None:
         local = local + normal_blocks(geometry, faces, ctx.normal_form, tnormal, grads, area)

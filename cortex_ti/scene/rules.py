@@ -225,10 +225,10 @@ def _check_multistep(data: dict) -> None:
     if time.get("scheme") != "bdf2" or data.get("model", "3d") != "3d" or "shape_evolution" not in data["effects"]:
         return
     formulation = data["numerics"]["formulation"]
-    if formulation != "rayleigh_p1" and time.get("implicit_tension") is True:
+    if not FORMULATIONS[formulation].centred_implicit and time.get("implicit_tension") is True:
         raise SceneError(
             f"time.scheme = bdf2 with time.implicit_tension = true centres the semi-implicit tension on the last "
-            f"step's rate, which only numerics.formulation = rayleigh_p1 implements (not {formulation}): use "
+            f"step's rate, which numerics.formulation = {formulation} does not implement: use "
             "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]

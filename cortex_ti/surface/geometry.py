@@ -259,6 +259,11 @@ class Geometry:
     height_fit: np.ndarray  # (N, 5) fitted derivatives of the height over the tangent plane
     fit_residual: np.ndarray | None = None  # (N, S, S) I - D F: what the local fit leaves unexplained
     ring: np.ndarray | None = None  # (N, max valence) one-ring, padded with -1
+    #: (N, P) every fitted coefficient of the height over the node's (e_xi, e_eta) plane, Taylor-normalised
+    #: (``h = sum_t c_t xi^a eta^b / (a! b!)``, ``(a, b) = fit_powers[t]``): the whole local patch, whose
+    #: first five are ``height_fit``; the curved cells (:mod:`cortex_ti.surface.curved`) evaluate it
+    height_poly: np.ndarray | None = None
+    fit_powers: np.ndarray | None = None  # (P, 2) int
     _edge: np.ndarray | None = None
 
     @property
@@ -382,6 +387,8 @@ def compute_geometry(
     )
     _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
     return Geometry(
+        height_poly=_height_poly(x, stencil, ssize, frame, fit_full, scale, powers),
+        fit_powers=powers,
         points=x,
         frame=frame,
         area=area,
@@ -394,6 +401,16 @@ def compute_geometry(
         fit_residual=_fit_residual(design, fit_full, ssize) if residual else None,
         **arrays,
     )
+
+
+def _height_poly(x, stencil, ssize, frame, fit_full, scale, powers) -> np.ndarray:
+    """(N, P): the fit operator applied to the stencil heights over each node's tangent plane, in
+    unscaled coordinates (all the fitted coefficients, not only the five of ``height_fit``)."""
+    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
+    d = x[np.where(valid, stencil, 0)] - x[:, None, :]
+    h = np.where(valid, np.einsum("nsc,nc->ns", d, frame[:, 2]), 0.0)
+    degree = powers.sum(axis=1)
+    return np.einsum("nps,ns->np", fit_full, h) / scale[:, None] ** degree[None, :]
 
 
 def _fit_residual(design: np.ndarray, fit_full: np.ndarray, ssize: np.ndarray) -> np.ndarray:

@@ -5,7 +5,7 @@ class that says what it adds to every formulation, and both assemblies loop over
   says nothing about a formulation, or an effect no term of the formulation implements, is one
   :class:`~cortex_ti.errors.SolverError` naming it;
 * a term written once in a test (a uniform surface tension ``gamma``, both methods in one class)
-  changes both formulations as Laplace's law says: on the sphere it raises the pressure by
+  changes every formulation as Laplace's law says: on the sphere it raises the pressure by
   ``2 gamma / R`` and leaves the flow unchanged, up to discretisation errors that fall with the
   mesh size.
 """
@@ -19,7 +19,7 @@ from cortex_ti.errors import SolverError
 from cortex_ti.physics.formulations import FORMULATIONS
 from cortex_ti.physics.model import Physics
 from cortex_ti.physics.terms import TERMS, Term, base, register, terms_for
-from cortex_ti.physics.terms.base import ROW_NORMAL, P1Context, PaperContext
+from cortex_ti.physics.terms.base import ROW_NORMAL, P1Context, P2Context, PaperContext
 from cortex_ti.scene import load_scene
 
 GAMMA = 0.5
@@ -49,7 +49,7 @@ def test_every_registered_term_says_what_it_adds_to_every_formulation():
             assert hasattr(cls, name), f"{cls.__name__} says nothing about formulation {name!r}"
             assert getattr(cls, name) is None or callable(getattr(cls, name))
     # the contexts the formulations hand to the terms carry the formulation's name
-    assert {PaperContext.formulation, P1Context.formulation} == set(FORMULATIONS)
+    assert {PaperContext.formulation, P1Context.formulation, P2Context.formulation} == set(FORMULATIONS)
 
 
 def test_a_term_silent_about_a_formulation_is_refused_by_name(registry):
@@ -118,6 +118,9 @@ def test_a_term_written_once_obeys_laplaces_law_in_both_formulations(registry):
 
         def rayleigh_p1(self, ctx):  # the power of the energy gamma * area
             ctx.add_triangle_force(-(GAMMA * ctx.area)[:, None] * ctx.grads.reshape(-1, 9))
+
+        def rayleigh_p2(self, ctx):  # the power int gamma tr u dA
+            ctx.add_tension(np.full(ctx.surface.n_nodes, GAMMA))
 
     static = "effects=[active_stress,shear_viscosity,bulk_viscosity,bending_viscosity,normal_balance,incompressibility]"
     for form in FORMULATIONS:

@@ -9,13 +9,16 @@ Formulation ``paper``: it enters only the right-hand side (conventions.md):
 Formulation ``rayleigh_p1``: the power ``-sum_T A_T zeta_T tr U_T`` (``zeta_T`` the mean of the
 corner values), exactly the rate of the discrete energy ``E(X) = sum_T zeta_T A_T(X)``, so the
 active force is the exact gradient ``-dE/dX`` and the shape dynamics a gradient flow.
+
+Formulation ``rayleigh_p2``: the power ``-int zeta tr u dA`` on the curved cells, the tension
+interpolated quadratically from the cells' six nodes (:mod:`cortex_ti.physics.galerkin_p2`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import ROW_NORMAL, P1Context, PaperContext, Term, register
+from .base import ROW_NORMAL, P1Context, P2Context, PaperContext, Term, register
 
 #: The choices of ``numerics.active_force`` (formulation ``rayleigh_p1``, module docstring).
 ACTIVE_FORCES = {
@@ -52,6 +55,11 @@ class ActiveStress(Term):
                     ctx.geometry.normal,
                 )
             )
+
+
+    def rayleigh_p2(self, ctx: P2Context) -> None:
+        # the power int zeta tr u dA on the curved cells, zeta interpolated from all six nodes
+        ctx.add_tension(ctx.zeta_nodes)
 
 
 def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarray:

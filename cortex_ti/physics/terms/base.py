@@ -37,6 +37,14 @@ that formulation, taking that formulation's context:
     (:meth:`P1Context.add_triangle_force`, the power ``f . v``) and constraint rows with their
     multipliers.
 
+``rayleigh_p2(ctx: P2Context)``
+    The same Rayleighian on curved six-node cells with quadratic velocities
+    (:mod:`cortex_ti.physics.galerkin_p2`): the term declares, the formulation integrates. It adds
+    the viscosities ``shear``, ``bulk``, a nodal tension whose power ``int zeta tr u dA`` is
+    added (:meth:`P2Context.add_tension`), normal forms ``1/2 int [B : grad v_n grad v_n + beta_0
+    v_n^2] dA`` given at the quadrature points (:meth:`P2Context.add_normal_form`, optionally
+    centred on a rate) and constraint rows on the cells' nodes.
+
 A term that exists for one formulation only sets the other's method to ``None``; one whose
 contribution is the same in every formulation (the gauge rows) binds one function to both
 names. A term that says nothing about a formulation is refused when that formulation
@@ -67,6 +75,7 @@ __all__ = [
     "Constraint",
     "Context",
     "P1Context",
+    "P2Context",
     "PaperContext",
     "Term",
     "check_inputs",
@@ -186,6 +195,35 @@ class P1Context(Context):
 
     def add_triangle_force(self, force: np.ndarray) -> None:
         self.triangle_force = _plus(self.triangle_force, force)
+
+    def add_node_force(self, force: np.ndarray) -> None:
+        self.node_force = _plus(self.node_force, force)
+
+
+@dataclass
+class P2Context(Context):
+    """What the terms declare to the Rayleighian on curved cells (module docstring). ``surface`` is
+    the :class:`~cortex_ti.surface.curved.CurvedSurface` of the shape; ``zeta_nodes`` the tension at
+    its nodes (the mesh's)."""
+
+    surface: object = None
+    zeta_nodes: np.ndarray = None
+    shear: float = 0.0
+    bulk: float = 0.0
+    tension: np.ndarray | None = None  # (M,) whose power int zeta tr u dA is added
+    normal_forms: list = field(default_factory=list)  # (B (T, Q, 3, 3), beta0 (T, Q) or None, centre (M, 3) or None)
+    node_force: np.ndarray | None = None  # (M, 3)
+
+    formulation = "rayleigh_p2"
+
+    def add_tension(self, zeta_nodes: np.ndarray) -> None:
+        self.tension = _plus(self.tension, zeta_nodes)
+
+    def add_normal_form(self, bform: np.ndarray, beta0: np.ndarray | None = None, centre: np.ndarray | None = None):
+        """``1/2 int [B : grad (v_n - r_n) grad (v_n - r_n) + beta0 (v_n - r_n)^2] dA`` with ``B`` an
+        ambient tangential tensor at the quadrature points, ``r`` the nodal vectors ``centre`` (M, 3)
+        (none: ``r = 0``)."""
+        self.normal_forms.append((bform, beta0, centre))
 
     def add_node_force(self, force: np.ndarray) -> None:
         self.node_force = _plus(self.node_force, force)

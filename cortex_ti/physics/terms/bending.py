@@ -33,13 +33,15 @@ they differ by ``-(nabla_c B^cd) nabla_d v_n``, zero on a sphere and wherever th
 uniform. ``v_n`` is interpolated linearly and its gradient integrated exactly per triangle,
 ``B`` averaged over the corners, projected on the triangle and clipped to its positive
 semidefinite part (:mod:`cortex_ti.physics.galerkin`); ``beta_0 v_n^2`` is lumped at the nodes.
+Formulation ``rayleigh_p2`` integrates the same dissipation on the curved cells at their quadrature
+points, ``B`` and ``beta_0`` from the smooth curvature tensor there (:mod:`cortex_ti.physics.galerkin_p2`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
+from .base import ROW_NORMAL, Context, P1Context, P2Context, PaperContext, Term, register
 
 
 def curvature_invariants(geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -99,3 +101,17 @@ class BendingViscosity(Term):
         beta, beta0 = bending_tensors(ctx.geometry, ctx.physics.eta_bar, ctx.physics.eta_bar_b)
         ctx.add_normal_form(-beta)
         ctx.add_normal_drag(beta0)
+
+    def rayleigh_p2(self, ctx: P2Context) -> None:
+        # B = -beta and beta_0 from the smooth curvature tensor at the quadrature points (ambient
+        # form: C^ab e_a e_b is the 3x3 tensor c, C = tr c, C~ = tr c^2, C- = tr c^3)
+        eta, eta_b = ctx.physics.eta_bar, ctx.physics.eta_bar_b
+        c = ctx.surface.qcurvature
+        n = ctx.surface.qnormal
+        proj = np.eye(3) - n[..., :, None] * n[..., None, :]
+        c1 = np.trace(c, axis1=-2, axis2=-1)
+        c2 = np.einsum("tqab,tqba->tq", c, c)
+        c3 = np.einsum("tqab,tqbc,tqca->tq", c, c, c)
+        bform = 2.0 * eta * c + (eta_b - eta) * c1[..., None, None] * proj
+        beta0 = 2.0 * eta * (c1 * c2 - c3) - (eta_b - eta) * c1 * c2
+        ctx.add_normal_form(bform, beta0)

@@ -42,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import SolverError
-from .base import ROW_NORMAL, Context, P1Context, PaperContext, Term, register
+from .base import ROW_NORMAL, Context, P1Context, P2Context, PaperContext, Term, register
 from .bending import curvature_invariants, hessian_weights
 
 
@@ -83,3 +83,12 @@ class ImplicitTension(Term):
                     ctx.geometry, ctx.faces, bform, ctx.tnormal, ctx.grads, ctx.area, np.asarray(ctx.implicit_rate)
                 )
             )
+
+    def rayleigh_p2(self, ctx: P2Context) -> None:
+        # dt zeta |grad (v_n - r_n)|^2 at the quadrature points, zeta clipped at 0
+        surf = ctx.surface
+        zq = np.clip(surf.at_quadrature(ctx.zeta_nodes), 0.0, None)
+        n = surf.qnormal
+        proj = np.eye(3) - n[..., :, None] * n[..., None, :]
+        centre = None if ctx.implicit_rate is None else np.asarray(ctx.implicit_rate)
+        ctx.add_normal_form((ctx.implicit_dt * zq)[..., None, None] * proj, None, centre)

@@ -27,7 +27,7 @@ each flat triangle (:func:`cortex_ti.physics.galerkin.viscous_blocks`): the term
 coefficients.
 """
 
-from .base import P1Context, PaperContext, Term, register
+from .base import P1Context, P2Context, PaperContext, Term, register
 
 
 def add_viscous(ctx: PaperContext, eta_s: float, eta_b: float) -> None:
@@ -62,6 +62,9 @@ class ShearViscosity(Term):
     def rayleigh_p1(self, ctx: P1Context) -> None:
         ctx.shear += ctx.physics.eta_s
 
+    def rayleigh_p2(self, ctx: P2Context) -> None:
+        ctx.shear += ctx.physics.eta_s
+
 
 @register
 class BulkViscosity(Term):
@@ -74,4 +77,7 @@ class BulkViscosity(Term):
         add_viscous(ctx, 0.0, ctx.physics.eta_b)
 
     def rayleigh_p1(self, ctx: P1Context) -> None:
+        ctx.bulk += ctx.physics.eta_b
+
+    def rayleigh_p2(self, ctx: P2Context) -> None:
         ctx.bulk += ctx.physics.eta_b

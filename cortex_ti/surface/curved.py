@@ -1,0 +1,329 @@
+r"""Curved quadratic cells: the surface of formulation ``rayleigh_p2``.
+
+A mesh for the curved cells is the 1-to-4 split of a coarser triangulation: each coarse triangle
+``(a, b, c)`` with its edge midpoints ``ab, bc, ca`` is stored as the four flat triangles
+``(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)``, consecutively (:func:`p2_cells` reads the
+six-node cells back and refuses any other layout). Every icosphere from 42 nodes on is such a mesh
+(its last subdivision), and :func:`split_mesh` makes one from any valid triangulation, placing the
+new midpoints on the smooth surface the fits describe (each end's fitted Monge patch,
+:attr:`~cortex_ti.surface.geometry.Geometry.height_poly`, evaluated over the straight midpoint, the
+two averaged). So the run's nodes are all the cells' nodes: every field, output and mesh motion
+works on them as on any mesh, and the flat triangles are the vertex view of the curved surface.
+
+Each six-node cell is quadratic (isoparametric). Beside the cells' own geometry (their quadrature
+points, area element, tangential gradients), the fits give at every node the smooth unit normal
+``n`` and the curvature tensor as a 3x3 tangential tensor ``C = C^ab e_a (x) e_b`` (conventions:
+``C_ab = -n . d_a d_b X``, so ``C = P / R`` on a sphere of radius R), interpolated to the quadrature
+points with the same shape functions. Why the formulation needs that smooth normal and curvature,
+and not the cells' own, is in :mod:`cortex_ti.physics.galerkin_p2`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import factorial
+
+import numpy as np
+
+from ..errors import MeshError
+from .mesh import per_connectivity
+
+__all__ = [
+    "GAUSS_POINTS",
+    "NOT_SPLIT",
+    "CurvedSurface",
+    "curved_surface",
+    "node_curvature",
+    "p2_cells",
+    "p2_shape",
+    "split_mesh",
+    "triangle_rule",
+]
+
+#: Gauss points per direction of the collapsed square on which the cells are integrated: n^2 points,
+#: exact for polynomials of degree 2n - 1 on a flat cell (degree 7 with 4: the P2 stiffness of a flat
+#: cell is degree 2, a curved cell's area element and inverse metric make the integrand rational)
+GAUSS_POINTS = 4
+
+
+def triangle_rule(n: int = GAUSS_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature on the reference triangle ``{xi, eta >= 0, xi + eta <= 1}`` from an ``n x n`` Gauss
+    rule on the square collapsed at one edge (Duffy): points (n^2, 2), weights (n^2,) summing to 1/2.
+
+    >>> q, w = triangle_rule(3)
+    >>> round(float(w.sum()), 15), round(float(w @ (q[:, 0] ** 2 * q[:, 1])), 15)  # 1/2 and 1/60
+    (0.5, 0.016666666666667)
+    """
+    g, w = np.polynomial.legendre.leggauss(n)
+    g, w = (g + 1.0) / 2.0, w / 2.0
+    u, v = np.meshgrid(g, g, indexing="ij")
+    wu, wv = np.meshgrid(w, w, indexing="ij")
+    points = np.stack([u.ravel(), (v * (1.0 - u)).ravel()], axis=1)
+    return points, (wu * wv * (1.0 - u)).ravel()
+
+
+#: the cell's local edges, in the order of its nodes 3, 4, 5
+CELL_EDGES = ((0, 1), (1, 2), (2, 0))
+
+
+def p2_shape(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Quadratic Lagrange shape functions (Q, 6) and their reference derivatives (Q, 6, 2) at
+    reference points (Q, 2); nodes 0-2 the corners, 3-5 the midpoints of edges 01, 12, 20.
+
+    >>> n, dn = p2_shape(np.array([[0.5, 0.0], [1 / 3, 1 / 3]]))
+    >>> (n[0].round(12) + 0.0).tolist(), float(n[1].sum()), float(abs(dn.sum(1)).max())
+    ([0.0, 0.0, 0.0, 1.0, 0.0, 0.0], 1.0, 0.0)
+    """
+    xi, eta = points[:, 0], points[:, 1]
+    lam = np.stack([1.0 - xi - eta, xi, eta], axis=1)
+    dlam = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+    n = np.empty((len(points), 6))
+    dn = np.empty((len(points), 6, 2))
+    for i in range(3):
+        n[:, i] = lam[:, i] * (2.0 * lam[:, i] - 1.0)
+        dn[:, i] = (4.0 * lam[:, i] - 1.0)[:, None] * dlam[i]
+    for k, (a, b) in enumerate(CELL_EDGES):
+        n[:, 3 + k] = 4.0 * lam[:, a] * lam[:, b]
+        dn[:, 3 + k] = 4.0 * (lam[:, a][:, None] * dlam[b] + lam[:, b][:, None] * dlam[a])
+    return n, dn
+
+
+def p2_cells(faces: np.ndarray) -> np.ndarray:
+    """The six-node cells (T/4, 6) of a mesh in the split layout (module docstring): corners, then the
+    midpoints of edges ab, bc, ca; one :class:`~cortex_ti.errors.MeshError` for any other mesh.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> p2_cells(icosphere(42).faces).shape
+    (20, 6)
+    """
+    f = np.asarray(faces)
+    return per_connectivity(_CELL_CACHE, f, -1, lambda: _read_cells(f), keep=8)
+
+
+_CELL_CACHE: dict = {}
+
+#: what a mesh that is not in the split layout is told
+NOT_SPLIT = (
+    "formulation rayleigh_p2 runs on curved six-node cells, stored as the 1-to-4 split of a coarser mesh "
+    "(an icosphere of at least 42 nodes, or a mesh file, which is split when the run starts)"
+)
+
+
+def _read_cells(f: np.ndarray) -> np.ndarray:
+    if f.ndim != 2 or f.shape[1] != 3 or len(f) % 4:
+        raise MeshError(f"{NOT_SPLIT}: {len(f)} triangles are not groups of four")
+    g = f.reshape(-1, 4, 3)
+    cells = np.stack([g[:, 0, 0], g[:, 1, 0], g[:, 2, 0], g[:, 0, 1], g[:, 1, 1], g[:, 2, 1]], axis=1)
+    expect = np.stack(
+        [cells[:, [0, 3, 5]], cells[:, [1, 4, 3]], cells[:, [2, 5, 4]], cells[:, [3, 4, 5]]], axis=1
+    )
+    bad = np.flatnonzero(np.any(g != expect, axis=(1, 2)))
+    if bad.size:
+        raise MeshError(f"{NOT_SPLIT}: triangles {4 * bad[0]}-{4 * bad[0] + 3} are not one split cell")
+    corners = np.unique(cells[:, :3])
+    mids = np.unique(cells[:, 3:])
+    if np.intersect1d(corners, mids).size:
+        raise MeshError(f"{NOT_SPLIT}: a node is both a corner and a midpoint")
+    return np.ascontiguousarray(cells)
+
+
+def split_mesh(points: np.ndarray, faces: np.ndarray, geometry) -> tuple[np.ndarray, np.ndarray]:
+    """The 1-to-4 split of a triangulation (its ``geometry`` from :func:`compute_geometry`) in the
+    layout of :func:`p2_cells`: the nodes (the old ones first, then one per edge, placed on the fitted
+    surface) and the triangles."""
+    f = np.asarray(faces)
+    n = len(points)
+    pairs = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    edges, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    straight = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
+    xa, _, _ = _patch(geometry, edges[:, 0], straight)
+    xb, _, _ = _patch(geometry, edges[:, 1], straight)
+    m = n + inverse.reshape(3, len(f)).T  # midpoints of ab, bc, ca
+    a, b, c = f[:, 0], f[:, 1], f[:, 2]
+    ab, bc, ca = m[:, 0], m[:, 1], m[:, 2]
+    split = np.stack(
+        [np.stack([a, ab, ca], 1), np.stack([b, bc, ab], 1), np.stack([c, ca, bc], 1), np.stack([ab, bc, ca], 1)],
+        axis=1,
+    ).reshape(-1, 3)
+    return np.vstack([points, 0.5 * (xa + xb)]), split
+
+
+def _patch(geometry, vertex: np.ndarray, points: np.ndarray):
+    """Vertex ``vertex[k]``'s fitted patch over the point ``points[k]`` (projected on its tangent
+    plane): the patch point (K, 3), its unit normal (K, 3) and curvature tensor (K, 3, 3)."""
+    frame = geometry.frame[vertex]
+    exi, eeta, n0 = frame[:, 0], frame[:, 1], frame[:, 2]
+    d = points - geometry.points[vertex]
+    xi = np.einsum("kc,kc->k", d, exi)
+    eta = np.einsum("kc,kc->k", d, eeta)
+    coef = geometry.height_poly[vertex]
+    h = np.zeros(len(vertex))
+    hd = np.zeros((len(vertex), 2))
+    hdd = np.zeros((len(vertex), 2, 2))
+
+    def mono(a, b):
+        return (xi**a if a > 0 else 1.0) * (eta**b if b > 0 else 1.0)
+
+    for t, (a, b) in enumerate(geometry.fit_powers):
+        c = coef[:, t] / (factorial(a) * factorial(b))
+        h += c * mono(a, b)
+        if a >= 1:
+            hd[:, 0] += c * a * mono(a - 1, b)
+        if b >= 1:
+            hd[:, 1] += c * b * mono(a, b - 1)
+        if a >= 2:
+            hdd[:, 0, 0] += c * a * (a - 1) * mono(a - 2, b)
+        if b >= 2:
+            hdd[:, 1, 1] += c * b * (b - 1) * mono(a, b - 2)
+        if a >= 1 and b >= 1:
+            hdd[:, 0, 1] += c * a * b * mono(a - 1, b - 1)
+    hdd[:, 1, 0] = hdd[:, 0, 1]
+    x = geometry.points[vertex] + xi[:, None] * exi + eta[:, None] * eeta + h[:, None] * n0
+    e = np.stack([exi + hd[:, :1] * n0, eeta + hd[:, 1:] * n0], axis=1)  # (K, 2, 3)
+    w = 1.0 + (hd**2).sum(1)
+    normal = (n0 - hd[:, :1] * exi - hd[:, 1:] * eeta) / np.sqrt(w)[:, None]
+    g = np.einsum("kac,kbc->kab", e, e)
+    gi = np.linalg.inv(g)
+    cab = -hdd / np.sqrt(w)[:, None, None]
+    cup = np.einsum("kac,kcd,kdb->kab", gi, cab, gi)
+    return x, normal, np.einsum("kab,kac,kbd->kcd", cup, e, e)
+
+
+@dataclass
+class CurvedSurface:
+    """The curved six-node cells of one shape and what their integrals need (module docstring).
+
+    ``cells`` (T, 6) into the mesh's ``nodes`` (M, 3); at every node the smooth ``normal`` (M, 3) and
+    ``curvature`` (M, 3, 3); per cell and quadrature point: the area weight ``weight`` (T, Q) (rule
+    weight times area element), the position ``qpoint`` (T, Q, 3), the cell's own unit normal
+    ``cell_normal`` (T, Q, 3), the smooth normal ``qnormal`` (T, Q, 3) and curvature ``qcurvature``
+    (T, Q, 3, 3) interpolated from the nodes, and ``grads`` (T, Q, 6, 3): the gradients of the
+    shape functions along the cell, projected on the smooth tangent plane.
+    """
+
+    cells: np.ndarray
+    nodes: np.ndarray
+    normal: np.ndarray
+    curvature: np.ndarray
+    shape: np.ndarray  # (Q, 6)
+    weight: np.ndarray
+    qpoint: np.ndarray
+    cell_normal: np.ndarray
+    qnormal: np.ndarray
+    qcurvature: np.ndarray
+    grads: np.ndarray
+
+    @property
+    def n_nodes(self) -> int:
+        return self.nodes.shape[0]
+
+    def at_quadrature(self, nodal: np.ndarray) -> np.ndarray:
+        """A nodal field (M, ...) interpolated to the quadrature points (T, Q, ...)."""
+        return np.einsum("qi,ti...->tq...", self.shape, nodal[self.cells])
+
+    def node_integral(self, integrand: np.ndarray | None = None) -> np.ndarray:
+        """``int N_i f dA`` for every node (M, ...), ``f`` given at the quadrature points (T, Q, ...)
+        (none: ``f = 1``)."""
+        f = np.ones(self.weight.shape) if integrand is None else integrand
+        part = np.einsum("tq,qi,tq...->ti...", self.weight, self.shape, f)
+        out = np.zeros((self.n_nodes,) + part.shape[2:])
+        np.add.at(out, self.cells.ravel(), part.reshape((-1,) + part.shape[2:]))
+        return out
+
+    @property
+    def area(self) -> float:
+        """The curved cells' area."""
+        return float(self.weight.sum())
+
+    @property
+    def volume(self) -> float:
+        """The volume the curved cells enclose, ``1/3 int x . n dA`` (exact for the quadratic cells up
+        to the quadrature of their rational area element)."""
+        return float(np.einsum("tq,tqc,tqc->", self.weight, self.qpoint, self.cell_normal) / 3.0)
+
+    def rigid_motion_rows(self, centroid_gauge: bool) -> np.ndarray:
+        """Rows (6, M, 3) of the rigid-body gauge on the curved cells, integrated exactly (the
+        velocity quadratic): zero total velocity ``int v dA = 0`` or, with ``centroid_gauge``, the
+        enclosed volume's centroid held, ``int (x - x_c) (n . v) dA = 0`` with the cells' own normal (a
+        rigid translation U moves it at U exactly); zero angular momentum ``int (x - x_c) x v dA = 0``,
+        ``x_c`` the area centroid."""
+        mass = self.node_integral()
+        first = self.node_integral(self.qpoint)
+        centre = first.sum(0) / mass.sum()
+        arm = first - mass[:, None] * centre
+        rows = np.zeros((6, self.n_nodes, 3))
+        eye = np.eye(3)
+        rel = self.qpoint - centre
+        for k in range(3):
+            if centroid_gauge:
+                rows[k] = self.node_integral(rel[..., k : k + 1] * self.cell_normal)
+            else:
+                rows[k, :, k] = mass
+            rows[3 + k] = np.cross(eye[k], arm)
+        return rows
+
+    def volume_rows(self) -> np.ndarray:
+        """(M, 3): ``int N_i n dA`` with the cells' own normal, the exact rate of the volume the curved
+        cells enclose when their nodes move with ``v``."""
+        return self.node_integral(self.cell_normal)
+
+    def normal_rows(self) -> np.ndarray:
+        """(M, 3): ``(int N_i dA) n_i`` with the smooth nodal normals: ``int v_n dA`` of the normal speed
+        the formulation interpolates (:mod:`cortex_ti.physics.galerkin_p2`), along which a uniform
+        pressure balances a uniform tension exactly."""
+        return self.node_integral()[:, None] * self.normal
+
+
+def node_curvature(geometry) -> np.ndarray:
+    """The fitted curvature tensor of every node as a 3x3 tangential tensor ``C^ab e_a (x) e_b``
+    (M, 3, 3) (``P / R`` on a sphere)."""
+    gi = geometry.metric_inv
+    cup = np.einsum("nac,ncd,ndb->nab", gi, geometry.curvature, gi)
+    return np.einsum("nab,nac,nbd->ncd", cup, geometry.tangents, geometry.tangents)
+
+
+def curved_surface(geometry, faces: np.ndarray, gauss_points: int = GAUSS_POINTS) -> CurvedSurface:
+    """The curved six-node cells of the shape ``geometry`` on the split triangulation ``faces``."""
+    cells = p2_cells(faces)
+    nodes = geometry.points
+    normal = geometry.normal
+    curvature = node_curvature(geometry)
+    q, w = triangle_rule(gauss_points)
+    shape, dshape = p2_shape(q)
+    xc = nodes[cells]
+    qpoint = np.einsum("qi,tic->tqc", shape, xc)
+    tang = np.einsum("qia,tic->tqac", dshape, xc)  # (T, Q, 2, 3)
+    cross = np.cross(tang[:, :, 0], tang[:, :, 1])
+    jac = np.linalg.norm(cross, axis=-1)
+    qnormal = _unit(np.einsum("qi,tic->tqc", shape, normal[cells]))
+    cell_normal = cross / np.where(jac > 0, jac, 1.0)[..., None]
+    facing = np.einsum("tqc,tqc->tq", cell_normal, qnormal)
+    if not np.all((jac > 0) & (facing > 0)):
+        t = int(np.argwhere(~((jac > 0) & (facing > 0)))[0, 0])
+        raise MeshError(
+            f"curved cell {t} (triangles {4 * t}-{4 * t + 3}) is inverted or folds over: its area element turns "
+            "against the fitted surface's normal (the cell is too distorted for its curvature)"
+        )
+    metric = np.einsum("tqac,tqbc->tqab", tang, tang)
+    grads = np.einsum("tqab,qib,tqac->tqic", np.linalg.inv(metric), dshape, tang)
+    grads = grads - np.einsum("tqic,tqc->tqi", grads, qnormal)[..., None] * qnormal[:, :, None, :]
+    proj = np.eye(3) - qnormal[..., :, None] * qnormal[..., None, :]
+    qcurv = np.einsum("qi,ticd->tqcd", shape, curvature[cells])
+    qcurv = proj @ (0.5 * (qcurv + np.swapaxes(qcurv, -1, -2))) @ proj
+    return CurvedSurface(
+        cells=cells,
+        nodes=nodes,
+        normal=normal,
+        curvature=curvature,
+        shape=shape,
+        weight=jac * w[None, :],
+        qpoint=qpoint,
+        cell_normal=cell_normal,
+        qnormal=qnormal,
+        qcurvature=qcurv,
+        grads=np.ascontiguousarray(grads),
+    )
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
