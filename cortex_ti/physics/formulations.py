@@ -97,7 +97,9 @@ def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt, implicit_rate=Non
 def _rayleigh_p2(geometry, physics, zeta, faces, numerics, dt, implicit_rate=None):
     from .galerkin_p2 import assemble_p2
 
-    return assemble_p2(geometry, physics, zeta, faces, implicit_dt=dt, implicit_rate=implicit_rate)
+    return assemble_p2(
+        geometry, physics, zeta, faces, implicit_dt=dt, implicit_rate=implicit_rate, active_force=numerics.active_force
+    )
 
 
 #: name -> :class:`Formulation`
@@ -124,7 +126,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "the same Rayleighian on curved six-node cells (midpoints on the fitted surface) with quadratic "
         "velocities, the normal speed along the smooth normal: symmetric positive semidefinite; third order",
         _rayleigh_p2,
-        keys=(),
+        keys=("active_force",),
         centred_implicit=True,
     ),
 }

@@ -48,75 +48,65 @@ from __future__ import annotations
 import numpy as np
 
 from ..solve.system import EnergySystem
-from ..surface.curved import CurvedSurface, curved_surface
+from ..surface.curved import curved_surface
 from ..surface.geometry import Geometry
 from .galerkin import block_pattern
 from .model import Physics
 from .terms import P2Context, terms_for
 from .terms.base import check_inputs, constraint_names
 
-__all__ = ["CHUNK", "assemble_p2", "cell_blocks", "strain_maps"]
-
-#: cells per chunk of the per-cell integrals (bounds the memory of the strain maps, ~70 MB)
-CHUNK = 2048
+__all__ = ["assemble_p2", "cell_blocks"]
 
 
-def strain_maps(surface: CurvedSurface, cells: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For the cells ``cells``: the rate of strain of each unit nodal velocity (t, Q, 18, 3, 3), the
-    normal speed it gives (t, Q, 18) and the tangential gradient of that speed (t, Q, 18, 3); the
-    18 columns are (node, Cartesian component)."""
-    g = surface.grads[cells]  # (t, Q, 6, 3)
-    n = surface.qnormal[cells]
-    c = surface.qcurvature[cells]
-    ni = surface.normal[surface.cells[cells]]  # (t, 6, 3)
-    t, q = g.shape[:2]
-    proj = np.eye(3) - n[..., :, None] * n[..., None, :]
-    proj_i = np.eye(3) - ni[..., :, None] * ni[..., None, :]
-    tangential = np.einsum("tqab,tibc->tqica", proj, proj_i)  # [.., i, c, :] = P P_i e_c
-    u = np.einsum("tqica,tqib->tqicab", tangential, g)
-    u = 0.5 * (u + np.swapaxes(u, -1, -2))
-    speed = np.einsum("qi,tic->tqic", surface.shape, ni)  # v_n of e_c at node i
-    u += speed[..., None, None] * c[:, :, None, None]
-    grad_speed = np.einsum("tqia,tic->tqica", g, ni)
-    return u.reshape(t, q, 18, 3, 3), speed.reshape(t, q, 18), grad_speed.reshape(t, q, 18, 3)
+def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per curved cell the (18, 18) second derivative of the dissipation, the (18,) force and the (18,)
+    rate of the area (one
+    Taichi kernel, :mod:`.galerkin_p2_kernel`; the normal forms summed, then clipped to their
+    positive semidefinite part at each quadrature point; a centred form's force from its own clipped
+    tensor, as in ``rayleigh_p1``)."""
+    from .galerkin_p2_kernel import cell_blocks_kernel, centred_force_kernel  # starts Taichi
 
-
-def _psd(b: np.ndarray) -> np.ndarray:
-    """The positive semidefinite part of symmetric 3x3 tensors (..., 3, 3)."""
-    lam, vec = np.linalg.eigh(0.5 * (b + np.swapaxes(b, -1, -2)))
-    return np.einsum("...ak,...k,...bk->...ab", vec, np.clip(lam, 0.0, None), vec)
-
-
-def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray]:
-    """Per curved cell the (18, 18) second derivative of the dissipation and the (18,) force."""
     surf = ctx.surface
-    ncell = surf.cells.shape[0]
-    blocks = np.zeros((ncell, 18, 18))
-    force = np.zeros((ncell, 18))
-    zeta_q = None if ctx.tension is None else surf.at_quadrature(ctx.tension)
-    forms = [(_psd(b), b0, None if r is None else r[surf.cells]) for b, b0, r in ctx.normal_forms]
-    for start in range(0, ncell, CHUNK):
-        s = slice(start, min(start + CHUNK, ncell))
-        w = surf.weight[s]
-        u, speed, grad_speed = strain_maps(surf, s)
-        t, q = w.shape
-        tr = np.trace(u, axis1=-2, axis2=-1)  # (t, Q, 18)
-        flat = u.reshape(t, q, 18, 9)
-        if ctx.shear:
-            scaled = flat * (2.0 * ctx.shear * w)[:, :, None, None]
-            blocks[s] += np.einsum("tqim,tqjm->tij", scaled, flat, optimize=True)
-        if ctx.bulk != ctx.shear:
-            blocks[s] += np.einsum("tq,tqi,tqj->tij", (ctx.bulk - ctx.shear) * w, tr, tr, optimize=True)
-        if zeta_q is not None:
-            force[s] -= np.einsum("tq,tqi->ti", w * zeta_q[s], tr)
-        for bform, beta0, centre in forms:
-            k = np.einsum("tq,tqia,tqab,tqjb->tij", w, grad_speed, bform[s], grad_speed, optimize=True)
-            if beta0 is not None:
-                k += np.einsum("tq,tqi,tqj->tij", w * beta0[s], speed, speed, optimize=True)
-            blocks[s] += k
-            if centre is not None:
-                force[s] += np.einsum("tij,tj->ti", k, centre[s].reshape(len(k), 18))
-    return blocks, force
+    ncell, nq = surf.weight.shape
+    cells = surf.cells.astype(np.int32)
+    zeta_q = np.zeros((ncell, nq)) if ctx.tension is None else surf.at_quadrature(ctx.tension)
+    form = np.zeros((ncell, nq, 3, 3))
+    beta0 = np.zeros((ncell, nq))
+    for b, b0, _ in ctx.normal_forms:
+        form = form + b
+        if b0 is not None:
+            beta0 = beta0 + b0
+    blocks = np.empty((ncell, 18, 18))
+    force = np.empty((ncell, 18))
+    area_rate = np.empty((ncell, 18))
+    common = (surf.weight, surf.grads, surf.qnormal)
+    cell_blocks_kernel(
+        *common,
+        surf.qcurvature,
+        surf.normal,
+        cells,
+        surf.shape,
+        float(ctx.shear),
+        float(ctx.bulk),
+        np.ascontiguousarray(zeta_q),
+        np.ascontiguousarray(form),
+        beta0,
+        np.empty((ncell, 18, 7)),
+        np.empty((ncell, 6, 6)),
+        blocks,
+        force,
+        area_rate,
+    )
+    for b, b0, centre in ctx.normal_forms:
+        if centre is None:
+            continue
+        part = np.empty((ncell, 18))
+        b0 = np.zeros((ncell, nq)) if b0 is None else np.ascontiguousarray(b0, dtype=float)
+        centred_force_kernel(
+            *common, surf.normal, cells, surf.shape, np.ascontiguousarray(b), b0, np.ascontiguousarray(centre), part
+        )
+        force += part
+    return blocks, force, area_rate
 
 
 def assemble_p2(
@@ -126,6 +116,7 @@ def assemble_p2(
     faces: np.ndarray,
     implicit_dt: float = 0.0,
     implicit_rate: np.ndarray | None = None,
+    active_force: str = "balanced",
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the curved cells of ``geometry``
     (module docstring); ``implicit_dt > 0``: the semi-implicit tension of a step of that length,
@@ -142,15 +133,22 @@ def assemble_p2(
         implicit_rate=implicit_rate,
         surface=surf,
         zeta_nodes=zeta,
+        active_force=active_force,
     )
     terms = terms_for(ctx)
     for term in terms:
         term.rayleigh_p2(ctx)
     m = surf.n_nodes
-    blocks, force = cell_blocks(ctx)
+    blocks, force, area_rate = cell_blocks(ctx)
     pattern = block_pattern(surf.cells, m)
     kmat = pattern.matrix(blocks)
     f = np.bincount(pattern.dof.ravel(), weights=force.ravel(), minlength=3 * m)
+    if ctx.balanced_tension is not None:
+        # remove the tangential part of each node's own tension times the area's rate there
+        rate = np.bincount(pattern.dof.ravel(), weights=area_rate.ravel(), minlength=3 * m).reshape(m, 3)
+        nrm = surf.normal
+        tangential = rate - np.einsum("nc,nc->n", rate, nrm)[:, None] * nrm
+        f = f + (ctx.balanced_tension[:, None] * tangential).ravel()
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
     cons = np.concatenate([c.rows for c in ctx.constraints])
@@ -166,6 +164,7 @@ def assemble_p2(
         bmat = _block_basis(basis)
         kmat = (bmat.T @ kmat @ bmat).tocsr()
         f = bmat.T @ f
+
     def on_unknowns(rows):
         return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
 

@@ -41,9 +41,10 @@ __all__ = [
 ]
 
 #: Gauss points per direction of the collapsed square on which the cells are integrated: n^2 points,
-#: exact for polynomials of degree 2n - 1 on a flat cell (degree 7 with 4: the P2 stiffness of a flat
-#: cell is degree 2, a curved cell's area element and inverse metric make the integrand rational)
-GAUSS_POINTS = 4
+#: exact for polynomials of degree 2n - 1 on a flat cell. 3 (degree 5) gives the t = 0 ring flows of
+#: benchmarks/t0_accuracy.py to the same three digits as 4 at 642-10242 nodes; 2 (degree 3) loses up
+#: to 3x (docs/validation/curved.md)
+GAUSS_POINTS = 3
 
 
 def triangle_rule(n: int = GAUSS_POINTS) -> tuple[np.ndarray, np.ndarray]:
@@ -114,9 +115,7 @@ def _read_cells(f: np.ndarray) -> np.ndarray:
         raise MeshError(f"{NOT_SPLIT}: {len(f)} triangles are not groups of four")
     g = f.reshape(-1, 4, 3)
     cells = np.stack([g[:, 0, 0], g[:, 1, 0], g[:, 2, 0], g[:, 0, 1], g[:, 1, 1], g[:, 2, 1]], axis=1)
-    expect = np.stack(
-        [cells[:, [0, 3, 5]], cells[:, [1, 4, 3]], cells[:, [2, 5, 4]], cells[:, [3, 4, 5]]], axis=1
-    )
+    expect = np.stack([cells[:, [0, 3, 5]], cells[:, [1, 4, 3]], cells[:, [2, 5, 4]], cells[:, [3, 4, 5]]], axis=1)
     bad = np.flatnonzero(np.any(g != expect, axis=(1, 2)))
     if bad.size:
         raise MeshError(f"{NOT_SPLIT}: triangles {4 * bad[0]}-{4 * bad[0] + 3} are not one split cell")
@@ -283,47 +282,33 @@ def node_curvature(geometry) -> np.ndarray:
 
 
 def curved_surface(geometry, faces: np.ndarray, gauss_points: int = GAUSS_POINTS) -> CurvedSurface:
-    """The curved six-node cells of the shape ``geometry`` on the split triangulation ``faces``."""
+    """The curved six-node cells of the shape ``geometry`` on the split triangulation ``faces`` (one
+    Taichi kernel, :mod:`.curved_kernel`)."""
+    from .curved_kernel import curved_quadrature_kernel  # starts Taichi
+
     cells = p2_cells(faces)
-    nodes = geometry.points
-    normal = geometry.normal
-    curvature = node_curvature(geometry)
+    nodes = np.ascontiguousarray(geometry.points, dtype=float)
+    normal = np.ascontiguousarray(geometry.normal, dtype=float)
+    curvature = np.ascontiguousarray(node_curvature(geometry))
     q, w = triangle_rule(gauss_points)
     shape, dshape = p2_shape(q)
-    xc = nodes[cells]
-    qpoint = np.einsum("qi,tic->tqc", shape, xc)
-    tang = np.einsum("qia,tic->tqac", dshape, xc)  # (T, Q, 2, 3)
-    cross = np.cross(tang[:, :, 0], tang[:, :, 1])
-    jac = np.linalg.norm(cross, axis=-1)
-    qnormal = _unit(np.einsum("qi,tic->tqc", shape, normal[cells]))
-    cell_normal = cross / np.where(jac > 0, jac, 1.0)[..., None]
-    facing = np.einsum("tqc,tqc->tq", cell_normal, qnormal)
-    if not np.all((jac > 0) & (facing > 0)):
-        t = int(np.argwhere(~((jac > 0) & (facing > 0)))[0, 0])
-        raise MeshError(
-            f"curved cell {t} (triangles {4 * t}-{4 * t + 3}) is inverted or folds over: its area element turns "
-            "against the fitted surface's normal (the cell is too distorted for its curvature)"
-        )
-    metric = np.einsum("tqac,tqbc->tqab", tang, tang)
-    grads = np.einsum("tqab,qib,tqac->tqic", np.linalg.inv(metric), dshape, tang)
-    grads = grads - np.einsum("tqic,tqc->tqi", grads, qnormal)[..., None] * qnormal[:, :, None, :]
-    proj = np.eye(3) - qnormal[..., :, None] * qnormal[..., None, :]
-    qcurv = np.einsum("qi,ticd->tqcd", shape, curvature[cells])
-    qcurv = proj @ (0.5 * (qcurv + np.swapaxes(qcurv, -1, -2))) @ proj
-    return CurvedSurface(
-        cells=cells,
-        nodes=nodes,
-        normal=normal,
-        curvature=curvature,
-        shape=shape,
-        weight=jac * w[None, :],
-        qpoint=qpoint,
-        cell_normal=cell_normal,
-        qnormal=qnormal,
-        qcurvature=qcurv,
-        grads=np.ascontiguousarray(grads),
+    t, nq = len(cells), len(w)
+    out = dict(
+        weight=np.empty((t, nq)),
+        qpoint=np.empty((t, nq, 3)),
+        cell_normal=np.empty((t, nq, 3)),
+        qnormal=np.empty((t, nq, 3)),
+        qcurvature=np.empty((t, nq, 3, 3)),
+        grads=np.empty((t, nq, 6, 3)),
     )
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    curved_quadrature_kernel(
+        nodes, normal, curvature, cells.astype(np.int32), shape, np.ascontiguousarray(dshape), w, *out.values()
+    )
+    bad = np.flatnonzero(~(out["weight"] > 0).all(axis=1))
+    if bad.size:
+        c = int(bad[0])
+        raise MeshError(
+            f"curved cell {c} (triangles {4 * c}-{4 * c + 3}) is inverted or folds over: its area element turns "
+            f"against the fitted surface's normal ({bad.size} such cells; the mesh is too distorted for its curvature)"
+        )
+    return CurvedSurface(cells=cells, nodes=nodes, normal=normal, curvature=curvature, shape=shape, **out)

@@ -11,7 +11,9 @@ corner values), exactly the rate of the discrete energy ``E(X) = sum_T zeta_T A_
 active force is the exact gradient ``-dE/dX`` and the shape dynamics a gradient flow.
 
 Formulation ``rayleigh_p2``: the power ``-int zeta tr u dA`` on the curved cells, the tension
-interpolated quadratically from the cells' six nodes (:mod:`cortex_ti.physics.galerkin_p2`).
+interpolated quadratically from the cells' six nodes (:mod:`cortex_ti.physics.galerkin_p2`); with
+``balanced`` each node's force loses ``zeta_i P_i int tr u_i dA``, the tangential part its own
+tension would push with if it were uniform (as ``tangential_area_force`` for ``rayleigh_p1``).
 """
 
 from __future__ import annotations
@@ -56,10 +58,11 @@ class ActiveStress(Term):
                 )
             )
 
-
     def rayleigh_p2(self, ctx: P2Context) -> None:
         # the power int zeta tr u dA on the curved cells, zeta interpolated from all six nodes
         ctx.add_tension(ctx.zeta_nodes)
+        if ctx.active_force == "balanced":
+            ctx.balanced_tension = ctx.zeta_nodes
 
 
 def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarray:

@@ -211,6 +211,10 @@ class P2Context(Context):
     shear: float = 0.0
     bulk: float = 0.0
     tension: np.ndarray | None = None  # (M,) whose power int zeta tr u dA is added
+    #: (M,): with numerics.active_force balanced, the tension whose nodal force loses the tangential part
+    #: ``zeta_i P_i int tr u_i dA`` of its node's own value
+    balanced_tension: np.ndarray | None = None
+    active_force: str = "balanced"
     normal_forms: list = field(default_factory=list)  # (B (T, Q, 3, 3), beta0 (T, Q) or None, centre (M, 3) or None)
     node_force: np.ndarray | None = None  # (M, 3)
 

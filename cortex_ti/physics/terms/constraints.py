@@ -28,7 +28,8 @@ price of that O(h) error).
 
 In formulation ``rayleigh_p2`` the rows are integrated exactly on the curved cells
 (:meth:`cortex_ti.surface.curved.CurvedSurface.rigid_motion_rows`, ``volume_rows``): the
-volume row is the exact rate of the volume the cells enclose, and the pressure pushes along the
+volume row is the exact rate of the volume the cells enclose under the nodes' motion (along their
+normals by ``v_n``, or with ``v`` itself under ``mesh.motion: lagrangian``), and the pressure pushes along the
 smooth normal speed's rows ``(int N_i dA) n_i`` (a Petrov-Galerkin constraint as ``petrov`` above:
 along the cells' own normal, which is only second-order accurate and kinks between cells, a
 uniform pressure would not balance a uniform tension, an error of 7e-2 at 642 nodes).
@@ -108,6 +109,8 @@ class Incompressibility(Term):
         # the pressure pushes along the smooth normal speed's rows (consistent with the tension's
         # normal force); the constraint is the exact rate of the curved cells' volume
         surf = ctx.surface
-        ctx.constraints.append(
-            Constraint("volume", surf.volume_rows()[None], force_rows=surf.normal_rows()[None], pressure=True)
-        )
+        rows = surf.volume_rows()
+        if not ctx.physics.material_nodes:
+            # the nodes move along their normals by v_n only: the volume's rate under that motion
+            rows = np.einsum("nc,nc->n", rows, surf.normal)[:, None] * surf.normal
+        ctx.constraints.append(Constraint("volume", rows[None], force_rows=surf.normal_rows()[None], pressure=True))

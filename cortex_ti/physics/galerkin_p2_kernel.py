@@ -1,0 +1,163 @@
+"""The Taichi kernels of formulation ``rayleigh_p2``: the per-cell blocks and forces
+(:func:`cortex_ti.physics.galerkin_p2.cell_blocks`, which has the derivation). A module of its own
+so that importing the assembly starts no Taichi.
+
+One thread per cell; scalar code with runtime loops (the syntax tree Taichi transforms on a
+process's first call stays small), per-cell scratch in ndarrays.
+"""
+
+from ..runtime import f64_2, f64_3, f64_4, i32_2, kernel, ti
+
+
+@ti.func
+def _clipped(b: ti.template(), t, q, n):
+    """The tangential tensor ``b[t, q]`` clipped to its positive semidefinite part (its restriction
+    to the plane normal to ``n``, two eigenvalues, each clipped at 0)."""
+    e = ti.Vector([1.0, 0.0, 0.0])
+    if ti.abs(n[1]) < ti.abs(n[0]) and ti.abs(n[1]) <= ti.abs(n[2]):
+        e = ti.Vector([0.0, 1.0, 0.0])
+    elif ti.abs(n[2]) < ti.abs(n[0]) and ti.abs(n[2]) < ti.abs(n[1]):
+        e = ti.Vector([0.0, 0.0, 1.0])
+    t1 = n.cross(e).normalized()
+    t2 = n.cross(t1)
+    m = ti.Matrix.zero(ti.f64, 3, 3)
+    for a, c in ti.ndrange(3, 3):
+        m[a, c] = 0.5 * (b[t, q, a, c] + b[t, q, c, a])
+    b11 = t1.dot(m @ t1)
+    b12 = t1.dot(m @ t2)
+    b22 = t2.dot(m @ t2)
+    half = 0.5 * (b11 + b22)
+    rad = ti.sqrt(0.25 * (b11 - b22) ** 2 + b12 * b12)
+    l1 = ti.max(half + rad, 0.0)
+    l2 = ti.max(half - rad, 0.0)
+    # eigenvector of the larger eigenvalue in the (t1, t2) basis
+    u = ti.Vector([b12, half + rad - b11])
+    if u.norm() < 1e-300 * (1.0 + ti.abs(half) + rad) or u.norm() == 0.0:
+        u = ti.Vector([1.0, 0.0]) if b11 >= b22 else ti.Vector([0.0, 1.0])
+    u = u.normalized()
+    w1 = u[0] * t1 + u[1] * t2
+    w2 = -u[1] * t1 + u[0] * t2
+    return l1 * w1.outer_product(w1) + l2 * w2.outer_product(w2)
+
+
+@kernel
+def cell_blocks_kernel(
+    weight: f64_2,
+    grads: f64_4,
+    qnormal: f64_3,
+    qcurv: f64_4,
+    normal: f64_2,
+    cells: i32_2,
+    shape: f64_2,
+    shear: ti.f64,
+    bulk: ti.f64,
+    zeta: f64_2,
+    form: f64_4,
+    beta0: f64_2,
+    scratch: f64_3,
+    pair: f64_3,
+    blocks: f64_3,
+    force: f64_2,
+    area_rate: f64_2,
+):
+    """``blocks[t]`` (18, 18) and ``force[t]`` (18,) of cell t (columns: node i, component c at 3 i + c):
+    ``sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd + (g_i . B g_j) n_ic n_jd +
+    beta_0 N_i N_j n_ic n_jd]`` ``force[t]`` = ``-sum_q w zeta tr U_ic`` and ``area_rate[t]`` = ``sum_q w tr U_ic`` (the area's rate), with ``U_ic = sym((P P_i e_c) g_i^T) +
+    N_i n_ic C`` (B clipped to its positive semidefinite part). ``scratch`` (T, 18, 7) holds U's six
+    components and its trace, ``pair`` (T, 6, 6) the normal form's ``g_i . B g_j + beta_0 N_i N_j``."""
+    for t in range(cells.shape[0]):
+        for r, s in ti.ndrange(18, 18):
+            blocks[t, r, s] = 0.0
+        for r in range(18):
+            force[t, r] = 0.0
+            area_rate[t, r] = 0.0
+        for q in range(shape.shape[0]):
+            w = weight[t, q]
+            n = ti.Vector([qnormal[t, q, 0], qnormal[t, q, 1], qnormal[t, q, 2]])
+            for i in range(6):
+                v = cells[t, i]
+                ni = ti.Vector([normal[v, 0], normal[v, 1], normal[v, 2]])
+                g = ti.Vector([grads[t, q, i, 0], grads[t, q, i, 1], grads[t, q, i, 2]])
+                for c in range(3):
+                    # a = P P_i e_c = P (e_c - n_ic n_i)
+                    a = -ni[c] * ni
+                    a[c] += 1.0
+                    a -= a.dot(n) * n
+                    s = shape[q, i] * ni[c]
+                    r = 3 * i + c
+                    scratch[t, r, 0] = a[0] * g[0] + s * qcurv[t, q, 0, 0]
+                    scratch[t, r, 1] = a[1] * g[1] + s * qcurv[t, q, 1, 1]
+                    scratch[t, r, 2] = a[2] * g[2] + s * qcurv[t, q, 2, 2]
+                    scratch[t, r, 3] = 0.5 * (a[0] * g[1] + a[1] * g[0]) + s * qcurv[t, q, 0, 1]
+                    scratch[t, r, 4] = 0.5 * (a[0] * g[2] + a[2] * g[0]) + s * qcurv[t, q, 0, 2]
+                    scratch[t, r, 5] = 0.5 * (a[1] * g[2] + a[2] * g[1]) + s * qcurv[t, q, 1, 2]
+                    scratch[t, r, 6] = scratch[t, r, 0] + scratch[t, r, 1] + scratch[t, r, 2]
+            bc = _clipped(form, t, q, n)
+            for i, j in ti.ndrange(6, 6):
+                gbg = 0.0
+                for a in ti.static(range(3)):
+                    for b in ti.static(range(3)):
+                        gbg += grads[t, q, i, a] * bc[a, b] * grads[t, q, j, b]
+                pair[t, i, j] = gbg + beta0[t, q] * shape[q, i] * shape[q, j]
+            for r in range(18):
+                force[t, r] -= w * zeta[t, q] * scratch[t, r, 6]
+                area_rate[t, r] += w * scratch[t, r, 6]
+                i, c = r // 3, r % 3
+                nic = normal[cells[t, i], c]
+                for s in range(r, 18):
+                    uu = (
+                        scratch[t, r, 0] * scratch[t, s, 0]
+                        + scratch[t, r, 1] * scratch[t, s, 1]
+                        + scratch[t, r, 2] * scratch[t, s, 2]
+                        + 2.0
+                        * (
+                            scratch[t, r, 3] * scratch[t, s, 3]
+                            + scratch[t, r, 4] * scratch[t, s, 4]
+                            + scratch[t, r, 5] * scratch[t, s, 5]
+                        )
+                    )
+                    j, d = s // 3, s % 3
+                    k = 2.0 * shear * uu + (bulk - shear) * scratch[t, r, 6] * scratch[t, s, 6]
+                    k += pair[t, i, j] * nic * normal[cells[t, j], d]
+                    blocks[t, r, s] += w * k
+        for r in range(18):
+            for s in range(r + 1, 18):
+                blocks[t, s, r] = blocks[t, r, s]
+
+
+@kernel
+def centred_force_kernel(
+    weight: f64_2,
+    grads: f64_4,
+    qnormal: f64_3,
+    normal: f64_2,
+    cells: i32_2,
+    shape: f64_2,
+    form: f64_4,
+    beta0: f64_2,
+    centre: f64_2,
+    force: f64_2,
+):
+    """``force[t]`` (18,): the blocks of the normal form ``(B, beta_0)`` (B clipped) applied to the nodal
+    vectors ``centre``: ``sum_q w [(g_i . B grad r_n) + beta_0 N_i r_n] n_ic``, ``r_n = sum_j N_j n_j . r_j``."""
+    for t in range(cells.shape[0]):
+        for r in range(18):
+            force[t, r] = 0.0
+        for q in range(shape.shape[0]):
+            w = weight[t, q]
+            n = ti.Vector([qnormal[t, q, 0], qnormal[t, q, 1], qnormal[t, q, 2]])
+            rn = 0.0
+            gr = ti.Vector([0.0, 0.0, 0.0])
+            for j in range(6):
+                v = cells[t, j]
+                s = normal[v, 0] * centre[v, 0] + normal[v, 1] * centre[v, 1] + normal[v, 2] * centre[v, 2]
+                rn += shape[q, j] * s
+                gr += s * ti.Vector([grads[t, q, j, 0], grads[t, q, j, 1], grads[t, q, j, 2]])
+            bc = _clipped(form, t, q, n)
+            bgr = bc @ gr
+            for i in range(6):
+                v = cells[t, i]
+                gi = ti.Vector([grads[t, q, i, 0], grads[t, q, i, 1], grads[t, q, i, 2]])
+                val = w * (gi.dot(bgr) + beta0[t, q] * shape[q, i] * rn)
+                for c in range(3):
+                    force[t, 3 * i + c] += val * normal[v, c]
