@@ -60,11 +60,12 @@ def cell_blocks_kernel(
     force: f64_2,
     area_rate: f64_2,
 ):
-    """``blocks[t]`` (18, 18) and ``force[t]`` (18,) of cell t (columns: node i, component c at 3 i + c):
-    ``sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd + (g_i . B g_j) n_ic n_jd +
-    beta_0 N_i N_j n_ic n_jd]`` ``force[t]`` = ``-sum_q w zeta tr U_ic`` and ``area_rate[t]`` = ``sum_q w tr U_ic`` (the area's rate), with ``U_ic = sym((P P_i e_c) g_i^T) +
-    N_i n_ic C`` (B clipped to its positive semidefinite part). ``scratch`` (T, 18, 7) holds U's six
-    components and its trace, ``pair`` (T, 6, 6) the normal form's ``g_i . B g_j + beta_0 N_i N_j``."""
+    """Cell t's (18, 18) ``blocks[t]`` (columns: node i, component c at 3 i + c)
+    ``sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd + (g_i . B g_j + beta_0 N_i N_j) n_ic n_jd]``,
+    its force ``force[t] = -sum_q w zeta tr U_ic`` and the area's rate ``area_rate[t] = sum_q w tr U_ic``,
+    with ``U_ic = sym((P P_i e_c) g_i^T) + N_i n_ic C`` (B clipped to its positive semidefinite part).
+    ``scratch`` (T, 18, 7) holds U's six components and its trace, ``pair`` (T, 6, 6) the normal form's
+    ``g_i . B g_j + beta_0 N_i N_j``."""
     for t in range(cells.shape[0]):
         for r, s in ti.ndrange(18, 18):
             blocks[t, r, s] = 0.0
