@@ -54,6 +54,9 @@ class Formulation:
     uses_fit_residual: Callable = staticmethod(lambda numerics: False)
     #: it has the semi-implicit tension centred on the last step's rate (what ``bdf2`` needs)
     centred_implicit: bool = False
+    #: its surface is made of curved six-node cells (a mesh in the split layout of
+    #: :mod:`cortex_ti.surface.curved`), on which the run's shape measures are taken
+    curved: bool = False
 
     def system(
         self,
@@ -128,6 +131,7 @@ FORMULATIONS: dict[str, Formulation] = {
         _rayleigh_p2,
         keys=("active_force",),
         centred_implicit=True,
+        curved=True,
     ),
 }
 

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..about import provenance
+from ..analysis.curved_measures import curved_measures
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics, neck_radius
 from ..dynamics.guard import StabilityGuard, extensile_tension
 from ..dynamics.integrate import RunStats, integrate
@@ -341,9 +342,12 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     )
 
     neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
+    curved = sim.settings.numerics.formulation_entry.curved
 
     def on_frame(t, ev, dt_next, final=False):
         diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=axis)
+        if curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
+            diag.update(curved_measures(ev.points, sim.mesh.faces, axis=axis))
         if st.stop_neck is not None:
             radius = neck_radius(ev.points, sim.mesh.faces, axis=axis)[0]
             neck.update(radius=radius if np.isfinite(radius) else np.inf, t=t)
