@@ -36,6 +36,7 @@ def check_rules(data: dict) -> None:
     _check_translation(data["translation"], effects)
     _check_motion(data)
     _check_remesh(data)
+    _check_curved(data)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
 
@@ -84,6 +85,27 @@ def _check_motion(data: dict) -> None:
         raise SceneError(
             "mesh.motion = ale moves the nodes tangentially by a mesh rule, so a tension glued to them "
             "(tension_transport = nodes) would move by that rule: set tension_transport: material"
+        )
+
+
+def _check_curved(data: dict) -> None:
+    """A formulation on curved cells (``rayleigh_p2``) needs a mesh of at least one split: an icosphere
+    of 42 nodes or more, or a mesh file (split when the run starts); remeshing is not implemented for
+    it."""
+    formulation = data["numerics"]["formulation"]
+    if data["model"] != "3d" or not FORMULATIONS[formulation].curved:
+        return
+    mesh = data["mesh"]
+    if mesh.get("file") is None and mesh["nodes"] < 42:
+        raise SceneError(
+            f"mesh.nodes = {fmt_value(mesh['nodes'])} with numerics.formulation = {formulation}: its curved cells are "
+            "made of four triangles of the icosphere one level finer, so it needs at least 42 nodes"
+        )
+    if (mesh.get("remesh") or {}).get("min_angle") is not None:
+        raise SceneError(
+            f"mesh.remesh with numerics.formulation = {formulation}: remeshing a surface of curved cells is not "
+            "implemented (the new cells' midpoints would have to be placed on the curved surface); use "
+            "numerics.formulation: rayleigh_p1 for a remeshed run"
         )
 
 

@@ -31,12 +31,29 @@ def initial_mesh(settings: RunSettings) -> Mesh:
     ``mesh.relax_start`` the icosphere's nodes moved along it so that the initial map's image has
     mended triangles (:func:`relaxed_start`)."""
     if settings.mesh.file:
-        return load_mesh(settings.mesh.file)
+        mesh = load_mesh(settings.mesh.file)
+        if settings.numerics.formulation_entry.curved:
+            return split_for_curved_cells(mesh, settings.numerics.fit)
+        return mesh
     sphere = icosphere(int(settings.mesh.nodes), settings.mesh.radius)
     matrix = settings.mesh.initial_map()
     if settings.mesh.relax_start and matrix is not None:
         return relaxed_start(sphere, matrix, settings.mesh.radius)
     return sphere
+
+
+def split_for_curved_cells(mesh: Mesh, fit: str) -> Mesh:
+    """A user's mesh made into curved six-node cells: every triangle split into four, the new nodes
+    placed on the surface the ``fit`` describes (:func:`cortex_ti.surface.curved.split_mesh`)."""
+    from ..surface.curved import split_mesh
+    from ..surface.fits import StencilChooser
+    from ..surface.geometry import compute_geometry
+    from ..surface.topology import build_topology
+
+    topo = build_topology(mesh)
+    geometry = compute_geometry(mesh.points, topo, StencilChooser(topo, fit))
+    points, faces = split_mesh(mesh.points, mesh.faces, geometry)
+    return Mesh(points=points, faces=faces)
 
 
 def relaxed_start(sphere: Mesh, matrix: np.ndarray, radius: float) -> Mesh:
