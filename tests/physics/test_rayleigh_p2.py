@@ -56,7 +56,9 @@ def test_tangential_sphere_flows_converge_at_third_order(name):
         scene = load_scene(name, [f"mesh.nodes={nodes}", *P2])
         sim = Simulation(scene)
         sol = sim.solve()
-        errors.append(analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))[1])
+        errors.append(
+            analytic.error_measures(sol.velocity, analytic.scene_solution(scene.settings, sim.mesh.points))[1]
+        )
     assert errors[0] / errors[1] > 8.0, errors
     assert errors[1] < 1e-4, errors
 
