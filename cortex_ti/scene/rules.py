@@ -50,11 +50,14 @@ def _check_formulation_keys(numerics: dict) -> None:
         if name == chosen:
             continue
         for key in form.keys:
+            if key in FORMULATIONS[chosen].keys:
+                continue
             value = numerics.get(key)
             if value not in (None, defaults[key]["default"]):
                 raise SceneError(
-                    f"numerics.{key} = {fmt_value(value)} applies to numerics.formulation = {name} only, not "
-                    f"{chosen}: remove it or set numerics.formulation: {name}"
+                    f"numerics.{key} = {fmt_value(value)} applies to numerics.formulation = "
+                    f"{' or '.join(n for n, f in FORMULATIONS.items() if key in f.keys)} only, not {chosen}: remove "
+                    f"it or set numerics.formulation: {name}"
                 )
 
 
