@@ -70,9 +70,9 @@ def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarra
     (``P_k = I - n_k n_k^T``) times the node's tension; local (node k and its triangles).
 
     Unlike ``-dE/dX`` it has a net force and torque, O(h^2) (zero on a mesh with the
-    icosahedron's symmetry): the mean-velocity gauge's multipliers take them up as a uniform force
-    density, the centroid gauge as a rigid motion plus an O(h^2) flow, so the two gauges' flows
-    differ by a rigid translation only to O(h^2) (with ``gradient``: exactly)."""
+    icosahedron's symmetry): the gauge's multipliers take them up as a uniform force density, the
+    same in both translation gauges (:mod:`.constraints`), so the two gauges' flows still differ
+    by a rigid translation exactly."""
     n = points.shape[0]
     grad_area = (area[:, None, None] * grads).reshape(-1, 3)  # dA_T/dx_k, (T*3, 3)
     idx = faces.ravel()

@@ -6,6 +6,17 @@ r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multipl
   volume's centroid held, ``sum_i A_i (x_i - x_c) v_n,i = 0``) and zero angular momentum
   ``sum_i A_i (x_i - x_c) x v_i = 0`` (Eq. 37), ``A_i`` the Meyer mixed area, ``x_c``
   the area-weighted centroid (with zero total velocity the reference point drops out).
+  In formulation ``rayleigh_p1`` the six multipliers push along the rows of zero total velocity
+  and angular momentum in both gauges, ``A_i (lambda_t + lambda_r x (x_i - x_c))`` (the centroid
+  gauge is Petrov-Galerkin: its rows fix the translation, the multipliers' force is the other
+  gauge's). The multipliers take up the net force and torque of the forces, which vanish in the
+  continuum but are O(h^2) on the mesh where a force is consistent without being an exact
+  gradient (the pressure on the Meyer areas below, the ``balanced`` active force); with
+  the same force density in both gauges, and a dissipation whose kernel holds the rigid motions,
+  the two gauges' flows differ by a rigid motion exactly, so with lagrangian nodes their shapes
+  differ by a rigid motion over a whole run. With the centroid's own rows as the force, the
+  gauges took up that net force as different force densities, and the shapes of a run drifted
+  apart as t^2 (docs/validation/formulations.md, "The two gauges over a run").
 * Incompressibility (effect ``incompressibility``): the pressure difference ``P``
   becomes an unknown of the normal balance and the enclosed volume is kept,
   ``sum_i v_n,i W_i = 0`` (Eq. 35). We take ``W_i = n_i . dV/dx_i``, the derivative
@@ -66,7 +77,13 @@ class RigidBodyGauge(Term):
     def paper(self, ctx: Context) -> None:
         ctx.constraints.append(Constraint("momentum", gauge_rows(ctx.geometry, ctx.physics)))
 
-    rayleigh_p1 = paper  # the same rows, the same multipliers
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        g = ctx.geometry
+        rows = gauge_rows(g, ctx.physics)
+        # the multipliers push along the mean-velocity gauge's rows in either gauge (module docstring):
+        # a gauge then only chooses the rigid motion, and the flows of the two differ by one exactly
+        force = rigid_motion_rows(g.points, g.area) if ctx.physics.centroid_gauge else None
+        ctx.constraints.append(Constraint("momentum", rows, force_rows=force))
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
         ctx.constraints.append(Constraint("momentum", ctx.surface.rigid_motion_rows(ctx.physics.centroid_gauge)))
