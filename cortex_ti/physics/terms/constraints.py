@@ -86,7 +86,11 @@ class RigidBodyGauge(Term):
         ctx.constraints.append(Constraint("momentum", rows, force_rows=force))
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
-        ctx.constraints.append(Constraint("momentum", ctx.surface.rigid_motion_rows(ctx.physics.centroid_gauge)))
+        surf = ctx.surface
+        rows = surf.rigid_motion_rows(ctx.physics.centroid_gauge)
+        # as in rayleigh_p1: the multipliers push along the mean-velocity rows in either gauge
+        force = surf.rigid_motion_rows(False) if ctx.physics.centroid_gauge else None
+        ctx.constraints.append(Constraint("momentum", rows, force_rows=force))
 
 
 @register
