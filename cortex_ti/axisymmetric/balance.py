@@ -34,6 +34,11 @@ class _Physics:
     eta_bar: float
     eta_bar_b: float
     fixed_normal: bool = False
+    #: "paper": the bending viscosity's normal force as paper Eq. 45, ``beta^cd nabla_c nabla_d v_n + beta_0
+    #: v_n``; "dissipation": the force of the dissipation the 3D Rayleighian formulations integrate,
+    #: ``nabla_c (beta^cd nabla_d v_n) + beta_0 v_n`` (:mod:`cortex_ti.physics.terms.bending`), which adds
+    #: ``(nabla_c beta^cs) d_s v_n = (d_s beta^ss + (r_s / r)(beta^ss - beta^pp)) d_s v_n``
+    bending_form: str = "paper"
 
     @property
     def bending(self) -> bool:
@@ -85,6 +90,8 @@ class ForceBalance:
             b0 = 2.0 * ph.eta_bar * (C * Ct - Cb) - d * C * Ct
             d2vn = (dvn @ sp.D["O"].T) / h
             nor = nor + bss * d2vn + bpp * (rs / r) * dvn + b0 * vn
+            if ph.bending_form == "dissipation":
+                nor = nor + ((bss @ sp.D["E"].T) / h + (rs / r) * (bss - bpp)) * dvn
         return tan, nor
 
     # -- residual in "apply" form, batched over leading axes of x and/or the geometry ------------
@@ -171,6 +178,8 @@ class ForceBalance:
                 bpp = -2.0 * ph.eta_bar * k2 - d * C
                 b0 = 2.0 * ph.eta_bar * (C * Ct - Cb) - d * C * Ct
                 Nvn += (bss[:, None] * Ma) @ Dt + (bpp * q)[:, None] * Dt
+                if ph.bending_form == "dissipation":
+                    Nvn += ((Dt @ bss) + q * (bss - bpp))[:, None] * Dt
                 Nvn[np.diag_indices(n)] += b0
             A[n : 2 * n, n : 2 * n] = Nvn
             A[n : 2 * n, 2 * n] = -1.0
@@ -193,7 +202,7 @@ class ForceBalance:
         return out
 
 
-def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False) -> _Physics:
+def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False, bending_form="paper") -> _Physics:
     vals = dict(eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, radius=radius)
     for k, v in vals.items():
         try:
@@ -212,7 +221,9 @@ def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False) ->
         raise ValueError(
             "eta_b = 0 without bending viscosity leaves v_n undetermined on a sphere (singular normal balance)"
         )
-    return _Physics(float(eta_s), float(eta_b), float(eta_bar), float(eta_bar_b), bool(fixed_normal))
+    if bending_form not in ("paper", "dissipation"):
+        raise ValueError(f"bending_form must be 'paper' or 'dissipation', got {bending_form!r}")
+    return _Physics(float(eta_s), float(eta_b), float(eta_bar), float(eta_bar_b), bool(fixed_normal), bending_form)
 
 
 def _check_gauge(gauge: str) -> str:

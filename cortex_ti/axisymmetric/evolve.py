@@ -615,6 +615,7 @@ def simulate(
     stop_neck: float | None = None,
     stop_ill_posed: bool = True,
     myosin: Myosin | None = None,
+    bending_form: str = "paper",
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -680,6 +681,10 @@ def simulate(
         A myosin density carried by the full velocity, diffusing and turning over, whose tension
         ``zeta(c)`` adds to ``zeta`` (:mod:`cortex_ti.axisymmetric.myosin`); the up-down symmetry
         is used only if its initial density has it too.
+    bending_form : "paper" (Eq. 45, the default) or "dissipation": the bending viscosity's normal
+        force as the 3D formulations ``rayleigh_p1`` and ``rayleigh_p2`` integrate it, the force of
+        ``1/2 int B^cd d_c v_n d_d v_n dA``; the two differ by ``(nabla_c beta^cd) d_d v_n``, zero on
+        a sphere (:class:`~cortex_ti.axisymmetric.balance._Physics`).
 
     Returns
     -------
@@ -690,7 +695,7 @@ def simulate(
     ValueError
         Bad input, singular force balance, or integrator failure (one-line message).
     """
-    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius)
+    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, bending_form=bending_form)
     n = _check_n(n)
     R = float(radius)
     st, atol = _check_times(t_end, save_times, rtol, atol, R)
