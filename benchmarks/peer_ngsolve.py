@@ -18,17 +18,22 @@ The peer's recipe (what the lead needs to match it):
   the curved element), ``u~ = u - tr(u) P / 2``; the volume constraint ``int v.n dA = 0`` and the
   six rigid motions (``int v dA = 0``, ``int x x v dA = 0``) each by an exact Lagrange multiplier
   (seven ``NumberSpace`` unknowns), no penalty; the pressure is minus the volume multiplier;
+* **quadrature**: the bilinear form ``bonus_intorder=2`` above NGSolve's default (which under-integrates
+  the curved cells: order 3 is then 1.6-1.8x less accurate at 10^4 nodes; a bonus of 4 gives the same
+  digits as 2); the integrands ``Compile()``-d (3-5x faster assembly, same numbers);
 * **active tension**: ``zeta`` of the scene's patterns, evaluated by
-  :func:`cortex_ti.physics.patterns.evaluate_active_stress` at every quadrature point of the
+  ``cortex_ti.physics.patterns.evaluate_active_stress`` at every quadrature point of the
   curved cells (an ``IntegrationRuleSpaceSurface`` of order ``2 k + 6``, the load integrated on
   that same rule), so no interpolation of the pattern;
 * **solve**: NGSolve's sparse LDL^T (``sparsecholesky``) of the symmetric saddle-point matrix,
   one thread (``SetNumThreads(1)``, OMP/OpenBLAS/MKL threads 1); wall time = curving + assembly
-  + factorisation + solve (mesh generation and the error evaluation excluded);
-* **error**: eps_rel (paper Eq. 58, :func:`cortex_ti.analysis.analytic.error_measures`) at every
+  + factorisation + solve, the fastest of ``--repeat`` (mesh generation and the error evaluation
+  excluded);
+* **error**: eps_rel (paper Eq. 58, ``cortex_ti.analysis.analytic.error_measures``) at every
   velocity node (the Lagrange points of order ``k`` of each curved triangle, deduplicated: their
-  count equals ndof / 3) and, second, at the mesh vertices only; the exact flow is evaluated at
-  the node projected on the unit sphere.
+  count equals ndof / 3) and, second, at the mesh vertices only, and the L2 error over the curved
+  surface; the exact flow (``cortex_ti.analysis.sphere_exact.sphere_flow``, about the ring's axis)
+  is evaluated at the point projected on the unit sphere.
 
 Usage::
 
@@ -245,11 +250,20 @@ def ours(scene_name: str, nodes: int, repeat: int = 1) -> dict:
     return dict(r, method="rayleigh_p1", eps_rel_vertices=r["eps_rel"], eps_l2=float("nan"), order=1)
 
 
-def _row(r: dict) -> str:
+def recipe() -> str:
+    """The recipe of the module's docstring, for the page."""
+    doc = __doc__.split("The peer's recipe (what the lead needs to match it):")[1].split("Usage::")[0]
+    return "The peer's recipe:\n\n" + doc.strip() + "\n"
+
+
+def _row(r: dict, prev: dict | None) -> str:
     parts = r.get("seconds_parts")
     split = " / ".join(f"{v * 1e3:.0f}" for v in parts.values()) if parts else ""
+    order = ""
+    if prev is not None and prev["nodes"] < r["nodes"]:  # e ~ h^q and nodes ~ h^-2
+        order = f" ({2 * np.log(prev['eps_rel'] / r['eps_rel']) / np.log(r['nodes'] / prev['nodes']):.1f})"
     return (
-        f"| {r['scene']} | {r['method']} | {r['nodes']} | {r['eps_rel']:.3g} | {r['eps_rel_vertices']:.3g} "
+        f"| {r['scene']} | {r['method']} | {r['nodes']} | {r['eps_rel']:.3g}{order} | {r['eps_rel_vertices']:.3g} "
         f"| {'n/a' if np.isnan(r['eps_l2']) else format(r['eps_l2'], '.3g')} "
         f"| {r['seconds']:.3f} | {split} |"
     )
@@ -301,14 +315,17 @@ def main(argv=None) -> int:
         "area) over max |v_exact|. Wall time: the fastest of "
         f"{args.repeat} solves, curving + assembly + factorisation + solve for the peer (each in ms in the "
         "last column), geometry + assembly + solve for `rayleigh_p1` (its first solve, Taichi's kernels "
-        "compiled before). `NGSolve Pk (geometry m)`: velocity of order k on a geometry curved to order m.\n"
+        "compiled before). `NGSolve Pk (geometry m)`: velocity of order k on a geometry curved to order m. "
+        "In brackets: the order in h of eps_rel from the row above (nodes ~ h^-2).\n"
     )
+    print(recipe())
     print(
         "| scene | method | velocity nodes | eps_rel (nodes) | eps_rel (vertices) | L2 / max | wall s "
         "| curve / assemble / factor / solve ms |"
     )
     print("|---|---|---|---|---|---|---|---|")
     cache: dict = {}
+    prev = None
     for scene in args.scenes:
         rows = [(order, b, n) for order in args.orders for b in args.geometry_bonus for n in args.nodes]
         if args.ours:
@@ -319,7 +336,9 @@ def main(argv=None) -> int:
             else:
                 key = cache.setdefault((order, b), {})
                 r = peer_solve(scene, n, order, key, order + b, args.quadrature_bonus, args.repeat)
-            print(_row(r), flush=True)
+            same = prev is not None and (prev["scene"], prev["method"]) == (r["scene"], r["method"])
+            print(_row(r, prev if same else None), flush=True)
+            prev = r
             if args.json:
                 with open(args.json, "a") as fh:
                     fh.write(json.dumps(r) + "\n")
