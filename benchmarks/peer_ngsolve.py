@@ -240,6 +240,53 @@ def peer_solve(
     )
 
 
+def uniform_solve(nodes: int, order: int, geometry_order: int, bonus: int = 2) -> dict:
+    """A uniform tension 1 on the unit sphere (``eta_s = eta_b = 1``): the exact flow is zero and ``P = 2``,
+    so the largest discrete velocity is the spurious flow of the discrete Laplace law (the tension's
+    force ``int div_G w dA`` against the pressure's ``int w.n dA`` on the curved cells)."""
+    ng = _ngsolve()
+    mesh, _ = sphere_mesh(nodes, order, {})
+    mesh.Curve(geometry_order)
+    pats = [{"type": "harmonics", "terms": [{"l": 0, "m": 0, "coeff": float(np.sqrt(4 * np.pi))}]}]
+    sol, V, _, rules, qp, _ = _build_and_solve(ng, mesh, order, 1.0, 1.0, pats, bonus)
+    mips = mesh.MapToAllElements(rules[ng.TRIG], ng.BND)
+    normal = ng.specialcf.normal(3)(mips)
+    radius = np.linalg.norm(qp, axis=1)
+    return dict(
+        method=f"NGSolve P{order}" + (f" (geometry {geometry_order})" if geometry_order != order else ""),
+        nodes=V.ndof // 3,
+        max_v=float(np.max(np.linalg.norm(sol.components[0](mips), axis=1))),
+        pressure=-float(sol.components[1].vec[0]),
+        radius_error=float(np.max(np.abs(radius - 1.0))),
+        normal_error=float(np.max(np.linalg.norm(normal - qp / radius[:, None], axis=1))),
+    )
+
+
+def _uniform_table(args) -> None:
+    print(
+        "\nUniform tension 1 on the unit sphere (exact flow zero, P = 2): the largest velocity at the quadrature "
+        "points (the spurious flow of the discrete Laplace law, in units of zeta R / eta) and the geometry's "
+        "largest errors there (| |x| - 1 | and |n_h - x / |x||); in brackets the order in h from the row above.\n"
+    )
+    print("| method | velocity nodes | max abs v | P | radius error | normal error |")
+    print("|---|---|---|---|---|---|")
+    for order in args.orders:
+        for b in args.geometry_bonus:
+            prev = None
+            for n in args.nodes:
+                r = uniform_solve(n, order, order + b, args.quadrature_bonus)
+                rate = ""
+                if prev is not None:
+                    q = 2 * np.log(prev["max_v"] / r["max_v"]) / np.log(r["nodes"] / prev["nodes"])
+                    rate = f" ({q:.1f})"
+                print(
+                    f"| {r['method']} | {r['nodes']} | {r['max_v']:.2e}{rate} | {r['pressure']:.6f} "
+                    f"| {r['radius_error']:.1e} | {r['normal_error']:.1e} |",
+                    flush=True,
+                )
+                prev = r
+
+
 def ours(scene_name: str, nodes: int, repeat: int = 1) -> dict:
     """``rayleigh_p1`` on the same problem (benchmarks/t0_accuracy.py: its first solve, geometry + assembly +
     solve, timed), the fastest of ``repeat``."""
@@ -290,6 +337,11 @@ def main(argv=None) -> int:
     )
     p.add_argument("--repeat", type=int, default=3, help="time the fastest of this many solves")
     p.add_argument("--ours", action="store_true", help="also rayleigh_p1 at the same node counts")
+    p.add_argument(
+        "--uniform",
+        action="store_true",
+        help="also a uniform tension (exact flow zero): the spurious flow of the discrete Laplace law per order",
+    )
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
@@ -302,6 +354,7 @@ def main(argv=None) -> int:
         return 2
     if args.smoke:
         args.scenes, args.nodes, args.orders, args.repeat = ["furrow_p8_a1"], [162], [1, 2], 1
+        args.ours = args.uniform = True
         args.json = None
     if args.ours:
         from cortex_ti import runtime
@@ -342,6 +395,8 @@ def main(argv=None) -> int:
             if args.json:
                 with open(args.json, "a") as fh:
                     fh.write(json.dumps(r) + "\n")
+    if args.uniform:
+        _uniform_table(args)
     return 0
 
 
