@@ -168,6 +168,7 @@ def peer_solve(
     geometry_order: int = 0,
     bonus: int = 2,
     repeat: int = 1,
+    overrides=(),
 ) -> dict:
     """Solve the t = 0 problem of ``scene_name`` (bending viscosity off) with NGSolve at order ``order``,
     the geometry curved to ``geometry_order`` (0: the same order, isoparametric), the forms integrated
@@ -178,7 +179,7 @@ def peer_solve(
     from cortex_ti.scene import load_scene
 
     ng = _ngsolve()
-    s = load_scene(scene_name).settings
+    s = load_scene(scene_name, list(overrides)).settings
     pats, eta_s, eta_b = list(s.patterns), s.viscosity.shear, s.viscosity.bulk
     mesh, maxh = sphere_mesh(nodes, order, cache)
     t0 = time.perf_counter()
@@ -287,12 +288,15 @@ def _uniform_table(args) -> None:
                 prev = r
 
 
-def ours(scene_name: str, nodes: int, repeat: int = 1) -> dict:
+def ours(scene_name: str, nodes: int, repeat: int = 1, overrides=()) -> dict:
     """``rayleigh_p1`` on the same problem (benchmarks/t0_accuracy.py: its first solve, geometry + assembly +
     solve, timed), the fastest of ``repeat``."""
     from t0_accuracy import t0_error
 
-    runs = [t0_error(scene_name, nodes, "quadratic", "rayleigh_p1", bending=False) for _ in range(max(1, repeat))]
+    runs = [
+        t0_error(scene_name, nodes, "quadratic", "rayleigh_p1", bending=False, overrides=overrides)
+        for _ in range(max(1, repeat))
+    ]
     r = min(runs, key=lambda x: x["seconds"])
     return dict(r, method="rayleigh_p1", eps_rel_vertices=r["eps_rel"], eps_l2=float("nan"), order=1)
 
@@ -342,6 +346,14 @@ def main(argv=None) -> int:
         action="store_true",
         help="also a uniform tension (exact flow zero): the spurious flow of the discrete Laplace law per order",
     )
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="scene overrides (e.g. another active_stress), for both methods",
+    )
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
     p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = p.parse_args(argv)
@@ -385,10 +397,10 @@ def main(argv=None) -> int:
             rows = [(0, 0, n) for n in args.nodes] + rows
         for order, b, n in rows:
             if order == 0:
-                r = ours(scene, n, args.repeat)
+                r = ours(scene, n, args.repeat, args.overrides)
             else:
                 key = cache.setdefault((order, b), {})
-                r = peer_solve(scene, n, order, key, order + b, args.quadrature_bonus, args.repeat)
+                r = peer_solve(scene, n, order, key, order + b, args.quadrature_bonus, args.repeat, args.overrides)
             same = prev is not None and (prev["scene"], prev["method"]) == (r["scene"], r["method"])
             print(_row(r, prev if same else None), flush=True)
             prev = r
