@@ -2,11 +2,13 @@
 from an empty folder, must finish with status 0, print its report, and write nothing where it was
 started (a smoke run's files go to a temporary folder). The numbers of a smoke run mean nothing and
 are not checked: the benchmarks' measurements live on the validation pages, never in pass/fail
-tests. Marked slow (about a minute or two in all).
+tests. Marked slow (about a minute or two in all). A benchmark of a peer library (an optional extra
+that the test extra does not install, ``NEEDS``) is skipped with one line where that library is missing.
 """
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import subprocess
 import sys
@@ -15,6 +17,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
+#: benchmark -> (the module it needs, the extra that installs it)
+NEEDS = {"peer_ngsolve": ("ngsolve", "peers")}
 SCRIPTS = sorted(p for p in (ROOT / "benchmarks").glob("*.py") if not p.name.startswith("_") and p.name != "page.py")
 
 
@@ -26,6 +30,9 @@ def test_every_benchmark_has_a_smoke_mode():
 @pytest.mark.slow
 @pytest.mark.parametrize("script", SCRIPTS, ids=[p.stem for p in SCRIPTS])
 def test_smoke_mode_runs(script, tmp_path):
+    module, extra = NEEDS.get(script.stem, (None, None))
+    if module and importlib.util.find_spec(module) is None:
+        pytest.skip(f"{script.name} needs {module} (the {extra} extra: pip install -e '.[{extra}]')")
     env = {
         **os.environ,
         "MPLBACKEND": "Agg",
