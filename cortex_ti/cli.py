@@ -129,21 +129,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _threads(args) -> int | None:
     """``--threads``, else ``CORTEX_TI_THREADS``, checked: a bad value is one line, before Taichi starts
-    (Taichi aborts on 0 threads)."""
-    if args.threads is not None:
-        text, what = str(args.threads).strip(), "--threads"
-    else:
-        text, what = os.environ.get("CORTEX_TI_THREADS", "").strip(), "CORTEX_TI_THREADS"
-        if not text:
-            return None
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        unset = " (or unset: all cores)" if what == "CORTEX_TI_THREADS" else ""
-        raise CortexError(f"{what} must be a whole number >= 1{unset}, got '{text}'")
-    return value
+    (Taichi aborts on 0 threads; :func:`cortex_ti.errors.thread_count`, which the Python door uses too)."""
+    from .errors import thread_count
+
+    return thread_count(args.threads, "--threads")
 
 
 def _writable_file(path: Path, what: str) -> None:
@@ -225,7 +214,7 @@ def _run(args) -> int:
 
             sim = make_runner(scene, args.arch, threads)  # the scene's model (cortex_ti.models.MODELS)
             check_interrupted()  # a signal whose exception start-up code swallowed
-            out = sim.run(args.output, resume=args.resume)
+            out = sim.run(args.output, resume=args.resume, force=args.force)
         except BaseException as caught:
             exc = interruption(caught)
             if exc is None:

@@ -57,10 +57,13 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
         from .errors import CortexError
 
         raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(ARCHES)}")
+    from .errors import thread_count
+
+    threads = thread_count(threads)  # checked before Taichi sees it: 0 threads aborts the interpreter
     if threads is None:
-        threads = int(os.environ.get("CORTEX_TI_THREADS", "0")) or os.cpu_count() or 1
+        threads = os.cpu_count() or 1
     else:  # the sparse factorisations take their thread count from here too (solve.factorizations)
-        os.environ["CORTEX_TI_THREADS"] = str(int(threads))
+        os.environ["CORTEX_TI_THREADS"] = str(threads)
     wanted = {"arch": arch, "threads": int(threads)}
     if _state == wanted:
         return _state

@@ -414,10 +414,12 @@ class Simulation:
             transport=self.transport,
         )
 
-    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True, force: bool = False) -> Path:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).
+        An existing ``output``, or its ``.partial`` file with frames, is refused as the command line
+        refuses it, unless ``resume`` (continue or extend it) or ``force`` (replace it).
         What the run did is in :attr:`report` (and :meth:`summary`)."""
-        self.report = run_scene(self, Path(output), resume=resume, progress=progress)
+        self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
         return self.report.path
 
     def summary(self) -> dict:

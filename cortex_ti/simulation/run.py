@@ -41,7 +41,7 @@ from ..errors import (
     check_interrupted,
     interruptible,
 )
-from ..io.claim import OutputClaim
+from ..io.claim import check_output, claim_output
 from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
@@ -185,11 +185,16 @@ def field_values(sim: Simulation) -> dict:
     return out
 
 
-def run_scene(sim: Simulation, output: Path, resume: bool = False, progress: bool = True) -> RunReport:
-    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring)."""
+def run_scene(
+    sim: Simulation, output: Path, resume: bool = False, progress: bool = True, force: bool = False
+) -> RunReport:
+    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring). What is
+    already at ``output`` is treated as the command line does (:func:`cortex_ti.io.claim.check_output`:
+    refused unless ``resume`` or ``force``)."""
     sim.seconds = {}
     sim.report = None
-    with OutputClaim.acquire(output):
+    with claim_output(output):
+        check_output(output, resume, force)
         if sim.settings.dynamic:
             return _run_dynamic(sim, output, resume, progress)
         return _run_static(sim, output)
