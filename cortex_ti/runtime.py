@@ -11,14 +11,18 @@ environment:
 ``default_fp=ti.f64`` matters: with Taichi's default f32, float *literals* inside
 kernels stay single precision even when every field is f64.
 
-Importing this module imports Taichi (without its banner and version check); modules that
+Importing this module imports Taichi (without its banner and version check; the line ``ti.init``
+prints, "[Taichi] Starting on arch=...", goes to the debug log, so stdout holds only what a command
+prints); modules that
 need no kernels (scene loading, sweeps, stores) do not import it, so that input errors are
 reported before Taichi starts.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import io
 import logging
 import os
 
@@ -69,16 +73,18 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
         return _state
     if _state is not None:
         ti.reset()
-    ti.init(
-        arch=getattr(ti, arch),
-        default_fp=ti.f64,
-        default_ip=ti.i32,
-        cpu_max_num_threads=int(threads),
-        offline_cache=True,
-        log_level=ti.WARN,
-    )
+    banner = io.StringIO()  # ti.init prints "[Taichi] Starting on arch=..." to stdout: logged instead
+    with contextlib.redirect_stdout(banner):
+        ti.init(
+            arch=getattr(ti, arch),
+            default_fp=ti.f64,
+            default_ip=ti.i32,
+            cpu_max_num_threads=int(threads),
+            offline_cache=True,
+            log_level=ti.WARN,
+        )
     _state = wanted
-    log.debug("Taichi initialised: %s", wanted)
+    log.debug("Taichi initialised: %s %s", wanted, " ".join(banner.getvalue().split()))
     return _state
 
 

@@ -182,7 +182,7 @@ def check_output(path: str | os.PathLike, resume: bool, force: bool) -> str:
     from .trajectory import committed_frames
 
     path = Path(os.fspath(path))
-    if path.suffix.lower() in NOT_OUTPUTS:
+    if path.suffix.lower() in NOT_OUTPUTS and (force or not path.exists()):  # else: 'exists', below
         raise CortexError(
             f"output '{path}' is named like a scene or config file ({path.suffix}); a trajectory is an HDF5 "
             f"file: name it e.g. '{path.with_suffix('.h5')}'"
