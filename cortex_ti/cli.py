@@ -30,6 +30,11 @@ def _parser() -> argparse.ArgumentParser:
         prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021)."
     )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    p.add_argument(
+        "--debug",
+        action="store_true",
+        help="after an error's one line, print the traceback behind it (e.g. of an error in a python pattern)",
+    )
     sub = p.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene and write its trajectory (HDF5, opens with xarray)")
@@ -375,7 +380,13 @@ def _main(argv: list[str] | None) -> int:
         return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
         check_interrupted()  # a signal some library reported as its own error is the signal
-        print(f"cortex-ti: error: {exc}", file=sys.stderr)
+        behind = exc.__cause__ is not None and not isinstance(exc.__cause__, CortexError)
+        hint = " (--debug shows its traceback)" if behind and not args.debug else ""
+        print(f"cortex-ti: error: {exc}{hint}", file=sys.stderr)
+        if args.debug:
+            import traceback
+
+            traceback.print_exception(exc.__cause__ or exc, file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
