@@ -31,7 +31,15 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..errors import CortexError
-from .files import PARTIAL_SUFFIX, OutputError, atomic_path, describe_os_error, refuse_file_parent
+from .files import (
+    PARTIAL_SUFFIX,
+    OutputError,
+    atomic_path,
+    check_destination,
+    describe_os_error,
+    refuse_file_parent,
+    write_synced,
+)
 from .trajectory import Trajectory
 
 __all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
@@ -158,7 +166,7 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                     h5.flush()
                     image = h5.id.get_file_image()
             if in_memory:
-                _write_bytes(tmp, image)
+                write_synced(tmp, image)
             os.replace(tmp, out)
         finally:
             tmp.unlink(missing_ok=True)
@@ -173,38 +181,6 @@ def _vtkhdf_bytes(points: int, faces: int) -> int:
     """The size of a VTKHDF export: the points and 8 numbers of point data per exported node, the
     triangles once, and some HDF5 overhead."""
     return 8 * 11 * points + 34 * faces + (1 << 16)
-
-
-def _write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` and fsync it (an OSError for a full disk, the file then deleted
-    by the caller)."""
-    with open(path, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-
-
-def check_destination(path: Path, need: int = 0) -> None:
-    """Before anything is computed: ``path``'s folder can be written (created if needed, a file
-    made in it and removed) and has ``need`` bytes free (checked where cheap,
-    :func:`shutil.disk_usage`). Else one :class:`~cortex_ti.io.files.OutputError`."""
-    import shutil
-
-    refuse_file_parent(path, "the export")
-    probe = path.with_name(f".{path.name}.probe")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(probe, "x"):
-            pass
-        probe.unlink()
-        free = shutil.disk_usage(path.parent).free
-    except OSError as exc:
-        raise OutputError(f"cannot write '{path}': {describe_os_error(exc)}; nothing was written") from None
-    if need > free:
-        raise OutputError(
-            f"cannot write '{path}': it needs about {need / 1e6:.3g} MB and '{path.parent}' has "
-            f"{free / 1e6:.3g} MB free; nothing was written"
-        )
 
 
 def export_vtu_series(path, output=None, every: int = 1) -> Path:
@@ -238,7 +214,7 @@ def export_vtu_series(path, output=None, every: int = 1) -> Path:
             lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]
             lines += [f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(n)}/>' for t, n in entries]
             lines += ["  </Collection>", "</VTKFile>", ""]
-            _write_bytes(work / pvd.name, "\n".join(lines).encode())
+            write_synced(work / pvd.name, "\n".join(lines).encode())
             # in place: the old .pvd first (no reader follows it to half-replaced frames), the frames
             # of an earlier export of this run, then the new frames and the new .pvd
             pvd.unlink(missing_ok=True)

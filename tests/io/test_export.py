@@ -210,7 +210,7 @@ def test_a_disk_filling_during_an_export_leaves_the_earlier_one(run, tmp_path, c
         monkeypatch.setattr(meshio, "write", filling(meshio.write))
     else:
         calls.append("first")
-        monkeypatch.setattr(export, "_write_bytes", filling(export._write_bytes))
+        monkeypatch.setattr(export, "write_synced", filling(export.write_synced))
     assert main(["export", str(run), "-o", str(tmp_path), "--format", fmt, "--force", "--every", "2"]) == 2
     _one_error(capsys, "No space left on device")
     assert _listing(tmp_path) == before
