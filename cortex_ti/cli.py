@@ -242,25 +242,35 @@ def _run(args) -> int:
 
 
 def _check(args) -> int:
+    """``run`` without the run: the scene, its mesh, fields and patterns (read, imported and called),
+    the mesh motion, transport and remeshing set up as the run sets them up, and a dynamic scene's
+    steps against what its scheme can honour; values that are legal but unphysical are warned of."""
     from .scene import load_scene
-    from .simulation.setup import active_tension, initial_mesh
-    from .surface.topology import build_topology
 
     scene = load_scene(args.scene, args.overrides)
     settings = scene.settings
     effects = ", ".join(sorted(scene.effects))
     if settings.model == "axisymmetric":
+        from .models import make_runner
+
+        make_runner(scene)  # the model's set-up (no Taichi), with its warning on an extensile tension
         from .axisymmetric.run import axisymmetric_tension
 
         axisymmetric_tension(settings)  # runs python patterns, refuses one that varies about z
         print(f"{scene.name}: valid ({settings.describe_numerics()}, effects: {effects})")
     else:
-        mesh = initial_mesh(settings)
-        build_topology(mesh)
-        # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
-        # checks one finite value per node, imports and calls python patterns
-        active_tension(mesh, settings)
-        print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {effects})")
+        from .simulation.core import Simulation
+        from .simulation.run import step_scheme, unphysical
+
+        # everything a run sets up before its first solve (Taichi is not started): the mesh, its
+        # topology, fields and patterns evaluated on the mesh before mesh.transform/shear, the
+        # transport of each field, the mesh motion and the remeshing (and its extra)
+        sim = Simulation(scene)
+        if settings.dynamic:
+            step_scheme(sim)  # the ALE step limit, as a run refuses it
+        for sentence in unphysical(sim):
+            log.warning("scene '%s': %s", scene.name, sentence)
+        print(f"{scene.name}: valid ({sim.mesh.n_nodes} nodes, effects: {effects})")
         print(f"  numerics: {settings.describe_numerics()}")
     if settings.dynamic:
         print(f"  time: {settings.time.describe()}")

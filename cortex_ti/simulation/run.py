@@ -46,6 +46,7 @@ from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
 from ..physics.patterns import evaluate_active_stress
+from ..surface.transport import DENSITY
 
 if TYPE_CHECKING:  # pragma: no cover
     from .simulation import Simulation
@@ -64,6 +65,8 @@ __all__ = [
     "run_scene",
     "run_summary",
     "stop_reason",
+    "step_scheme",
+    "unphysical",
 ]
 
 #: Why a run ended (the summary's ``stopped``): the value, and what it means.
@@ -299,10 +302,40 @@ def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
         scheme.dt_cap = min(scheme.dt_cap, limit)
 
 
-def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
+def step_scheme(sim: Simulation):
+    """The scene's time scheme as a run builds it, its steps capped (or refused) by the ALE limit
+    (:func:`cap_ale_step`): what ``cortex-ti check`` asks of a dynamic scene without running it."""
     st = sim.settings.time
     scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
     cap_ale_step(sim, scheme)
+    return scheme
+
+
+def unphysical(sim: Simulation) -> list[str]:
+    """Sentences on values a scene may legally hold but that no cortex has: an extensile active
+    tension (its sign opposite to the contractile one the model is made for; the guard says so if
+    it stops the run) and a negative density field. A run logs them as warnings at its start, and
+    ``cortex-ti check`` too."""
+    out = []
+    physical = extensile_tension(sim.zeta)
+    if physical is not None:
+        out.append(f"{physical}; the guard will say so if it stops the run")
+    for spec in sim.fields:
+        if spec.kind != DENSITY:
+            continue
+        values = np.asarray(sim.state0.fields[spec.name], dtype=float)
+        neg = values < 0.0
+        if np.any(neg):
+            out.append(
+                f"the initial {spec.name} density is negative at {int(neg.sum())} of {values.size} nodes "
+                f"(down to {values.min():.3g}): a density is an amount per area, never below 0"
+            )
+    return out
+
+
+def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
+    st = sim.settings.time
+    scheme = step_scheme(sim)
     start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
     if resume:
         extend_finished(output)
@@ -322,11 +355,8 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
-    physical = extensile_tension(sim.zeta)
-    if physical is not None:
-        log.warning(
-            "scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name, physical
-        )
+    for sentence in unphysical(sim):
+        log.warning("scene '%s': %s; the run goes on", sim.settings.name, sentence)
     axis = sim.settings.pattern_axis
     has_p = sim.settings.has("incompressibility")
     stored = stored_fields(sim)
