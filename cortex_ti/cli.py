@@ -169,12 +169,7 @@ def _run(args) -> int:
 
     t0 = time.perf_counter()
     sim = None
-    if args.force and args.resume:
-        raise CortexError("--force starts over and --resume continues: pass one of them")
-    scene = load_scene(args.scene, args.overrides)  # input errors first, before Taichi starts
-    settings = scene.settings
-    threads = _threads(args)
-    if args.summary is not None:
+    if args.summary is not None:  # first: every exit after this one writes it
         _writable_file(args.summary, "--summary")
 
     def kept() -> tuple[int, float | None]:
@@ -183,7 +178,9 @@ def _run(args) -> int:
         except CortexError:
             return 0, None
 
-    def summary(status: str, exc: BaseException | None = None) -> None:
+    def summary(status: str, exc: BaseException | None = None, stopped: str | None = None) -> None:
+        """Write --summary; one that cannot be written is a warning: it does not turn a finished run
+        into a failure, nor hide the error that ended one."""
         if args.summary is None:
             return
         import resource
@@ -192,7 +189,7 @@ def _run(args) -> int:
 
         info = sim.summary() if sim is not None else {}
         if exc is not None:
-            info["stopped"] = stop_reason(exc)
+            info["stopped"] = stopped or stop_reason(exc)
             n, t = kept()  # how far it got: the last complete frame
             if n:
                 info["t_reached"] = t
@@ -210,10 +207,24 @@ def _run(args) -> int:
         except OSError as err:
             from .io.files import describe_os_error
 
-            raise CortexError(f"cannot write the summary '{args.summary}': {describe_os_error(err)}") from None
+            print(
+                f"cortex-ti: warning: cannot write the summary '{args.summary}': {describe_os_error(err)}",
+                file=sys.stderr,
+            )
+
+    try:  # input errors first, before Taichi starts; each one still writes the summary
+        if args.force and args.resume:
+            raise CortexError("--force starts over and --resume continues: pass one of them")
+        scene = load_scene(args.scene, args.overrides)
+        settings = scene.settings
+        threads = _threads(args)
+    except CortexError as exc:
+        summary("failed", exc, stopped="input")
+        raise
 
     with interruptible(), claim_output(args.output):
-        check_output(args.output, args.resume, args.force)  # refused: no summary (it is not a run)
+        # refused: no summary, as the one at --summary may be that of the run whose output this protects
+        check_output(args.output, args.resume, args.force)
         try:
             from .models import make_runner
 
@@ -259,13 +270,13 @@ def _check(args) -> int:
         axisymmetric_tension(settings)  # runs python patterns, refuses one that varies about z
         print(f"{scene.name}: valid ({settings.describe_numerics()}, effects: {effects})")
     else:
-        from .simulation.core import Simulation
         from .simulation.run import step_scheme, unphysical
+        from .simulation.setup import SceneSetup
 
-        # everything a run sets up before its first solve (Taichi is not started): the mesh, its
-        # topology, fields and patterns evaluated on the mesh before mesh.transform/shear, the
-        # transport of each field, the mesh motion and the remeshing (and its extra)
-        sim = Simulation(scene)
+        # everything a run sets up before its first solve, as the run sets it up (without Taichi):
+        # the mesh, its topology, fields and patterns evaluated on the mesh before
+        # mesh.transform/shear, the transport of each field, the mesh motion, the remeshing's extra
+        sim = SceneSetup(scene)
         if settings.dynamic:
             step_scheme(sim)  # the ALE step limit, as a run refuses it
         for sentence in unphysical(sim):

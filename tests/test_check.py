@@ -54,9 +54,9 @@ def test_an_ale_step_above_the_stability_limit_is_refused_by_check_as_by_run(tmp
 
 
 def test_remeshing_without_its_extra_is_refused_by_check(tmp_path, capsys, monkeypatch):
-    import cortex_ti.simulation.core as core
+    import cortex_ti.surface.remesh as remesh
 
-    monkeypatch.setattr(core, "remesh_available", lambda: False)
+    monkeypatch.setattr(remesh, "remesh_available", lambda: False)
     said = _same_refusal(capsys, tmp_path, ["--set", "mesh.remesh.min_angle=20"])
     assert "mesh.remesh.min_angle is set but" in said
 

@@ -141,17 +141,46 @@ RENAMED_VARIABLES = {"lsq_residual": "force_residual"}
 
 def _same_scene_but_time(a, b) -> bool:
     """Scenes equal up to their ``time`` section (a run may be resumed with a new t_end or dt)."""
+    return scene_difference(a, b) is None
+
+
+def scene_difference(stored, new) -> str | None:
+    """The first key (dotted) in which two scene YAML texts differ outside their ``time`` section,
+    as ``"mesh.nodes is 642 in the file, 162 now"``; None if they agree there."""
     import yaml
 
     try:
-        da, db = yaml.safe_load(a), yaml.safe_load(b)
+        da, db = yaml.safe_load(stored), yaml.safe_load(new)
     except Exception:
-        return a == b
+        return None if stored == new else "the stored scene cannot be read"
     if not isinstance(da, dict) or not isinstance(db, dict):
-        return a == b
+        return None if stored == new else "the stored scene is not a mapping"
     da.pop("time", None)
     db.pop("time", None)
-    return da == db
+
+    def first(a, b, key):
+        if isinstance(a, dict) and isinstance(b, dict):
+            for k in [*a, *(k for k in b if k not in a)]:
+                found = first(a.get(k, "(not set)"), b.get(k, "(not set)"), f"{key}.{k}" if key else str(k))
+                if found:
+                    return found
+            return None
+        if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
+                found = first(x, y, f"{key}.{i}")
+                if found:
+                    return found
+            return None
+        if a == b:
+            return None
+        return f"{key} is {_short(a)} in the file, {_short(b)} now"
+
+    return first(da, db, "")
+
+
+def _short(value) -> str:
+    text = value if isinstance(value, str) and value == "(not set)" else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def partial_path(path: str | os.PathLike) -> Path:
@@ -334,8 +363,9 @@ def _resume_problems(nc, n_nodes: int, triangles: np.ndarray, variables, scene: 
     have = set(nc.variables)
     if want != have:
         problems.append(f"its variables differ from the run's: {', '.join(sorted(want ^ have))}")
-    if not _same_scene_but_time(nc.attrs.get("scene"), scene):
-        problems.append("it was written for a different scene (only the time section may change)")
+    changed = scene_difference(nc.attrs.get("scene"), scene)
+    if changed:
+        problems.append(f"it was written for a different scene: {changed} (only the time section may change)")
     return problems
 
 

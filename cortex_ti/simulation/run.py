@@ -49,6 +49,7 @@ from ..physics.patterns import evaluate_active_stress
 from ..surface.transport import DENSITY
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .setup import SceneSetup
     from .simulation import Simulation
 
 log = logging.getLogger(__name__)
@@ -79,6 +80,7 @@ STOP_REASONS = {
     "guard": "the stability guard stopped it (dynamics.guard)",
     "solver": "a solve failed",
     "io": "writing a file failed (full disk, I/O error)",
+    "input": "the input was refused before the run started (the scene, its mesh, an option)",
     "error": "another error",
 }
 
@@ -264,7 +266,6 @@ def extend_finished(output: Path) -> bool:
         raise OutputError(
             f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); '{output}' is unchanged"
         ) from None
-    log.info("extending the finished run %s from its last frame", output)
     return True
 
 
@@ -302,16 +303,17 @@ def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
         scheme.dt_cap = min(scheme.dt_cap, limit)
 
 
-def step_scheme(sim: Simulation):
+def step_scheme(sim: Simulation | SceneSetup):
     """The scene's time scheme as a run builds it, its steps capped (or refused) by the ALE limit
     (:func:`cap_ale_step`): what ``cortex-ti check`` asks of a dynamic scene without running it."""
     st = sim.settings.time
-    scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
+    evaluate = getattr(sim, "evaluate", None)  # a SceneSetup (check) has none: the scheme is not stepped
+    scheme = make_scheme(st.scheme, evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
     cap_ale_step(sim, scheme)
     return scheme
 
 
-def unphysical(sim: Simulation) -> list[str]:
+def unphysical(sim: Simulation | SceneSetup) -> list[str]:
     """Sentences on values a scene may legally hold but that no cortex has: an extensile active
     tension (its sign opposite to the contractile one the model is made for; the guard says so if
     it stops the run) and a negative density field. A run logs them as warnings at its start, and
@@ -337,9 +339,38 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
     st = sim.settings.time
     scheme = step_scheme(sim)
     start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
-    if resume:
-        extend_finished(output)
+    extended = resume and extend_finished(output)
     state = ResumeState.read(output) if resume else None
+    axis = sim.settings.pattern_axis
+    has_p = sim.settings.has("incompressibility")
+    stored = stored_fields(sim)
+    attrs = output_attrs(sim)
+    done = state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12)
+    if done:  # the file already reaches past time.t_end: its scene records the t_end its frames reach
+        from ..scene import scene_from_dict
+
+        attrs["scene"] = scene_from_dict(sim.scene.data, [f"time.t_end={state.time!r}"]).to_yaml()
+    try:  # first, so that a refused resume (a changed scene: the key named) comes before any log line
+        writer = TrajectoryWriter(
+            output,
+            sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
+            sim.state0.n_nodes,
+            attrs,
+            extra_vars={
+                **FRAME_EXTRAS,
+                **_DYNAMIC_EXTRAS,
+                **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
+                **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
+            },
+            resume=state is not None,
+            node_vars=field_values(sim),
+        )
+    except BaseException:
+        if extended:  # the copy of the finished file made to extend it: the finished file is unchanged
+            partial_path(output).unlink(missing_ok=True)
+        raise
+    if extended:
+        log.info("extending the finished run %s from its last frame", output)
     if state is not None:
         t0 = state.time
         if scheme.dense:
@@ -348,7 +379,11 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
             dt = min(state.dt, scheme.dt_max)
-        start = resumed_state(sim, state)
+        try:
+            start = resumed_state(sim, state)
+        except BaseException:
+            writer.close_partial()
+            raise
         if state.segment > 0:  # continued on a remeshed segment: its reference triangles' limit too
             cap_ale_step(sim, scheme)
             dt = min(dt, scheme.dt_cap)
@@ -357,23 +392,6 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
     for sentence in unphysical(sim):
         log.warning("scene '%s': %s; the run goes on", sim.settings.name, sentence)
-    axis = sim.settings.pattern_axis
-    has_p = sim.settings.has("incompressibility")
-    stored = stored_fields(sim)
-    writer = TrajectoryWriter(
-        output,
-        sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
-        sim.state0.n_nodes,
-        output_attrs(sim),
-        extra_vars={
-            **FRAME_EXTRAS,
-            **_DYNAMIC_EXTRAS,
-            **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
-            **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
-        },
-        resume=state is not None,
-        node_vars=field_values(sim),
-    )
 
     neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
 
@@ -398,7 +416,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             **{spec.var: fields[spec.name] for spec in stored},
         )
 
-    if state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12):
+    if done:
         log.info("%s reaches t = %.6g already (time.t_end = %.6g): nothing to compute", output, state.time, st.t_end)
         seen["stats"] = RunStats(t=state.time)
         return RunReport(path=writer.finish(), stats=seen["stats"], stopped="t_end")
