@@ -316,9 +316,9 @@ class AxisymmetricRun:
         output = Path(output)
         with claim_output(output):
             check_output(output, resume, force)
-            return self._run(output)
+            return self._run(output, replace=force or resume)  # resume: this model starts over
 
-    def _run(self, output: Path) -> Path:
+    def _run(self, output: Path, replace: bool) -> Path:
         t0 = time.perf_counter()
         frames = list(self._static_frames() if not self.settings.dynamic else self._dynamic_frames())
         self.seconds = time.perf_counter() - t0
@@ -331,6 +331,7 @@ class AxisymmetricRun:
             self._attrs(),
             extra_vars=self._extra_vars(),
             extra_dims={"meridian": n_meridian},
+            force=replace,
         )
         with writer:
             for t, f in frames:

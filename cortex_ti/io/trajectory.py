@@ -67,7 +67,7 @@ import numpy as np
 
 from .. import __version__
 from ..errors import CortexError
-from .claim import OutputClaim
+from .claim import OutputClaim, check_output
 from .files import PARTIAL_SUFFIX, OutputError, describe_os_error
 
 __all__ = [
@@ -452,6 +452,10 @@ class TrajectoryWriter:
         and scene (up to its ``time`` section) must match; its ``created`` attribute is kept and the time of
         resumption is appended to the ``resumed`` attribute.  Without a partial
         file a new one is started.
+    force : bool, optional
+        Replace what is at ``path`` (and start over instead of resuming ``<path>.partial``).
+        Without ``resume`` or ``force``, an existing ``path`` or a partial file with frames is
+        refused, as the command line refuses it (:func:`cortex_ti.io.claim.check_output`).
 
     Notes
     -----
@@ -489,6 +493,7 @@ class TrajectoryWriter:
         resume: bool = False,
         extra_dims: Mapping[str, int] | None = None,
         node_vars: Mapping[str, tuple[np.ndarray, Mapping[str, str]]] | None = None,
+        force: bool = False,
     ) -> None:
         self.path = Path(os.fspath(path))
         self.partial = partial_path(self.path)
@@ -518,6 +523,7 @@ class TrajectoryWriter:
         self._held: list[tuple[float, dict]] = []  # frames appended with hold=True, not yet written
         self._claim = OutputClaim.acquire(self.path)  # before the partial file is truncated or opened
         try:
+            check_output(self.path, resume, force)  # the rule of every door (the command line's)
             if resume and self.partial.exists():
                 self._reopen()
             else:

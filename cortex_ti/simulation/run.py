@@ -201,8 +201,8 @@ def run_scene(
     with claim_output(output):
         check_output(output, resume, force)
         if sim.settings.dynamic:
-            return _run_dynamic(sim, output, resume, progress)
-        return _run_static(sim, output)
+            return _run_dynamic(sim, output, resume, progress, force)
+        return _run_static(sim, output, force)
 
 
 def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
@@ -215,16 +215,16 @@ def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats |
     sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason, solved=0)
 
 
-def _run_static(sim: Simulation, output: Path) -> RunReport:
+def _run_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
     t0 = time.perf_counter()
     try:
-        return _write_static(sim, output)
+        return _write_static(sim, output, force)
     except BaseException as exc:
         _failed(sim, output, exc, None, t0)
         raise
 
 
-def _write_static(sim: Simulation, output: Path) -> RunReport:
+def _write_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
     with TrajectoryWriter(
         output,
         sim.mesh.faces,
@@ -232,6 +232,7 @@ def _write_static(sim: Simulation, output: Path) -> RunReport:
         output_attrs(sim),
         extra_vars=FRAME_EXTRAS,
         node_vars=field_values(sim),
+        force=force,
     ) as writer:
         check_interrupted()
         ev = sim.evaluate(sim.mesh.points)
@@ -269,11 +270,11 @@ def extend_finished(output: Path) -> bool:
     return True
 
 
-def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool) -> RunReport:
+def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool, force: bool = False) -> RunReport:
     start = time.perf_counter()
     seen: dict = {}
     try:
-        return _integrate_to_file(sim, output, resume, progress, seen)
+        return _integrate_to_file(sim, output, resume, progress, seen, force)
     except BaseException as exc:
         _failed(sim, output, exc, seen.get("stats"), start)
         raise
@@ -335,7 +336,9 @@ def unphysical(sim: Simulation | SceneSetup) -> list[str]:
     return out
 
 
-def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
+def _integrate_to_file(
+    sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict, force: bool = False
+) -> RunReport:
     st = sim.settings.time
     scheme = step_scheme(sim)
     start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
@@ -364,6 +367,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             },
             resume=state is not None,
             node_vars=field_values(sim),
+            force=force,
         )
     except BaseException:
         if extended:  # the copy of the finished file made to extend it: the finished file is unchanged
