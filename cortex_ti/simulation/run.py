@@ -35,6 +35,7 @@ from ..dynamics.state import State
 from ..errors import (
     CortexError,
     Interrupted,
+    MeshError,
     SceneError,
     SolverError,
     StabilityError,
@@ -80,7 +81,7 @@ STOP_REASONS = {
     "guard": "the stability guard stopped it (dynamics.guard)",
     "solver": "a solve failed",
     "io": "writing a file failed (full disk, I/O error)",
-    "input": "the input was refused before the run started (the scene, its mesh, an option)",
+    "input": "the input was refused (the scene, its mesh, a pattern, an option): most before the run started",
     "error": "another error",
 }
 
@@ -104,6 +105,8 @@ def stop_reason(exc: BaseException | None) -> str:
         return "solver"
     if isinstance(exc, (OutputError, OSError)):
         return "io"
+    if isinstance(exc, (SceneError, MeshError)):
+        return "input"
     return "error"
 
 
