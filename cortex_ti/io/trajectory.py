@@ -183,6 +183,17 @@ def _short(value) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
+def _hdf5_os_error(exc: BaseException) -> str | None:
+    """The operating-system error inside an HDF5 error (h5py raises a RuntimeError "... file write
+    failed: ..., errno = 28, error message = 'No space left on device' ..."), as words; else None."""
+    import re
+
+    if not isinstance(exc, RuntimeError):
+        return None
+    found = re.search(r"errno = (\d+), error message = '([^']*)'", str(exc))
+    return None if found is None else found.group(2) or os.strerror(int(found.group(1)))
+
+
 def partial_path(path: str | os.PathLike) -> Path:
     """The in-progress file of a trajectory: ``<path>.partial``."""
     return Path(os.fspath(path) + PARTIAL_SUFFIX)
@@ -548,12 +559,18 @@ class TrajectoryWriter:
             self._flush()
             self._open_fd()
         except BaseException as exc:
-            self._close()
+            try:
+                self._close()
+            except Exception:  # HDF5 failing to close a file it failed to write (a full disk): it goes anyway
+                pass
             self.partial.unlink(missing_ok=True)
             if isinstance(exc, OSError):
                 raise OutputError(
                     f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}"
                 ) from None
+            failed = _hdf5_os_error(exc)
+            if failed is not None:
+                raise OutputError(f"cannot create '{self.partial}': {failed}") from None
             raise
 
     def _open_fd(self) -> None:

@@ -90,3 +90,27 @@ def test_the_stored_t_end_is_that_of_the_frames(tmp_path, capsys):
     # resumed with an earlier t_end: nothing to compute; the scene keeps the t_end its frames reach
     assert main(["run", "furrow_p8_a1", "-o", str(out), *SMALL, "--set", "time.t_end=0.01", "--resume"]) == 0
     assert _stored_t_end(out) == pytest.approx(0.03)
+
+
+def test_a_disk_full_while_the_partial_file_is_created_is_one_error_and_no_file(tmp_path, monkeypatch):
+    """HDF5 reports a failed write as a RuntimeError (h5py) whose text holds the errno, and then
+    fails to close the file too: one OutputError naming the disk, and no partial file left (it was
+    a traceback and a stray 32 kB partial file on a 20 kB tmpfs)."""
+    import numpy as np
+
+    from cortex_ti.io import TrajectoryWriter
+    from cortex_ti.io.files import OutputError
+    from cortex_ti.io.trajectory import TrajectoryWriter as Writer
+
+    def full(self):
+        raise RuntimeError(
+            "Unable to flush file (file write failed: time = Fri Dec  4 15:36:36 2026\n, filename = 'x', "
+            "file descriptor = 4, errno = 28, error message = 'No space left on device', buf = 0x1, total "
+            "write size = 235, bytes this sub-write = 235, offset = 8192)"
+        )
+
+    monkeypatch.setattr(Writer, "_flush", full)
+    tri = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
+    with pytest.raises(OutputError, match="cannot create .*x.h5.partial': No space left on device$"):
+        TrajectoryWriter(tmp_path / "x.h5", tri, 4, {"scene": "name: x\n", "effects": "a"})
+    assert list(tmp_path.iterdir()) == []
