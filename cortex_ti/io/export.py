@@ -37,6 +37,7 @@ from .files import (
     atomic_path,
     check_destination,
     describe_os_error,
+    hdf5_os_error,
     refuse_file_parent,
     write_synced,
 )
@@ -123,13 +124,16 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
         m, total = len(ks), int(step_nodes.sum())
         out, tmp = atomic_path(out)
         check_destination(out, _vtkhdf_bytes(total, int(faces.sum())))
-        # built in memory (HDF5's core driver), then written by Python: a full disk or an I/O error is
-        # one OSError on our write, never HDF5 failing half-way through its own (it may crash); an
-        # export too large for memory is written by HDF5 directly, its space checked above
+        # Python does every write to the disk, so that a full disk or an I/O error is one OSError: the
+        # file is built in memory (HDF5's core driver) and written out, or, too large for memory,
+        # written through a Python file object (h5py's fileobj driver). HDF5 writing the file itself
+        # fails half-way on a full disk, prints a traceback per object it cannot close and may crash.
         in_memory = _vtkhdf_bytes(total, int(faces.sum())) <= _IN_MEMORY
-        target = f"{tmp.name}.image" if in_memory else tmp
-        kwargs = {"driver": "core", "backing_store": False} if in_memory else {}
+        fh = None
         try:
+            fh = None if in_memory else open(tmp, "w+b")  # noqa: SIM115 (closed in finally)
+            target = f"{tmp.name}.image" if in_memory else fh
+            kwargs = {"driver": "core", "backing_store": False} if in_memory else {}
             with h5py.File(target, "w", **kwargs) as h5:
                 root = h5.create_group("VTKHDF")
                 root.attrs["Version"] = np.array(_VTKHDF_VERSION, dtype=np.int64)
@@ -167,13 +171,22 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                     image = h5.id.get_file_image()
             if in_memory:
                 write_synced(tmp, image)
+            else:
+                fh.flush()
+                os.fsync(fh.fileno())
+                fh.close()
             os.replace(tmp, out)
         finally:
+            if fh is not None:
+                try:
+                    fh.close()  # after a failed write its buffer cannot be flushed either
+                except OSError:
+                    pass
             tmp.unlink(missing_ok=True)
     return out
 
 
-#: Exports up to this size are built in memory and written by Python (see :func:`export_vtkhdf`).
+#: Exports up to this size are built in memory and written out at once (see :func:`export_vtkhdf`).
 _IN_MEMORY = 1 << 30
 
 
@@ -252,6 +265,11 @@ def export_trajectory(path, output=None, fmt: str = "vtkhdf", every: int = 1, fo
         return writer(path, output, every)
     except OutputError:
         raise
+    except RuntimeError as exc:  # HDF5 failing a write (an export too large to build in memory)
+        failed = hdf5_os_error(exc)
+        if failed is None:
+            raise
+        raise OutputError(f"exporting '{path}' to '{target}' failed ({failed}); nothing was written") from None
     except OSError as exc:
         raise OutputError(
             f"exporting '{path}' to '{target}' failed ({describe_os_error(exc)}); nothing was written"

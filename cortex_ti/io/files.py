@@ -17,6 +17,7 @@ __all__ = [
     "OutputError",
     "atomic_path",
     "check_destination",
+    "hdf5_os_error",
     "write_synced",
     "describe_os_error",
     "refuse_file_parent",
@@ -146,3 +147,14 @@ def check_destination(path: Path, need: int = 0) -> None:
             f"cannot write '{path}': it needs about {need / 1e6:.3g} MB and '{path.parent}' has "
             f"{free / 1e6:.3g} MB free; nothing was written"
         )
+
+
+def hdf5_os_error(exc: BaseException) -> str | None:
+    """The operating-system error inside an HDF5 error (h5py raises a RuntimeError "... file write
+    failed: ..., errno = 28, error message = 'No space left on device' ..."), as words; else None."""
+    import re
+
+    if not isinstance(exc, RuntimeError):
+        return None
+    found = re.search(r"errno = (\d+), error message = '([^']*)'", str(exc))
+    return None if found is None else found.group(2) or os.strerror(int(found.group(1)))

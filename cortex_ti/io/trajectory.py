@@ -68,7 +68,7 @@ import numpy as np
 from .. import __version__
 from ..errors import CortexError
 from .claim import OutputClaim, check_output
-from .files import PARTIAL_SUFFIX, OutputError, describe_os_error
+from .files import PARTIAL_SUFFIX, OutputError, describe_os_error, hdf5_os_error
 
 __all__ = [
     "FRAME_VARIABLES",
@@ -181,17 +181,6 @@ def scene_difference(stored, new) -> str | None:
 def _short(value) -> str:
     text = value if isinstance(value, str) and value == "(not set)" else repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _hdf5_os_error(exc: BaseException) -> str | None:
-    """The operating-system error inside an HDF5 error (h5py raises a RuntimeError "... file write
-    failed: ..., errno = 28, error message = 'No space left on device' ..."), as words; else None."""
-    import re
-
-    if not isinstance(exc, RuntimeError):
-        return None
-    found = re.search(r"errno = (\d+), error message = '([^']*)'", str(exc))
-    return None if found is None else found.group(2) or os.strerror(int(found.group(1)))
 
 
 def partial_path(path: str | os.PathLike) -> Path:
@@ -568,7 +557,7 @@ class TrajectoryWriter:
                 raise OutputError(
                     f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}"
                 ) from None
-            failed = _hdf5_os_error(exc)
+            failed = hdf5_os_error(exc)
             if failed is not None:
                 raise OutputError(f"cannot create '{self.partial}': {failed}") from None
             raise
