@@ -18,7 +18,7 @@ import cortex_ti as ct
 from cortex_ti.errors import SceneError
 
 REPO = Path(__file__).resolve().parents[2]
-MODULE = '''
+MODULE = """
 import sys
 
 
@@ -32,7 +32,7 @@ def bad(points):
 
 def leave(points):
     sys.exit(3)  # line 14
-'''
+"""
 QUITTER = "import sys\nsys.exit(3)\n"
 
 
