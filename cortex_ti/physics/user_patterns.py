@@ -165,7 +165,8 @@ def field_pattern(points, file, name=None, scale=1.0) -> np.ndarray:
 
 
 #: Folders a ``python`` pattern's module is looked for in after ``sys.path``: the folders of the scene
-#: files read (:func:`add_pattern_folder`, called by the scene loader), then the working directory.
+#: files read (:func:`add_pattern_folder`, called by the scene loader; the last read first), then the
+#: working directory. A module found is imported once (``sys.modules``), as any import.
 _PATTERN_FOLDERS: list[str] = []
 
 
@@ -173,8 +174,9 @@ def add_pattern_folder(folder) -> None:
     """Let ``python`` patterns import modules from ``folder`` (a scene file's folder: the loader
     calls it for every scene file with a ``python`` pattern)."""
     folder = os.path.abspath(os.fspath(folder))
-    if folder not in _PATTERN_FOLDERS:
-        _PATTERN_FOLDERS.append(folder)
+    if folder in _PATTERN_FOLDERS:
+        _PATTERN_FOLDERS.remove(folder)
+    _PATTERN_FOLDERS.insert(0, folder)  # the scene read last is searched first
 
 
 def _import(module: str):

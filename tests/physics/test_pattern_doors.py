@@ -15,6 +15,7 @@ import pytest
 import yaml
 
 import cortex_ti as ct
+from cortex_ti.cli import main
 from cortex_ti.errors import SceneError
 
 REPO = Path(__file__).resolve().parents[2]
@@ -62,21 +63,25 @@ def folder(tmp_path):
         sys.modules.pop(name, None)
 
 
-def test_a_pattern_module_beside_its_scene_or_in_the_working_directory_imports(folder, tmp_path):
+def test_a_pattern_module_beside_its_scene_or_in_the_working_directory_imports(folder, tmp_path, monkeypatch, capsys):
     scene = _scene(folder, "ok", "doorpat_q:ok")
-    res = _cli("check", str(scene), cwd=tmp_path)  # the module is beside the scene, not in the cwd
+    res = _cli("check", str(scene), cwd=tmp_path)  # the console script; the module beside the scene only
     assert res.returncode == 0 and "valid" in res.stdout, res.stderr
-    ok = ["check", "furrow_p8_a1", "--set", "active_stress=[{type: python, function: 'doorpat_q:ok'}]"]
-    res = _cli(*ok, cwd=folder)
-    assert res.returncode == 0 and "valid" in res.stdout, res.stderr  # in the working directory
-    res = _cli(*ok, cwd=tmp_path)
-    assert res.returncode == 2 and "cannot import module 'doorpat_q'" in res.stderr  # neither: refused
-    # Python: the folder of a scene file is searched too, and not left on sys.path
-    zeta = ct.load_scene(scene).settings.patterns
+    sys.modules.pop("doorpat_q", None)
+    ok = ["check", "furrow_p8_a1", "--set", "mesh.nodes=162"]
+    ok += ["--set", "active_stress=[{type: python, function: 'doorpat_q:ok'}]"]
+    monkeypatch.chdir(tmp_path)  # neither beside a scene file (a built-in one) nor in the working directory
+    assert main(ok) == 2 and "cannot import module 'doorpat_q'" in capsys.readouterr().err
+    monkeypatch.chdir(folder)  # in the working directory
+    assert main(ok) == 0 and "valid" in capsys.readouterr().out
+    assert str(folder) not in sys.path and os.getcwd() not in sys.path  # searched, not kept on the path
+    # Python: the folder of a scene file is searched too
     from cortex_ti.physics.patterns import evaluate_active_stress
 
-    assert evaluate_active_stress([[0.0, 0.0, 0.5]], list(zeta))[0] == pytest.approx(0.5)
-    assert str(folder) not in sys.path
+    sys.modules.pop("doorpat_q", None)
+    monkeypatch.chdir(tmp_path)
+    patterns = list(ct.load_scene(scene).settings.patterns)
+    assert evaluate_active_stress([[0.0, 0.0, 0.5]], patterns)[0] == pytest.approx(0.5)
 
 
 @pytest.mark.parametrize(
@@ -87,19 +92,19 @@ def test_a_pattern_module_beside_its_scene_or_in_the_working_directory_imports(f
         ("doorquit_q:f", "cannot import module 'doorquit_q' (SystemExit: 3", 2),
     ],
 )
-def test_an_error_in_a_pattern_is_one_line_naming_its_file_and_line(folder, tmp_path, function, said, line):
+def test_an_error_in_a_pattern_is_one_line_naming_its_file_and_line(folder, tmp_path, capsys, function, said, line):
     scene = _scene(folder, "broken", function)
     module = folder / (function.split(":")[0] + ".py")
     for command in (["check", str(scene)], ["run", str(scene), "-o", str(tmp_path / "x.h5"), "--threads", "1"]):
-        res = _cli(*command, cwd=tmp_path)
-        lines = res.stderr.strip().splitlines()
-        assert res.returncode == 2 and len(lines) == 1, res.stderr
+        assert main(command) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert len(lines) == 1, lines
         assert lines[0].startswith("cortex-ti: error: ") and said in lines[0] and f"{module}:{line}" in lines[0]
         assert "--debug" in lines[0]
     assert not (tmp_path / "x.h5").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["scenes"]
-    res = _cli("--debug", "check", str(scene), cwd=tmp_path)
-    assert res.returncode == 2 and "Traceback (most recent call last)" in res.stderr
-    assert res.stderr.startswith("cortex-ti: error: ")
+    assert main(["--debug", "check", str(scene)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cortex-ti: error: ") and "Traceback (most recent call last)" in err
     # Python: a SceneError with the same words, the user's exception chained to it
     with pytest.raises(SceneError, match="doorpat_q|doorquit_q") as caught:
         ct.run(scene, nodes=162, t_end=0.01, threads=1)
