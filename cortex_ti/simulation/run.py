@@ -372,9 +372,17 @@ def _integrate_to_file(
             node_vars=field_values(sim),
             force=force,
         )
-    except BaseException:
-        if extended:  # the copy of the finished file made to extend it: the finished file is unchanged
-            partial_path(output).unlink(missing_ok=True)
+    except BaseException as exc:
+        if not extended:
+            raise
+        # the copy of the finished file made to extend it goes: the finished file is unchanged
+        partial_path(output).unlink(missing_ok=True)
+        prefix = f"cannot resume '{partial_path(output)}'"
+        if isinstance(exc, CortexError) and str(exc).startswith(prefix):
+            said = str(exc)[len(prefix) :].replace(
+                "pass --force (or delete it) to start over", "pass --force to replace it"
+            )
+            raise CortexError(f"cannot extend '{output}'{said}") from None
         raise
     if extended:
         log.info("extending the finished run %s from its last frame", output)

@@ -75,6 +75,8 @@ def test_a_changed_scene_on_resume_is_refused_naming_the_key_before_any_resuming
     assert main(["run", "furrow_p8_a1", "-o", str(out), *SMALL, *changed]) == 2
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "viscosity.shear is 1.0 in the file, 2.0 now" in lines[0]
+    assert lines[0].startswith(f"cortex-ti: error: cannot extend '{out}': it was written for a different scene")
+    assert lines[0].endswith("pass --force to replace it, or choose another output")
     said = [r.getMessage() for r in caplog.records]
     assert not [m for m in said if "resuming" in m or "extending" in m], said
     assert _md5(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["x.h5"]
