@@ -94,7 +94,7 @@ def one(
     start = time.perf_counter()
     why = ""
     try:
-        sim.run(out, progress=False)
+        sim.run(out, progress=False, force=True)  # --keep: a folder of an earlier measurement
     except Exception as exc:  # the guard or a failed solve: the frames so far are measured
         why = str(exc).split(";")[0]
     wall = time.perf_counter() - start
@@ -145,7 +145,7 @@ def twin(amplitude: float, t_end: float, where, scene: str) -> dict:
     scene_ = load_scene(scene, [*sets, f"time.t_end={t_end}", "time.save_every=0.05"])
     runner = MODELS["axisymmetric"].build(scene_, "cpu", 1)
     out = where / f"axisym_a{amplitude:g}.h5"
-    runner.run(out, progress=False)
+    runner.run(out, progress=False, force=True)
     ds = load_trajectory(out)
     if "label_resolved" in ds:  # the run judged it by its own points' limit (adaptive: only a fold)
         bad = np.flatnonzero(ds["label_resolved"].values < 0.5)

@@ -43,7 +43,7 @@ def run(scene: str, out: Path, sets=(), in_process: bool = False) -> dict:
         import cortex_ti
 
         t0 = time.perf_counter()
-        ds = cortex_ti.run(scene, out, overrides=list(sets))
+        ds = cortex_ti.run(scene, out, overrides=list(sets), force=True)  # as --force below
         return {"wall": time.perf_counter() - t0, "t_reached": float(ds["time"].values[-1]), "steps": ds.sizes["time"]}
     env = {**os.environ, "CORTEX_TI_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])

@@ -30,6 +30,11 @@ def _parser() -> argparse.ArgumentParser:
         prog="cortex-ti", description="Three-dimensional viscous active cell cortex (Bächer et al. 2021)."
     )
     p.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    p.add_argument(
+        "--debug",
+        action="store_true",
+        help="after an error's one line, print the traceback behind it (e.g. of an error in a python pattern)",
+    )
     sub = p.add_subparsers(dest="command", required=True)
 
     run = sub.add_parser("run", help="run a scene and write its trajectory (HDF5, opens with xarray)")
@@ -129,21 +134,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def _threads(args) -> int | None:
     """``--threads``, else ``CORTEX_TI_THREADS``, checked: a bad value is one line, before Taichi starts
-    (Taichi aborts on 0 threads)."""
-    if args.threads is not None:
-        text, what = str(args.threads).strip(), "--threads"
-    else:
-        text, what = os.environ.get("CORTEX_TI_THREADS", "").strip(), "CORTEX_TI_THREADS"
-        if not text:
-            return None
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        unset = " (or unset: all cores)" if what == "CORTEX_TI_THREADS" else ""
-        raise CortexError(f"{what} must be a whole number >= 1{unset}, got '{text}'")
-    return value
+    (Taichi aborts on 0 threads; :func:`cortex_ti.errors.thread_count`, which the Python door uses too)."""
+    from .errors import thread_count
+
+    return thread_count(args.threads, "--threads")
 
 
 def _writable_file(path: Path, what: str) -> None:
@@ -175,12 +169,7 @@ def _run(args) -> int:
 
     t0 = time.perf_counter()
     sim = None
-    if args.force and args.resume:
-        raise CortexError("--force starts over and --resume continues: pass one of them")
-    scene = load_scene(args.scene, args.overrides)  # input errors first, before Taichi starts
-    settings = scene.settings
-    threads = _threads(args)
-    if args.summary is not None:
+    if args.summary is not None:  # first: every exit after this one writes it
         _writable_file(args.summary, "--summary")
 
     def kept() -> tuple[int, float | None]:
@@ -189,7 +178,9 @@ def _run(args) -> int:
         except CortexError:
             return 0, None
 
-    def summary(status: str, exc: BaseException | None = None) -> None:
+    def summary(status: str, exc: BaseException | None = None, stopped: str | None = None) -> None:
+        """Write --summary; one that cannot be written is a warning: it does not turn a finished run
+        into a failure, nor hide the error that ended one."""
         if args.summary is None:
             return
         import resource
@@ -198,7 +189,7 @@ def _run(args) -> int:
 
         info = sim.summary() if sim is not None else {}
         if exc is not None:
-            info["stopped"] = stop_reason(exc)
+            info["stopped"] = stopped or stop_reason(exc)
             n, t = kept()  # how far it got: the last complete frame
             if n:
                 info["t_reached"] = t
@@ -216,16 +207,30 @@ def _run(args) -> int:
         except OSError as err:
             from .io.files import describe_os_error
 
-            raise CortexError(f"cannot write the summary '{args.summary}': {describe_os_error(err)}") from None
+            print(
+                f"cortex-ti: warning: cannot write the summary '{args.summary}': {describe_os_error(err)}",
+                file=sys.stderr,
+            )
+
+    try:  # input errors first, before Taichi starts; each one still writes the summary
+        if args.force and args.resume:
+            raise CortexError("--force starts over and --resume continues: pass one of them")
+        scene = load_scene(args.scene, args.overrides)
+        settings = scene.settings
+        threads = _threads(args)
+    except CortexError as exc:
+        summary("failed", exc, stopped="input")
+        raise
 
     with interruptible(), claim_output(args.output):
-        check_output(args.output, args.resume, args.force)  # refused: no summary (it is not a run)
+        # refused: no summary, as the one at --summary may be that of the run whose output this protects
+        check_output(args.output, args.resume, args.force)
         try:
             from .models import make_runner
 
             sim = make_runner(scene, args.arch, threads)  # the scene's model (cortex_ti.models.MODELS)
             check_interrupted()  # a signal whose exception start-up code swallowed
-            out = sim.run(args.output, resume=args.resume)
+            out = sim.run(args.output, resume=args.resume, force=args.force)
         except BaseException as caught:
             exc = interruption(caught)
             if exc is None:
@@ -248,25 +253,35 @@ def _run(args) -> int:
 
 
 def _check(args) -> int:
+    """``run`` without the run: the scene, its mesh, fields and patterns (read, imported and called),
+    the mesh motion, transport and remeshing set up as the run sets them up, and a dynamic scene's
+    steps against what its scheme can honour; values that are legal but unphysical are warned of."""
     from .scene import load_scene
-    from .simulation.setup import active_tension, initial_mesh
-    from .surface.topology import build_topology
 
     scene = load_scene(args.scene, args.overrides)
     settings = scene.settings
     effects = ", ".join(sorted(scene.effects))
     if settings.model == "axisymmetric":
+        from .models import make_runner
+
+        make_runner(scene)  # the model's set-up (no Taichi), with its warning on an extensile tension
         from .axisymmetric.run import axisymmetric_tension
 
         axisymmetric_tension(settings)  # runs python patterns, refuses one that varies about z
         print(f"{scene.name}: valid ({settings.describe_numerics()}, effects: {effects})")
     else:
-        mesh = initial_mesh(settings)
-        build_topology(mesh)
-        # evaluated as a run does (on the mesh before mesh.transform/shear): reads field files,
-        # checks one finite value per node, imports and calls python patterns
-        active_tension(mesh, settings)
-        print(f"{scene.name}: valid ({mesh.n_nodes} nodes, effects: {effects})")
+        from .simulation.run import step_scheme, unphysical
+        from .simulation.setup import SceneSetup
+
+        # everything a run sets up before its first solve, as the run sets it up (without Taichi):
+        # the mesh, its topology, fields and patterns evaluated on the mesh before
+        # mesh.transform/shear, the transport of each field, the mesh motion, the remeshing's extra
+        sim = SceneSetup(scene)
+        if settings.dynamic:
+            step_scheme(sim)  # the ALE step limit, as a run refuses it
+        for sentence in unphysical(sim):
+            log.warning("scene '%s': %s", scene.name, sentence)
+        print(f"{scene.name}: valid ({sim.mesh.n_nodes} nodes, effects: {effects})")
         print(f"  numerics: {settings.describe_numerics()}")
     if settings.dynamic:
         print(f"  time: {settings.time.describe()}")
@@ -386,7 +401,13 @@ def _main(argv: list[str] | None) -> int:
         return commands[args.command](args) if args.command in commands else args.handler(args)
     except CortexError as exc:
         check_interrupted()  # a signal some library reported as its own error is the signal
-        print(f"cortex-ti: error: {exc}", file=sys.stderr)
+        behind = exc.__cause__ is not None and not isinstance(exc.__cause__, CortexError)
+        hint = " (--debug shows its traceback)" if behind and not args.debug else ""
+        print(f"cortex-ti: error: {exc}{hint}", file=sys.stderr)
+        if args.debug:
+            import traceback
+
+            traceback.print_exception(exc.__cause__ or exc, file=sys.stderr)
         return 2
     except BrokenPipeError:  # e.g. `cortex-ti scenes | head`: the reader left; say nothing more
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

@@ -98,3 +98,43 @@ def interruption(exc: BaseException) -> "Interrupted | None":
     if isinstance(exc, KeyboardInterrupt):
         return Interrupted(signal.SIGINT)
     return None
+
+
+def thread_count(value=None, what: str = "threads") -> "int | None":
+    """The CPU thread count ``value`` (an int, or its text from the command line), else
+    ``CORTEX_TI_THREADS``, checked here, before Taichi sees it (Taichi aborts the interpreter on 0
+    threads): a whole number >= 1, or None (neither given: all cores). A bad value raises
+    :class:`CortexError` naming where it came from.
+
+    >>> thread_count(2), thread_count("3", "--threads")
+    (2, 3)
+    >>> thread_count(0)
+    Traceback (most recent call last):
+    ...
+    cortex_ti.errors.CortexError: threads must be a whole number >= 1, got 0
+    """
+    import os
+
+    if value is None:
+        text, what = os.environ.get("CORTEX_TI_THREADS", "").strip(), "CORTEX_TI_THREADS"
+        if not text:
+            return None
+        value = text
+    number = None
+    if isinstance(value, str):
+        try:
+            number = int(value.strip())
+        except ValueError:
+            pass
+    elif not isinstance(value, bool):
+        import operator
+
+        try:
+            number = operator.index(value)  # int, numpy integers; not 2.5, not True
+        except TypeError:
+            pass
+    if number is None or number < 1:
+        unset = " (or unset: all cores)" if what == "CORTEX_TI_THREADS" else ""
+        shown = f"'{value}'" if isinstance(value, str) else repr(value)
+        raise CortexError(f"{what} must be a whole number >= 1{unset}, got {shown}")
+    return number

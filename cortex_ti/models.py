@@ -3,7 +3,8 @@
 A model is a way to solve the same scene: ``3d``, the triangulated cortex
 (:class:`cortex_ti.simulation.core.Simulation`), and ``axisymmetric``, the spectral meridian solver
 (:class:`cortex_ti.axisymmetric.run.AxisymmetricRun`). Each entry builds the scene's runner, an
-object with ``run(output, resume=False, progress=True) -> Path``, ``summary()`` and ``settings``;
+object with ``run(output, resume=False, progress=True, force=False) -> Path`` (what is at ``output``
+treated by :func:`cortex_ti.io.claim.check_output`), ``summary()`` and ``settings``;
 the command line and :func:`cortex_ti.run` ask this registry, never an ``if`` on the model's name.
 Runners are imported when built, so naming a model starts nothing (no Taichi for ``axisymmetric``).
 """

@@ -11,14 +11,18 @@ environment:
 ``default_fp=ti.f64`` matters: with Taichi's default f32, float *literals* inside
 kernels stay single precision even when every field is f64.
 
-Importing this module imports Taichi (without its banner and version check); modules that
+Importing this module imports Taichi (without its banner and version check; the line ``ti.init``
+prints, "[Taichi] Starting on arch=...", goes to the debug log, so stdout holds only what a command
+prints); modules that
 need no kernels (scene loading, sweeps, stores) do not import it, so that input errors are
 reported before Taichi starts.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import io
 import logging
 import os
 
@@ -57,25 +61,30 @@ def init(arch: str | None = None, threads: int | None = None) -> dict:
         from .errors import CortexError
 
         raise CortexError(f"unknown Taichi architecture {arch!r}; choose one of {', '.join(ARCHES)}")
+    from .errors import thread_count
+
+    threads = thread_count(threads)  # checked before Taichi sees it: 0 threads aborts the interpreter
     if threads is None:
-        threads = int(os.environ.get("CORTEX_TI_THREADS", "0")) or os.cpu_count() or 1
+        threads = os.cpu_count() or 1
     else:  # the sparse factorisations take their thread count from here too (solve.factorizations)
-        os.environ["CORTEX_TI_THREADS"] = str(int(threads))
+        os.environ["CORTEX_TI_THREADS"] = str(threads)
     wanted = {"arch": arch, "threads": int(threads)}
     if _state == wanted:
         return _state
     if _state is not None:
         ti.reset()
-    ti.init(
-        arch=getattr(ti, arch),
-        default_fp=ti.f64,
-        default_ip=ti.i32,
-        cpu_max_num_threads=int(threads),
-        offline_cache=True,
-        log_level=ti.WARN,
-    )
+    banner = io.StringIO()  # ti.init prints "[Taichi] Starting on arch=..." to stdout: logged instead
+    with contextlib.redirect_stdout(banner):
+        ti.init(
+            arch=getattr(ti, arch),
+            default_fp=ti.f64,
+            default_ip=ti.i32,
+            cpu_max_num_threads=int(threads),
+            offline_cache=True,
+            log_level=ti.WARN,
+        )
     _state = wanted
-    log.debug("Taichi initialised: %s", wanted)
+    log.debug("Taichi initialised: %s %s", wanted, " ".join(banner.getvalue().split()))
     return _state
 
 

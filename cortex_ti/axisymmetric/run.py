@@ -24,6 +24,7 @@ import numpy as np
 from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics
 from ..errors import CortexError, SceneError, SolverError
+from ..io.claim import check_output, claim_output
 from ..io.trajectory import TrajectoryWriter
 from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
@@ -306,11 +307,18 @@ class AxisymmetricRun:
             )
 
     # ------------------------------------------------------------------------------- writing
-    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True, force: bool = False) -> Path:
         """Solve (static scene) or evolve (``shape_evolution``) and write the trajectory atomically.
 
-        Runs take a second or less, so ``resume`` starts over (a partial file is replaced)."""
+        What is already at ``output`` is refused as the command line refuses it
+        (:func:`cortex_ti.io.claim.check_output`) unless ``resume`` or ``force``. Runs take a second or
+        less, so ``resume`` starts over (a partial file is replaced)."""
         output = Path(output)
+        with claim_output(output):
+            check_output(output, resume, force)
+            return self._run(output, replace=force or resume)  # resume: this model starts over
+
+    def _run(self, output: Path, replace: bool) -> Path:
         t0 = time.perf_counter()
         frames = list(self._static_frames() if not self.settings.dynamic else self._dynamic_frames())
         self.seconds = time.perf_counter() - t0
@@ -323,6 +331,7 @@ class AxisymmetricRun:
             self._attrs(),
             extra_vars=self._extra_vars(),
             extra_dims={"meridian": n_meridian},
+            force=replace,
         )
         with writer:
             for t, f in frames:

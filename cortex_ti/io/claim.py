@@ -11,8 +11,11 @@ Claims are counted per process: the command line claims the output before the fi
 the :class:`~cortex_ti.io.trajectory.TrajectoryWriter` it creates later takes the same claim again
 (a second ``flock`` on another descriptor of the same file would refuse the process itself).
 
-:func:`check_output` is the command line's policy on files already there (``--resume``,
-``--force``).
+:func:`check_output` is the rule on files already there (``--resume``, ``--force``), for every door:
+the command line calls it before Taichi starts, and :meth:`Simulation.run
+<cortex_ti.simulation.core.Simulation.run>`, the axisymmetric model's run and :func:`cortex_ti.run`
+(``resume=``, ``force=``) call it holding the claim, so a script cannot overwrite or delete what the
+command line would refuse to.
 
 The locking is written by hand (two dozen lines around ``fcntl.flock``): the lock-file packages on
 PyPI (``filelock``, ``fasteners``) do not tell who holds a lock, and the message must name the run.
@@ -160,9 +163,14 @@ def _partial(path: Path) -> Path:
     return Path(os.fspath(path) + PARTIAL_SUFFIX)
 
 
-def check_output(path: str | os.PathLike, resume: bool, force: bool) -> str:
-    """The command line's rule for files already at ``path`` (call it holding the claim).
+#: Suffixes of files that are never a run's output (a scene, a config): refused even with ``force``.
+NOT_OUTPUTS = (".yaml", ".yml", ".json")
 
+
+def check_output(path: str | os.PathLike, resume: bool, force: bool) -> str:
+    """The rule for files already at ``path``, for every door (call it holding the claim):
+
+    * a scene or config file (:data:`NOT_OUTPUTS`) is never an output, not even with ``force``;
     * ``path`` exists: refused without ``--force`` or ``--resume`` (a finished trajectory is
       extended by ``--resume``; anything else there is never overwritten without ``--force``);
     * ``path.partial`` holds frames of an interrupted run: refused without ``--resume`` (continue
@@ -174,6 +182,11 @@ def check_output(path: str | os.PathLike, resume: bool, force: bool) -> str:
     from .trajectory import committed_frames
 
     path = Path(os.fspath(path))
+    if path.suffix.lower() in NOT_OUTPUTS and (force or not path.exists()):  # else: 'exists', below
+        raise CortexError(
+            f"output '{path}' is named like a scene or config file ({path.suffix}); a trajectory is an HDF5 "
+            f"file: name it e.g. '{path.with_suffix('.h5')}'"
+        )
     partial = _partial(path)
     if force:
         partial.unlink(missing_ok=True)

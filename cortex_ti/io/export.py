@@ -31,7 +31,16 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from ..errors import CortexError
-from .files import OutputError, atomic_path, describe_os_error, refuse_file_parent
+from .files import (
+    PARTIAL_SUFFIX,
+    OutputError,
+    atomic_path,
+    check_destination,
+    describe_os_error,
+    hdf5_os_error,
+    refuse_file_parent,
+    write_synced,
+)
 from .trajectory import Trajectory
 
 __all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
@@ -114,8 +123,18 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
         cell_start = np.concatenate([[0], np.cumsum(faces)[:-1]]).astype(np.int64)
         m, total = len(ks), int(step_nodes.sum())
         out, tmp = atomic_path(out)
+        check_destination(out, _vtkhdf_bytes(total, int(faces.sum())))
+        # Python does every write to the disk, so that a full disk or an I/O error is one OSError: the
+        # file is built in memory (HDF5's core driver) and written out, or, too large for memory,
+        # written through a Python file object (h5py's fileobj driver). HDF5 writing the file itself
+        # fails half-way on a full disk, prints a traceback per object it cannot close and may crash.
+        in_memory = _vtkhdf_bytes(total, int(faces.sum())) <= _IN_MEMORY
+        fh = None
         try:
-            with h5py.File(tmp, "w") as h5:
+            fh = None if in_memory else open(tmp, "w+b")  # noqa: SIM115 (closed in finally)
+            target = f"{tmp.name}.image" if in_memory else fh
+            kwargs = {"driver": "core", "backing_store": False} if in_memory else {}
+            with h5py.File(target, "w", **kwargs) as h5:
                 root = h5.create_group("VTKHDF")
                 root.attrs["Version"] = np.array(_VTKHDF_VERSION, dtype=np.int64)
                 root.attrs.create("Type", np.bytes_("UnstructuredGrid"))
@@ -147,49 +166,88 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                             pdata.create_dataset(name, (total, *values.shape[1:]), dtype=np.float64)
                             offsets[name] = point_offsets
                         pdata[name][lo:hi] = values
+                if in_memory:
+                    h5.flush()
+                    image = h5.id.get_file_image()
+            if in_memory:
+                write_synced(tmp, image)
+            else:
+                fh.flush()
+                os.fsync(fh.fileno())
+                fh.close()
             os.replace(tmp, out)
         finally:
+            if fh is not None:
+                try:
+                    fh.close()  # after a failed write its buffer cannot be flushed either
+                except OSError:
+                    pass
             tmp.unlink(missing_ok=True)
     return out
+
+
+#: Exports up to this size are built in memory and written out at once (see :func:`export_vtkhdf`).
+_IN_MEMORY = 1 << 30
+
+
+def _vtkhdf_bytes(points: int, faces: int) -> int:
+    """The size of a VTKHDF export: the points and 8 numbers of point data per exported node, the
+    triangles once, and some HDF5 overhead."""
+    return 8 * 11 * points + 34 * faces + (1 << 16)
 
 
 def export_vtu_series(path, output=None, every: int = 1) -> Path:
     """Write ``<stem>.pvd`` and its frames ``<stem>_00000.vtu ...`` beside it; return the .pvd.
 
     The frames carry the run's name, so two runs exported into one folder do not overwrite each
-    other's frames (see :func:`export_path` for the folder).
+    other's frames (see :func:`export_path` for the folder). Everything is written into a temporary
+    folder beside them first and moved into place when complete (the ``.pvd`` last), replacing the
+    frames of an earlier export of the same run, stale ones included; a failure leaves nothing.
     """
+    import shutil
+
     import meshio
 
     pvd = export_path(path, output, "pvd")
     tr, ks, times = _frames(path, every)
     out_dir = pvd.parent
-    out_dir.mkdir(parents=True, exist_ok=True)
-    entries = []
     with tr:
-        for k in ks:
-            pts, tri = tr.mesh(k)
-            tri = tri.astype(np.int64)
-            name = f"{pvd.stem}_{k:05d}.vtu"
-            tmp = out_dir / f".{name}.tmp.vtu"
-            try:
-                meshio.write(
-                    tmp, meshio.Mesh(pts, [("triangle", tri)], point_data=_point_data(tr, k)), file_format="vtu"
-                )
-                os.replace(tmp, out_dir / name)
-            finally:
-                tmp.unlink(missing_ok=True)
-            entries.append((float(times[k]), name))
-    lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]
-    lines += [f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(n)}/>' for t, n in entries]
-    lines += ["  </Collection>", "</VTKFile>", ""]
-    pvd, tmp = atomic_path(pvd)
-    try:
-        tmp.write_text("\n".join(lines))
-        os.replace(tmp, pvd)
-    finally:
-        tmp.unlink(missing_ok=True)
+        check_destination(pvd, _vtkhdf_bytes(sum(tr.mesh(k)[0].shape[0] for k in ks), 0) // 2)
+        work = out_dir / f".{pvd.name}{PARTIAL_SUFFIX}"
+        shutil.rmtree(work, ignore_errors=True)  # a leftover of a killed export
+        try:
+            work.mkdir()
+            entries = []
+            for k in ks:
+                pts, tri = tr.mesh(k)
+                name = f"{pvd.stem}_{k:05d}.vtu"
+                mesh = meshio.Mesh(pts, [("triangle", tri.astype(np.int64))], point_data=_point_data(tr, k))
+                meshio.write(work / name, mesh, file_format="vtu")
+                entries.append((float(times[k]), name))
+            lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]
+            lines += [f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(n)}/>' for t, n in entries]
+            lines += ["  </Collection>", "</VTKFile>", ""]
+            write_synced(work / pvd.name, "\n".join(lines).encode())
+            # in place: the old .pvd first (no reader follows it to half-replaced frames), the frames
+            # of an earlier export of this run, then the new frames and the new .pvd
+            pvd.unlink(missing_ok=True)
+            for old in _frame_files(out_dir, pvd.stem):
+                old.unlink()
+            for _, name in entries:
+                os.replace(work / name, out_dir / name)
+            os.replace(work / pvd.name, pvd)
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
     return pvd
+
+
+def _frame_files(folder: Path, stem: str) -> list[Path]:
+    """The ``<stem>_<k>.vtu`` frames of a PVD export in ``folder``."""
+    import glob
+    import re
+
+    pattern = re.compile(re.escape(stem) + r"_\d{5,}\.vtu")
+    return [p for p in folder.glob(f"{glob.escape(stem)}_*.vtu") if pattern.fullmatch(p.name)]
 
 
 def export_trajectory(path, output=None, fmt: str = "vtkhdf", every: int = 1, force: bool = False) -> Path:
@@ -205,6 +263,13 @@ def export_trajectory(path, output=None, fmt: str = "vtkhdf", every: int = 1, fo
     writer = export_vtkhdf if fmt == "vtkhdf" else export_vtu_series
     try:
         return writer(path, output, every)
+    except OutputError:
+        raise
+    except RuntimeError as exc:  # HDF5 failing a write (an export too large to build in memory)
+        failed = hdf5_os_error(exc)
+        if failed is None:
+            raise
+        raise OutputError(f"exporting '{path}' to '{target}' failed ({failed}); nothing was written") from None
     except OSError as exc:
         raise OutputError(
             f"exporting '{path}' to '{target}' failed ({describe_os_error(exc)}); nothing was written"

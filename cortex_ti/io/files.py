@@ -16,6 +16,9 @@ __all__ = [
     "PARTIAL_SUFFIX",
     "OutputError",
     "atomic_path",
+    "check_destination",
+    "hdf5_os_error",
+    "write_synced",
     "describe_os_error",
     "refuse_file_parent",
     "write_json",
@@ -111,3 +114,47 @@ def describe_os_error(exc: OSError) -> str:
     what = exc.strerror or str(exc) or type(exc).__name__
     names = [n for n in (exc.filename, exc.filename2) if n is not None]
     return what + "".join(f": '{os.fsdecode(n)}'" for n in names)
+
+
+def write_synced(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` and fsync it (an OSError for a full disk, the file then deleted
+    by the caller)."""
+    with open(path, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+
+
+def check_destination(path: Path, need: int = 0) -> None:
+    """Before anything is computed: ``path``'s folder can be written (created if needed, a file
+    made in it and removed) and has ``need`` bytes free (checked where cheap,
+    :func:`shutil.disk_usage`). Else one :class:`~cortex_ti.io.files.OutputError`."""
+    import shutil
+
+    path = Path(path)
+    refuse_file_parent(path, "the output")
+    probe = path.with_name(f".{path.name}.probe")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(probe, "x"):
+            pass
+        probe.unlink()
+        free = shutil.disk_usage(path.parent).free
+    except OSError as exc:
+        raise OutputError(f"cannot write '{path}': {describe_os_error(exc)}; nothing was written") from None
+    if need > free:
+        raise OutputError(
+            f"cannot write '{path}': it needs about {need / 1e6:.3g} MB and '{path.parent}' has "
+            f"{free / 1e6:.3g} MB free; nothing was written"
+        )
+
+
+def hdf5_os_error(exc: BaseException) -> str | None:
+    """The operating-system error inside an HDF5 error (h5py raises a RuntimeError "... file write
+    failed: ..., errno = 28, error message = 'No space left on device' ..."), as words; else None."""
+    import re
+
+    if not isinstance(exc, RuntimeError):
+        return None
+    found = re.search(r"errno = (\d+), error message = '([^']*)'", str(exc))
+    return None if found is None else found.group(2) or os.strerror(int(found.group(1)))

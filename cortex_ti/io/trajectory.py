@@ -67,8 +67,8 @@ import numpy as np
 
 from .. import __version__
 from ..errors import CortexError
-from .claim import OutputClaim
-from .files import PARTIAL_SUFFIX, OutputError, describe_os_error
+from .claim import OutputClaim, check_output
+from .files import PARTIAL_SUFFIX, OutputError, describe_os_error, hdf5_os_error
 
 __all__ = [
     "FRAME_VARIABLES",
@@ -141,17 +141,46 @@ RENAMED_VARIABLES = {"lsq_residual": "force_residual"}
 
 def _same_scene_but_time(a, b) -> bool:
     """Scenes equal up to their ``time`` section (a run may be resumed with a new t_end or dt)."""
+    return scene_difference(a, b) is None
+
+
+def scene_difference(stored, new) -> str | None:
+    """The first key (dotted) in which two scene YAML texts differ outside their ``time`` section,
+    as ``"mesh.nodes is 642 in the file, 162 now"``; None if they agree there."""
     import yaml
 
     try:
-        da, db = yaml.safe_load(a), yaml.safe_load(b)
+        da, db = yaml.safe_load(stored), yaml.safe_load(new)
     except Exception:
-        return a == b
+        return None if stored == new else "the stored scene cannot be read"
     if not isinstance(da, dict) or not isinstance(db, dict):
-        return a == b
+        return None if stored == new else "the stored scene is not a mapping"
     da.pop("time", None)
     db.pop("time", None)
-    return da == db
+
+    def first(a, b, key):
+        if isinstance(a, dict) and isinstance(b, dict):
+            for k in [*a, *(k for k in b if k not in a)]:
+                found = first(a.get(k, "(not set)"), b.get(k, "(not set)"), f"{key}.{k}" if key else str(k))
+                if found:
+                    return found
+            return None
+        if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+            for i, (x, y) in enumerate(zip(a, b, strict=True)):
+                found = first(x, y, f"{key}.{i}")
+                if found:
+                    return found
+            return None
+        if a == b:
+            return None
+        return f"{key} is {_short(a)} in the file, {_short(b)} now"
+
+    return first(da, db, "")
+
+
+def _short(value) -> str:
+    text = value if isinstance(value, str) and value == "(not set)" else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def partial_path(path: str | os.PathLike) -> Path:
@@ -334,8 +363,9 @@ def _resume_problems(nc, n_nodes: int, triangles: np.ndarray, variables, scene: 
     have = set(nc.variables)
     if want != have:
         problems.append(f"its variables differ from the run's: {', '.join(sorted(want ^ have))}")
-    if not _same_scene_but_time(nc.attrs.get("scene"), scene):
-        problems.append("it was written for a different scene (only the time section may change)")
+    changed = scene_difference(nc.attrs.get("scene"), scene)
+    if changed:
+        problems.append(f"it was written for a different scene: {changed} (only the time section may change)")
     return problems
 
 
@@ -422,6 +452,10 @@ class TrajectoryWriter:
         and scene (up to its ``time`` section) must match; its ``created`` attribute is kept and the time of
         resumption is appended to the ``resumed`` attribute.  Without a partial
         file a new one is started.
+    force : bool, optional
+        Replace what is at ``path`` (and start over instead of resuming ``<path>.partial``).
+        Without ``resume`` or ``force``, an existing ``path`` or a partial file with frames is
+        refused, as the command line refuses it (:func:`cortex_ti.io.claim.check_output`).
 
     Notes
     -----
@@ -459,6 +493,7 @@ class TrajectoryWriter:
         resume: bool = False,
         extra_dims: Mapping[str, int] | None = None,
         node_vars: Mapping[str, tuple[np.ndarray, Mapping[str, str]]] | None = None,
+        force: bool = False,
     ) -> None:
         self.path = Path(os.fspath(path))
         self.partial = partial_path(self.path)
@@ -488,6 +523,7 @@ class TrajectoryWriter:
         self._held: list[tuple[float, dict]] = []  # frames appended with hold=True, not yet written
         self._claim = OutputClaim.acquire(self.path)  # before the partial file is truncated or opened
         try:
+            check_output(self.path, resume, force)  # the rule of every door (the command line's)
             if resume and self.partial.exists():
                 self._reopen()
             else:
@@ -512,12 +548,18 @@ class TrajectoryWriter:
             self._flush()
             self._open_fd()
         except BaseException as exc:
-            self._close()
+            try:
+                self._close()
+            except Exception:  # HDF5 failing to close a file it failed to write (a full disk): it goes anyway
+                pass
             self.partial.unlink(missing_ok=True)
             if isinstance(exc, OSError):
                 raise OutputError(
                     f"cannot create '{self.partial}': {describe_os_error(exc) if exc.errno else exc}"
                 ) from None
+            failed = hdf5_os_error(exc)
+            if failed is not None:
+                raise OutputError(f"cannot create '{self.partial}': {failed}") from None
             raise
 
     def _open_fd(self) -> None:

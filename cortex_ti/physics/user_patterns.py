@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import MeshError, SceneError
 from .patterns import finite_number, register_pattern
 
-__all__ = ["read_node_field", "field_pattern", "resolve_function", "python_pattern"]
+__all__ = ["read_node_field", "field_pattern", "resolve_function", "python_pattern", "add_pattern_folder"]
 
 #: Suffixes read with numpy; any other suffix is read with meshio (``point_data``).
 _TEXT_DELIMITERS = {".txt": None, ".csv": ","}
@@ -164,19 +164,79 @@ def field_pattern(points, file, name=None, scale=1.0) -> np.ndarray:
     return finite_number(scale, "field scale") * values
 
 
+#: Folders a ``python`` pattern's module is looked for in after ``sys.path``: the folders of the scene
+#: files read (:func:`add_pattern_folder`, called by the scene loader; the last read first), then the
+#: working directory. A module found is imported once (``sys.modules``), as any import.
+_PATTERN_FOLDERS: list[str] = []
+
+
+def add_pattern_folder(folder) -> None:
+    """Let ``python`` patterns import modules from ``folder`` (a scene file's folder: the loader
+    calls it for every scene file with a ``python`` pattern)."""
+    folder = os.path.abspath(os.fspath(folder))
+    if folder in _PATTERN_FOLDERS:
+        _PATTERN_FOLDERS.remove(folder)
+    _PATTERN_FOLDERS.insert(0, folder)  # the scene read last is searched first
+
+
+def _import(module: str):
+    """``importlib.import_module``; a module not found on ``sys.path`` is looked for in the scene files'
+    folders and the working directory (as the patterns guide says), without keeping them on the path."""
+    import sys
+
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        top = module.split(".")[0]
+        if exc.name not in (top, module):
+            raise
+        folders = [f for f in [*_PATTERN_FOLDERS, os.getcwd()] if f not in sys.path]
+        if not folders:
+            raise
+        sys.path[:0] = folders
+        try:
+            return importlib.import_module(module)
+        finally:
+            for f in folders:
+                if f in sys.path:
+                    sys.path.remove(f)
+
+
+def _where(exc: BaseException, prefer: str | None = None) -> str:
+    """``file:line`` where ``exc`` was raised: the deepest frame in ``prefer`` (the pattern's file), or
+    else the deepest of all (empty if there is no traceback)."""
+    import traceback
+
+    frames = traceback.extract_tb(exc.__traceback__)
+    if prefer is not None:
+        mine = [f for f in frames if os.path.abspath(f.filename) == os.path.abspath(prefer)]
+        frames = mine or frames
+    if isinstance(exc, SyntaxError) and exc.filename:
+        return f"{exc.filename}:{exc.lineno}"
+    return f"{frames[-1].filename}:{frames[-1].lineno}" if frames else ""
+
+
+def _what(exc: BaseException) -> str:
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({exc.code!r})"
+    return f"raised {type(exc).__name__}: {exc}" if str(exc) else f"raised {type(exc).__name__}"
+
+
 def resolve_function(function) -> tuple[Callable, str]:
     """The callable of a ``python`` pattern and the name to use in messages.
 
     ``function`` is a callable (Python API only) or a string ``"package.module:func"``
     (``func`` may be dotted, ``module:Class.method``), imported with
-    :func:`importlib.import_module`; the module must be importable (installed, or on
-    ``sys.path`` / ``PYTHONPATH``).  Importing it runs the module's code.
+    :func:`importlib.import_module`; the module must be importable: installed, on ``sys.path`` /
+    ``PYTHONPATH``, beside the scene file, or in the working directory. Importing it runs the
+    module's code.
 
     Raises
     ------
     SceneError
-        A malformed target, a module that cannot be imported (whatever the reason), a missing
-        attribute, or an attribute that is not callable; the message names the target.
+        A malformed target, a module that cannot be imported (whatever the reason, ``sys.exit``
+        included: the message names the file and line), a missing attribute, or an attribute that
+        is not callable; the message names the target.
     """
     if callable(function):
         return function, getattr(function, "__qualname__", repr(function))
@@ -186,11 +246,13 @@ def resolve_function(function) -> tuple[Callable, str]:
     if not sep or not module or not attr:
         raise SceneError(f"python pattern function {function!r} must look like 'package.module:function'")
     try:
-        obj = importlib.import_module(module)
-    except Exception as exc:  # ImportError, or anything the module raised while being imported
+        obj = _import(module)
+    except (Exception, SystemExit) as exc:  # ImportError, or anything the module raised while being imported
+        at = _where(exc) if not isinstance(exc, ModuleNotFoundError) else ""
         raise SceneError(
-            f"python pattern function '{function}': cannot import module '{module}' ({type(exc).__name__}: {exc})"
-        ) from None
+            f"python pattern function '{function}': cannot import module '{module}' "
+            f"({type(exc).__name__}: {exc}{f', at {at}' if at else ''})"
+        ) from exc
     for part in attr.split("."):
         try:
             obj = getattr(obj, part)
@@ -207,7 +269,7 @@ _PYTHON_SCHEMA = {
     "description": "A user's Python function zeta = func(points, **params), points the (N, 3) node positions "
     "of the initial shape, returning N finite numbers. The module is imported with importlib: "
     "a scene with this pattern runs the user's code (on run and on check). The module must be "
-    "importable (installed, or on PYTHONPATH).",
+    "importable: installed, on PYTHONPATH, in the scene file's folder or in the working directory.",
     "type": "object",
     "additionalProperties": False,
     "required": ["type", "function"],
@@ -237,8 +299,9 @@ def python_pattern(points, function, params=None) -> np.ndarray:
     mesh); the result must be ``N`` finite numbers.  Unlike the ``field`` pattern it is a
     function of position, so the sphere quadrature (mean tension, analytic sphere solutions)
     can use it.  The keyword names in ``params`` are checked against the function's signature
-    before the call; an exception raised inside the function is the user's and propagates
-    unchanged (with its traceback).
+    before the call; an exception raised inside the function (``sys.exit`` included) becomes a
+    :class:`~cortex_ti.errors.SceneError` naming the pattern, its file and line, chained to the
+    original (whose traceback the command line shows with ``--debug``).
 
     A callable as ``function`` works wherever a pattern list is used directly
     (:func:`evaluate_active_stress`, :func:`integrate_patterns`, :mod:`cortex_ti.analysis.analytic`), not
@@ -260,7 +323,15 @@ def python_pattern(points, function, params=None) -> np.ndarray:
         except TypeError as exc:
             kw = "".join(f", {k}=..." for k in params)
             raise SceneError(f"python pattern '{target}' cannot be called as {target}(points{kw}): {exc}") from None
-    out = func(pts, **params)
+    try:
+        out = func(pts, **params)
+    except (Exception, SystemExit) as exc:
+        try:
+            mine = inspect.getsourcefile(func)
+        except TypeError:
+            mine = None
+        at = _where(exc, mine)
+        raise SceneError(f"python pattern '{target}' {_what(exc)}{f' (at {at})' if at else ''}") from exc
     try:
         val = np.asarray(out, dtype=np.float64)
     except (TypeError, ValueError):

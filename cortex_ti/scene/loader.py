@@ -29,6 +29,7 @@ import yaml
 
 from ..errors import SceneError
 from ..physics.model import EFFECTS
+from ..physics.user_patterns import add_pattern_folder
 from .builtin import builtin_scene_names, builtin_scene_path
 from .files import resolve_files
 from .overrides import apply_override
@@ -157,6 +158,8 @@ def _build(data: Any, overrides: Sequence[str], source: str | None, label: str) 
         resolve_files(canonical, base)
     except SceneError as exc:
         raise SceneError(f"{label}: {exc}") from None
+    if source and any(p.get("type") == "python" for p in canonical.get("active_stress") or []):
+        add_pattern_folder(Path(source).parent)  # a python pattern's module may sit beside its scene
     return Scene(canonical, source=source)
 
 

@@ -29,6 +29,7 @@ def check_rules(data: dict) -> None:
     _check_effect_combinations(effects)
     _check_coefficients(data["viscosity"], effects)
     _check_time(data.get("time") or {})
+    _check_step_count(data)
     _check_stop_neck(data)
     _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
@@ -228,6 +229,25 @@ def _check_time(time: dict) -> None:
             f"time.implicit_tension = true is a first-order treatment of the tension and would spoil the "
             f"second-order scheme time.scheme = {time['scheme']}: use euler, adaptive_euler or bdf2, or set "
             "time.implicit_tension: auto"
+        )
+
+
+#: The most steps a dynamic scene's time.dt may ask for: time.t_end / time.dt above it is refused
+#: (1e-300 would spin for ever; a fixed step this small takes months of solves).
+MAX_STEPS = 1e8
+
+
+def _check_step_count(data: dict) -> None:
+    """``time.dt`` a dynamic run can honour: at most :data:`MAX_STEPS` steps of it to ``time.t_end``
+    (for an adaptive scheme it is the first step, which grows by a bounded factor per step)."""
+    time = data.get("time") or {}
+    if "shape_evolution" not in data["effects"] or "dt" not in time or "t_end" not in time:
+        return
+    dt, t_end = float(time["dt"]), float(time["t_end"])
+    if t_end > dt * MAX_STEPS:
+        raise SceneError(
+            f"time.dt = {fmt_value(dt)} is too small for time.t_end = {fmt_value(t_end)}: {t_end / dt:.3g} steps "
+            f"(at most {MAX_STEPS:.0e}); set time.dt >= {fmt_value(t_end / MAX_STEPS)}"
         )
 
 

@@ -20,11 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dynamics.motion import MESH_MOTIONS, MotionContext
+from ..dynamics.motion import MotionContext
 from ..dynamics.schemes import Evaluation
-from ..dynamics.state import FieldTransport, State
-from ..errors import CortexError
-from ..physics.fields import scene_fields, tension_of
+from ..dynamics.state import State
+from ..physics.fields import tension_of
 from ..scene.loader import Scene
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
@@ -32,7 +31,6 @@ from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
     H_MIN_DIVISOR,
-    REMESH_EXTRA_HINT,
     budget_scale,
     closest_points,
     edge_curvature,
@@ -42,14 +40,13 @@ from ..surface.remesh import (
     min_angles,
     node_coarseness,
     remesh,
-    remesh_available,
     restore_volume,
     sizes,
 )
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import DENSITY, advective_rate, dual_areas, triangle_gradients
 from .run import run_scene, run_summary
-from .setup import initial_fields, initial_mesh, initial_shape
+from .setup import SceneSetup, field_moves
 
 __all__ = ["Simulation", "Solution"]
 
@@ -104,21 +101,15 @@ class Simulation:
         self.scene = scene
         self.settings = scene.settings
         self.physics = self.settings.physics
-        undeformed = mesh or initial_mesh(self.settings)
-        self.topology: Topology = build_topology(undeformed)
+        setup = SceneSetup(scene, mesh)  # what check sets up too (no Taichi): the same refusals
+        self.topology: Topology = setup.topology
         self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
-        # the fields are assigned on the undeformed mesh, then the mesh is deformed
-        fields = initial_fields(undeformed, self.settings)
-        self.mesh = initial_shape(undeformed, self.settings)
-        self.state0 = State(self.mesh.points, fields, self.mesh.faces)
-        self.fields = scene_fields(self.settings)
-        self.transport = {
-            spec.name: FieldTransport(spec.kind, spec.diffusion(self.settings), *spec.turnover(self.settings))
-            for spec in self.fields
-            if self._moves(spec)
-        }
-        self.motion = MESH_MOTIONS[self.settings.mesh.motion]
-        self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, self.settings.mesh.ale_time)
+        self.mesh = setup.mesh
+        self.state0 = setup.state0
+        self.fields = setup.fields
+        self.transport = setup.transport
+        self.motion = setup.motion
+        self.motion_context = setup.motion_context
         s = self.settings.solver
         self.solver = ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine)
         self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
@@ -128,9 +119,7 @@ class Simulation:
         rem = self.settings.mesh.remesh
         self.remesh_options = None
         self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
-        if rem is not None:
-            if not remesh_available():
-                raise CortexError(f"scene '{self.settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
+        if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
             h_min = rem.options.h_min or mean / H_MIN_DIVISOR
             if rem.size == "budget":  # the run keeps its node count; the flat parts may coarsen 3-fold
@@ -297,12 +286,7 @@ class Simulation:
 
     def _moves(self, spec) -> bool:
         """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""
-        return (
-            spec.carried(self.settings)
-            or spec.kind == "density"
-            or spec.diffusion(self.settings) > 0
-            or spec.turnover(self.settings)[0] > 0
-        )
+        return field_moves(spec, self.settings)
 
     @property
     def zeta(self) -> np.ndarray:
@@ -414,10 +398,12 @@ class Simulation:
             transport=self.transport,
         )
 
-    def run(self, output: str | Path, resume: bool = False, progress: bool = True) -> Path:
+    def run(self, output: str | Path, resume: bool = False, progress: bool = True, force: bool = False) -> Path:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).
+        An existing ``output``, or its ``.partial`` file with frames, is refused as the command line
+        refuses it, unless ``resume`` (continue or extend it) or ``force`` (replace it).
         What the run did is in :attr:`report` (and :meth:`summary`)."""
-        self.report = run_scene(self, Path(output), resume=resume, progress=progress)
+        self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
         return self.report.path
 
     def summary(self) -> dict:

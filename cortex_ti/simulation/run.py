@@ -36,19 +36,22 @@ from ..dynamics.state import State
 from ..errors import (
     CortexError,
     Interrupted,
+    MeshError,
     SceneError,
     SolverError,
     StabilityError,
     check_interrupted,
     interruptible,
 )
-from ..io.claim import OutputClaim
+from ..io.claim import check_output, claim_output
 from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
 from ..physics.patterns import evaluate_active_stress
+from ..surface.transport import DENSITY
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .setup import SceneSetup
     from .simulation import Simulation
 
 log = logging.getLogger(__name__)
@@ -65,6 +68,8 @@ __all__ = [
     "run_scene",
     "run_summary",
     "stop_reason",
+    "step_scheme",
+    "unphysical",
 ]
 
 #: Why a run ended (the summary's ``stopped``): the value, and what it means.
@@ -77,6 +82,7 @@ STOP_REASONS = {
     "guard": "the stability guard stopped it (dynamics.guard)",
     "solver": "a solve failed",
     "io": "writing a file failed (full disk, I/O error)",
+    "input": "the input was refused (the scene, its mesh, a pattern, an option): most before the run started",
     "error": "another error",
 }
 
@@ -100,6 +106,8 @@ def stop_reason(exc: BaseException | None) -> str:
         return "solver"
     if isinstance(exc, (OutputError, OSError)):
         return "io"
+    if isinstance(exc, (SceneError, MeshError)):
+        return "input"
     return "error"
 
 
@@ -186,14 +194,19 @@ def field_values(sim: Simulation) -> dict:
     return out
 
 
-def run_scene(sim: Simulation, output: Path, resume: bool = False, progress: bool = True) -> RunReport:
-    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring)."""
+def run_scene(
+    sim: Simulation, output: Path, resume: bool = False, progress: bool = True, force: bool = False
+) -> RunReport:
+    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring). What is
+    already at ``output`` is treated as the command line does (:func:`cortex_ti.io.claim.check_output`:
+    refused unless ``resume`` or ``force``)."""
     sim.seconds = {}
     sim.report = None
-    with OutputClaim.acquire(output):
+    with claim_output(output):
+        check_output(output, resume, force)
         if sim.settings.dynamic:
-            return _run_dynamic(sim, output, resume, progress)
-        return _run_static(sim, output)
+            return _run_dynamic(sim, output, resume, progress, force)
+        return _run_static(sim, output, force)
 
 
 def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
@@ -206,16 +219,16 @@ def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats |
     sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason, solved=0)
 
 
-def _run_static(sim: Simulation, output: Path) -> RunReport:
+def _run_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
     t0 = time.perf_counter()
     try:
-        return _write_static(sim, output)
+        return _write_static(sim, output, force)
     except BaseException as exc:
         _failed(sim, output, exc, None, t0)
         raise
 
 
-def _write_static(sim: Simulation, output: Path) -> RunReport:
+def _write_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
     with TrajectoryWriter(
         output,
         sim.mesh.faces,
@@ -223,6 +236,7 @@ def _write_static(sim: Simulation, output: Path) -> RunReport:
         output_attrs(sim),
         extra_vars=FRAME_EXTRAS,
         node_vars=field_values(sim),
+        force=force,
     ) as writer:
         check_interrupted()
         ev = sim.evaluate(sim.mesh.points)
@@ -257,15 +271,14 @@ def extend_finished(output: Path) -> bool:
         raise OutputError(
             f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); '{output}' is unchanged"
         ) from None
-    log.info("extending the finished run %s from its last frame", output)
     return True
 
 
-def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool) -> RunReport:
+def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool, force: bool = False) -> RunReport:
     start = time.perf_counter()
     seen: dict = {}
     try:
-        return _integrate_to_file(sim, output, resume, progress, seen)
+        return _integrate_to_file(sim, output, resume, progress, seen, force)
     except BaseException as exc:
         _failed(sim, output, exc, seen.get("stats"), start)
         raise
@@ -295,14 +308,85 @@ def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
         scheme.dt_cap = min(scheme.dt_cap, limit)
 
 
-def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict) -> RunReport:
+def step_scheme(sim: Simulation | SceneSetup):
+    """The scene's time scheme as a run builds it, its steps capped (or refused) by the ALE limit
+    (:func:`cap_ale_step`): what ``cortex-ti check`` asks of a dynamic scene without running it."""
     st = sim.settings.time
-    scheme = make_scheme(st.scheme, sim.evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
+    evaluate = getattr(sim, "evaluate", None)  # a SceneSetup (check) has none: the scheme is not stepped
+    scheme = make_scheme(st.scheme, evaluate, tol=st.tol, dt_max=st.dt_max, implicit=st.implicit_tension)
     cap_ale_step(sim, scheme)
+    return scheme
+
+
+def unphysical(sim: Simulation | SceneSetup) -> list[str]:
+    """Sentences on values a scene may legally hold but that no cortex has: an extensile active
+    tension (its sign opposite to the contractile one the model is made for; the guard says so if
+    it stops the run) and a negative density field. A run logs them as warnings at its start, and
+    ``cortex-ti check`` too."""
+    out = []
+    physical = extensile_tension(sim.zeta)
+    if physical is not None:
+        out.append(f"{physical}; the guard will say so if it stops the run")
+    for spec in sim.fields:
+        if spec.kind != DENSITY:
+            continue
+        values = np.asarray(sim.state0.fields[spec.name], dtype=float)
+        neg = values < 0.0
+        if np.any(neg):
+            out.append(
+                f"the initial {spec.name} density is negative at {int(neg.sum())} of {values.size} nodes "
+                f"(down to {values.min():.3g}): a density is an amount per area, never below 0"
+            )
+    return out
+
+
+def _integrate_to_file(
+    sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict, force: bool = False
+) -> RunReport:
+    st = sim.settings.time
+    scheme = step_scheme(sim)
     start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
-    if resume:
-        extend_finished(output)
+    extended = resume and extend_finished(output)
     state = ResumeState.read(output) if resume else None
+    axis = sim.settings.pattern_axis
+    has_p = sim.settings.has("incompressibility")
+    stored = stored_fields(sim)
+    attrs = output_attrs(sim)
+    done = state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12)
+    if done:  # the file already reaches past time.t_end: its scene records the t_end its frames reach
+        from ..scene import scene_from_dict
+
+        attrs["scene"] = scene_from_dict(sim.scene.data, [f"time.t_end={state.time!r}"]).to_yaml()
+    try:  # first, so that a refused resume (a changed scene: the key named) comes before any log line
+        writer = TrajectoryWriter(
+            output,
+            sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
+            sim.state0.n_nodes,
+            attrs,
+            extra_vars={
+                **FRAME_EXTRAS,
+                **_DYNAMIC_EXTRAS,
+                **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
+                **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
+            },
+            resume=state is not None,
+            node_vars=field_values(sim),
+            force=force,
+        )
+    except BaseException as exc:
+        if not extended:
+            raise
+        # the copy of the finished file made to extend it goes: the finished file is unchanged
+        partial_path(output).unlink(missing_ok=True)
+        prefix = f"cannot resume '{partial_path(output)}'"
+        if isinstance(exc, CortexError) and str(exc).startswith(prefix):
+            said = str(exc)[len(prefix) :].replace(
+                "pass --force (or delete it) to start over", "pass --force to replace it"
+            )
+            raise CortexError(f"cannot extend '{output}'{said}") from None
+        raise
+    if extended:
+        log.info("extending the finished run %s from its last frame", output)
     if state is not None:
         t0 = state.time
         if scheme.dense:
@@ -311,35 +395,19 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
             dt = min(state.dt, scheme.dt_max)
-        start = resumed_state(sim, state)
+        try:
+            start = resumed_state(sim, state)
+        except BaseException:
+            writer.close_partial()
+            raise
         if state.segment > 0:  # continued on a remeshed segment: its reference triangles' limit too
             cap_ale_step(sim, scheme)
             dt = min(dt, scheme.dt_cap)
         log.info("resuming %s at t = %.4g (frame %d, dt = %.3g)", output, t0, state.n_frames, dt)
     elif resume:
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
-    physical = extensile_tension(sim.zeta)
-    if physical is not None:
-        log.warning(
-            "scene '%s': %s; the run goes on, and the guard will say so if it stops it", sim.settings.name, physical
-        )
-    axis = sim.settings.pattern_axis
-    has_p = sim.settings.has("incompressibility")
-    stored = stored_fields(sim)
-    writer = TrajectoryWriter(
-        output,
-        sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
-        sim.state0.n_nodes,
-        output_attrs(sim),
-        extra_vars={
-            **FRAME_EXTRAS,
-            **_DYNAMIC_EXTRAS,
-            **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
-            **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
-        },
-        resume=state is not None,
-        node_vars=field_values(sim),
-    )
+    for sentence in unphysical(sim):
+        log.warning("scene '%s': %s; the run goes on", sim.settings.name, sentence)
 
     neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
     curved = sim.settings.numerics.formulation_entry.curved
@@ -367,7 +435,7 @@ def _integrate_to_file(sim: Simulation, output: Path, resume: bool, progress: bo
             **{spec.var: fields[spec.name] for spec in stored},
         )
 
-    if state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12):
+    if done:
         log.info("%s reaches t = %.6g already (time.t_end = %.6g): nothing to compute", output, state.time, st.t_end)
         seen["stats"] = RunStats(t=state.time)
         return RunReport(path=writer.finish(), stats=seen["stats"], stopped="t_end")

@@ -16,7 +16,15 @@ from ..scene.settings import RunSettings
 from ..surface.mesh import Mesh, affine, icosphere
 from ..surface.reading import load_mesh
 
-__all__ = ["initial_mesh", "active_tension", "initial_fields", "initial_shape", "relaxed_start"]
+__all__ = [
+    "initial_mesh",
+    "active_tension",
+    "initial_fields",
+    "initial_shape",
+    "relaxed_start",
+    "SceneSetup",
+    "field_moves",
+]
 
 #: The relaxation of a distorted start (``mesh.relax_start``): explicit steps of the conformal
 #: distortion's gradient flow (:func:`cortex_ti.dynamics.motion.ale_velocity`) and their length in
@@ -107,3 +115,56 @@ def initial_shape(mesh: Mesh, settings: RunSettings) -> Mesh:
     if not np.all(np.isfinite(matrix)) or abs(np.linalg.det(matrix)) < 1e-12:
         raise CortexError(f"scene '{settings.name}': mesh.transform/mesh.shear give a singular or non-finite map")
     return affine(mesh, matrix)
+
+
+def field_moves(spec, settings: RunSettings) -> bool:
+    """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""
+    return (
+        spec.carried(settings)
+        or spec.kind == "density"
+        or spec.diffusion(settings) > 0
+        or spec.turnover(settings)[0] > 0
+    )
+
+
+class SceneSetup:
+    """Everything a run sets up from its scene before the first solve, without Taichi: the mesh and
+    its topology, the fields and patterns (field files read, python patterns imported and called)
+    on the undeformed mesh, the initial shape, each moving field's transport, the mesh motion, its
+    ALE reference, and the remeshing's extra. :class:`~cortex_ti.simulation.core.Simulation` is
+    built on it, and ``cortex-ti check`` builds only it, so both refuse the same input.
+
+    Its attributes are those of a simulation that the set-up checks read (``settings``, ``scene``,
+    ``mesh``, ``state0``, ``fields``, ``motion_context``, ``zeta``)."""
+
+    def __init__(self, scene, mesh: Mesh | None = None):
+        from ..dynamics.motion import MESH_MOTIONS, MotionContext
+        from ..dynamics.state import FieldTransport, State
+        from ..surface.remesh import REMESH_EXTRA_HINT, remesh_available
+        from ..surface.topology import build_topology
+
+        self.scene = scene
+        self.settings = settings = scene.settings
+        self.undeformed = mesh or initial_mesh(settings)
+        self.topology = build_topology(self.undeformed)
+        # the fields are assigned on the undeformed mesh, then the mesh is deformed
+        values = initial_fields(self.undeformed, settings)
+        self.mesh = initial_shape(self.undeformed, settings)
+        self.state0 = State(self.mesh.points, values, self.mesh.faces)
+        self.fields = scene_fields(settings)
+        self.transport = {
+            spec.name: FieldTransport(spec.kind, spec.diffusion(settings), *spec.turnover(settings))
+            for spec in self.fields
+            if field_moves(spec, settings)
+        }
+        self.motion = MESH_MOTIONS[settings.mesh.motion]
+        self.motion_context = MotionContext(self.mesh.faces, self.mesh.points, settings.mesh.ale_time)
+        if settings.mesh.remesh is not None and not remesh_available():
+            raise CortexError(f"scene '{settings.name}': mesh.remesh.min_angle is set but {REMESH_EXTRA_HINT}")
+
+    @property
+    def zeta(self) -> np.ndarray:
+        """The active tension of the initial state."""
+        from ..physics.fields import tension_of
+
+        return tension_of(self.state0.fields, self.mesh.n_nodes, self.settings)

@@ -32,7 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import SolverError
+from ..errors import SolverError, thread_count
 
 __all__ = [
     "FACTORIZATIONS",
@@ -129,8 +129,8 @@ class PardisoFactor(Factorization):
 
     def __init__(self):
         self._solver = _pypardiso().PyPardisoSolver(mtype=2)
-        threads = int(os.environ.get("CORTEX_TI_THREADS", "0") or 0)
-        if threads > 0:  # the run's thread count (cortex_ti.runtime); MKL's default is every core
+        threads = thread_count()  # checked: a bad CORTEX_TI_THREADS is one line, not a ValueError
+        if threads is not None:  # the run's thread count (cortex_ti.runtime); MKL's default is every core
             self._solver.libmkl.MKL_Set_Num_Threads(ctypes.c_int(threads))
         self._pattern = None
         self._a = None

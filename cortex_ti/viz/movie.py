@@ -5,17 +5,23 @@ carries) or GIF (Pillow, through imageio).
 The colour limits and the zoom are those of all the frames in the movie, so that a colour and a
 size mean the same in every frame. The pictures come from
 :func:`cortex_ti.viz.render.frame_renderer` (PyVista off screen, or matplotlib without OpenGL).
-The file is written under a temporary name in the target folder and renamed when complete.
+The destination is checked before the first frame is drawn (a folder that can be written, some
+free space); the file is written under a temporary name in the target folder, checked (an MP4 is
+decoded: ffmpeg reports a full disk only in its log) and renamed when complete. A full disk, a
+read-only folder or a codec error is one :class:`~cortex_ti.io.files.OutputError`, nothing left.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import secrets
 from collections.abc import Sequence
 from pathlib import Path
 
 from ..errors import CortexError
+from ..io.files import OutputError, check_destination, describe_os_error, write_synced
 from ..plotting import COLORS, DEFAULT_VIEW, MAX_ARROWS
 from .extra import require
 from .render import Renderer, frame_renderer
@@ -79,9 +85,10 @@ def write_movie(
     ks = list(range(ds.sizes["time"])) if frames is None else [int(k) for k in frames]
     if not ks:
         raise CortexError("the trajectory has no frames (yet)")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_destination(path, _least_bytes(size, len(ks)))  # before the first frame is drawn
     tmp = path.with_name(f".{path.stem}.{secrets.token_hex(4)}.tmp{path.suffix}")
     if fmt == "mp4":
+        target = tmp  # ffmpeg writes a file; checked below by decoding it
         options = {
             "format": "FFMPEG",
             "fps": float(fps),
@@ -89,20 +96,70 @@ def write_movie(
             "pixelformat": "yuv420p",
             "quality": 8,
             "macro_block_size": 2,
-            "ffmpeg_log_level": "error",
+            "ffmpeg_log_level": "quiet",
         }
-    else:
+    else:  # Pillow writes the GIF in memory, Python writes it out: a full disk is one OSError
+        target = io.BytesIO()  # (imageio's "<bytes>" keeps only the first frame of a GIF)
         options = {"format": "GIF", "mode": "I", "duration": 1000.0 / float(fps), "loop": 0}
+    writer = None
     try:
-        with (
-            frame_renderer(
-                ds, color, ks, renderer, size=size, view=view, arrows=arrows, max_arrows=max_arrows, clim=clim
-            ) as fr,
-            iio.get_writer(tmp, **options) as writer,
-        ):
+        with frame_renderer(
+            ds, color, ks, renderer, size=size, view=view, arrows=arrows, max_arrows=max_arrows, clim=clim
+        ) as fr:
+            try:
+                writer = iio.get_writer(target, **options)
+            except (OSError, RuntimeError, ValueError) as exc:
+                raise _failed(path, exc) from None
             for k in ks:
-                writer.append_data(fr.render(k))
+                picture = fr.render(k)  # an error in drawing is not the file's: not caught here
+                try:
+                    writer.append_data(picture)
+                except (OSError, RuntimeError, ValueError) as exc:
+                    raise _failed(path, exc) from None
+            try:
+                writer.close()
+                if fmt == "gif":
+                    write_synced(tmp, target.getvalue())
+                else:
+                    _check_mp4(tmp, len(ks))
+            except (OSError, RuntimeError, ValueError) as exc:
+                raise _failed(path, exc) from None
+            finally:
+                writer = None
         os.replace(tmp, path)
     finally:
+        if writer is not None:
+            with contextlib.suppress(Exception):  # closed now, not again with a traceback at exit
+                writer.close()
         tmp.unlink(missing_ok=True)
     return path
+
+
+def _least_bytes(size, n_frames: int) -> int:
+    """A lower bound of a movie's size, for the free-space check: 1/100 byte per pixel and frame (an
+    H.264 movie of these pictures takes more; a GIF far more)."""
+    return int(size[0] * size[1] * n_frames / 100) + (1 << 16)
+
+
+def _check_mp4(path: Path, n_frames: int) -> None:
+    """Fsync ``path`` and decode it: ffmpeg reports a failed write (a full disk) in its log only, and
+    leaves a file no player opens; refused unless all ``n_frames`` frames read back."""
+    import imageio_ffmpeg
+
+    with open(path, "rb+") as fh:
+        os.fsync(fh.fileno())
+    try:
+        count, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    except (OSError, RuntimeError):  # its message is ffmpeg's whole banner
+        raise OSError("the movie written does not decode (a full disk?)") from None
+    if count != n_frames:
+        raise OSError(f"the movie written reads back {count} of its {n_frames} frames (a full disk?)")
+
+
+def _failed(path: Path, exc: BaseException) -> OutputError:
+    if isinstance(exc, OSError) and exc.errno:
+        why = describe_os_error(exc)
+    else:  # ffmpeg's errors come with its banner: the first line says what failed
+        lines = str(exc).strip().splitlines()
+        why = lines[0][:200] if lines else type(exc).__name__
+    return OutputError(f"cannot write the movie '{path}': {why}; nothing was written")

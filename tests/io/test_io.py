@@ -231,8 +231,12 @@ def test_resume_rejects_a_different_mesh_or_scene(tmp_path):
     with pytest.raises(CortexError, match="variables differ"):
         TrajectoryWriter(path, TRI, N, attrs(), {}, resume=True)
     assert last_frame(partial_path(path))["n_frames"] == 1
-    # without resume a new file replaces the partial one
-    w = TrajectoryWriter(path, TRI, N, attrs(), EXTRA)
+    # without resume the partial file's frames are not thrown away (as on the command line);
+    # with force a new file replaces it
+    with pytest.raises(CortexError, match="holds 1 frames .* of an interrupted run"):
+        TrajectoryWriter(path, TRI, N, attrs(), EXTRA)
+    assert last_frame(partial_path(path))["n_frames"] == 1
+    w = TrajectoryWriter(path, TRI, N, attrs(), EXTRA, force=True)
     assert w.n_frames == 0
     w.abort()
 

@@ -705,6 +705,9 @@ def test_python_pattern_errors_name_the_target(ico162, user_module):
     assert "width" in msg.split(":")[-1]
     assert "missing a required argument: 'sigma'" in error(f"{user_module}:ring", params={"zeta0": 1, "amplitude": 1})
     assert "params must be a mapping" in error(f"{user_module}:height", params=[1, 2])
-    # an exception inside the user's function is the user's: it propagates unchanged
-    with pytest.raises(RuntimeError, match="boom from the user's code"):
+    # an exception inside the user's function: one error naming the pattern, file and line, the
+    # user's exception chained to it (issue 34; the command line shows its traceback with --debug)
+    with pytest.raises(SceneError, match="boom from the user's code") as info:
         evaluate_active_stress(pts, [{"type": "python", "function": f"{user_module}:boom"}])
+    assert str(info.value).startswith(f"python pattern '{user_module}:boom' raised RuntimeError: ")
+    assert ".py:" in str(info.value) and isinstance(info.value.__cause__, RuntimeError)

@@ -105,9 +105,9 @@ def test_a_static_scene_cannot_remesh(tmp_path, capsys):
 
 
 def test_missing_remesher_is_one_line(tmp_path, capsys, monkeypatch):
-    import cortex_ti.simulation.core as core
+    import cortex_ti.surface.remesh as remesh
 
-    monkeypatch.setattr(core, "remesh_available", lambda: False)
+    monkeypatch.setattr(remesh, "remesh_available", lambda: False)  # read by simulation.setup.SceneSetup
     out = tmp_path / "out.h5"
     rc, _, stderr = _cli(
         ["run", "furrow_p4_a1", "--set", "mesh.nodes=162", "--set", "mesh.remesh.min_angle=25", "-o", str(out)], capsys

@@ -502,3 +502,78 @@ def test_parser_is_light_and_names_every_colour():
     for command in ("movie", "view"):
         (color,) = [a for a in sub.choices[command]._actions if a.dest == "color"]
         assert all(name in color.help for name in COLORS), color.help
+
+
+# ------------------------------------------------------------ the movie's faults (issue 34)
+def _movie_error(capsys, argv, words):
+    assert main(argv) == 2
+    stdout, stderr = capsys.readouterr()
+    lines = [ln for ln in stderr.strip().splitlines() if not ln.startswith("cortex-ti: 3D pictures")]
+    assert len(lines) == 1 and lines[0].startswith("cortex-ti: error: ") and words in lines[0], stderr
+    assert not stdout
+
+
+@pytest.mark.parametrize("suffix", [".mp4", ".gif"])
+def test_a_movie_onto_a_full_disk_leaves_nothing(run, tmp_path, capsys, monkeypatch, suffix):
+    """Checked before drawing (little free space: one line) and after writing (the disk filled while
+    the movie was encoded: ffmpeg says so only in its log, Pillow raises): one line, exit 2, no file."""
+    if not HAVE_MOVIE:
+        pytest.skip(VIZ_SKIP)
+    import collections
+    import errno
+    import shutil
+
+    import cortex_ti.viz.movie as movie
+
+    argv = ["movie", str(run), "-o", str(tmp_path / f"m{suffix}"), "--size", "128x128", "--renderer", "matplotlib"]
+    usage = collections.namedtuple("usage", "total used free")
+    with monkeypatch.context() as m:
+        m.setattr(shutil, "disk_usage", lambda path: usage(10**6, 10**6 - 100, 100))
+        _movie_error(capsys, argv, "MB free; nothing was written")
+    assert list(tmp_path.iterdir()) == []
+    if suffix == ".mp4":  # ffmpeg's file cut short: it must not decode
+        real = movie._check_mp4
+
+        def cut(path, n):
+            with open(path, "r+b") as fh:
+                fh.truncate(path.stat().st_size // 2)
+            real(path, n)
+
+        monkeypatch.setattr(movie, "_check_mp4", cut)
+        _movie_error(capsys, argv, "does not decode")
+    else:
+
+        def full(path, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+        monkeypatch.setattr(movie, "write_synced", full)
+        _movie_error(capsys, argv, "No space left on device")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_codec_error_is_one_line_and_leaves_nothing(run, tmp_path, capsys, monkeypatch):
+    if not HAVE_MOVIE:
+        pytest.skip(VIZ_SKIP)
+    import imageio.v2 as iio
+
+    real = iio.get_writer
+    monkeypatch.setattr(iio, "get_writer", lambda target, **o: real(target, **{**o, "codec": "no_such_codec_q"}))
+    _movie_error(capsys, ["movie", str(run), "-o", str(tmp_path / "m.mp4"), "--renderer", "matplotlib"], "movie")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into a read-only folder")
+def test_a_movie_into_a_read_only_folder_is_refused_before_drawing(run, tmp_path, capsys, monkeypatch):
+    if not HAVE_MOVIE:
+        pytest.skip(VIZ_SKIP)
+    import cortex_ti.viz.movie as movie
+
+    monkeypatch.setattr(movie, "frame_renderer", lambda *a, **k: pytest.fail("drew a frame"))
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        _movie_error(capsys, ["movie", str(run), "-o", str(ro / "m.mp4"), "--renderer", "matplotlib"], "Permission")
+        assert list(ro.iterdir()) == []
+    finally:
+        ro.chmod(0o755)
