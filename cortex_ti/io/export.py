@@ -43,13 +43,30 @@ from .files import (
 )
 from .trajectory import Trajectory
 
-__all__ = ["EXPORT_FORMATS", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
+__all__ = ["EXPORT_FORMATS", "VTK_QUADRATIC_TRIANGLE", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
 
 #: Export formats: name -> file suffix.
 EXPORT_FORMATS: dict[str, str] = {"vtkhdf": ".vtkhdf", "pvd": ".pvd"}
 
 #: VTK's cell type number of a linear triangle.
 VTK_TRIANGLE = 5
+#: the six-node quadratic triangle (corners, then the midpoints of edges 01, 12, 20: the node order of
+#: :func:`cortex_ti.surface.curved.p2_cells`), which ParaView draws curved
+VTK_QUADRATIC_TRIANGLE = 22
+
+
+def _cells(tr, triangles: np.ndarray) -> np.ndarray:
+    """The cells to export for a mesh's triangles: the six-node curved cells of a run on curved cells
+    (formulation ``rayleigh_p2``, read from the trajectory's scene), else the triangles themselves."""
+    try:
+        curved = tr.settings.numerics.formulation_entry.curved
+    except Exception:  # a trajectory without a readable scene: its triangles as they are
+        curved = False
+    if not curved:
+        return np.asarray(triangles, dtype=np.int64)
+    from ..surface.curved import p2_cells
+
+    return p2_cells(np.asarray(triangles)).astype(np.int64)
 
 #: VTKHDF version written: 2.0, the first with time steps (the layout used here has not changed since),
 #: so that older readers (ParaView 5.12, VTK 9.3) take it too.
@@ -114,7 +131,9 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
         used = sorted(set(segment.tolist()))
         part = {s: i for i, s in enumerate(used)}
         first = [tr.mesh(ks[int(np.argmax(segment == s))]) for s in used]
-        tris = [np.asarray(tri, dtype=np.int64) for _, tri in first]
+        tris = [_cells(tr, tri) for _, tri in first]
+        width = tris[0].shape[1]  # 3 corners, or 6 nodes of a curved cell
+        cell_type = VTK_TRIANGLE if width == 3 else VTK_QUADRATIC_TRIANGLE
         faces = np.array([len(t) for t in tris], dtype=np.int64)
         nodes = np.array([p.shape[0] for p, _ in first], dtype=np.int64)
         step_part = np.array([part[s] for s in segment.tolist()], dtype=np.int64)
@@ -143,9 +162,9 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                 # earlier part) and connectivity, and at its own points and point data (PointOffsets)
                 root["NumberOfPoints"] = nodes
                 root["NumberOfCells"] = faces
-                root["NumberOfConnectivityIds"] = 3 * faces
-                root["Types"] = np.full(int(faces.sum()), VTK_TRIANGLE, dtype=np.uint8)
-                root["Offsets"] = np.concatenate([np.arange(0, 3 * f + 1, 3, dtype=np.int64) for f in faces])
+                root["NumberOfConnectivityIds"] = width * faces
+                root["Types"] = np.full(int(faces.sum()), cell_type, dtype=np.uint8)
+                root["Offsets"] = np.concatenate([np.arange(0, width * f + 1, width, dtype=np.int64) for f in faces])
                 root["Connectivity"] = np.concatenate([t.reshape(-1) for t in tris])
                 points = root.create_dataset("Points", (total, 3), dtype=np.float64)
                 pdata = root.create_group("PointData")
@@ -156,7 +175,7 @@ def export_vtkhdf(path, output=None, every: int = 1) -> Path:
                 steps["NumberOfParts"] = np.ones(m, dtype=np.int64)
                 steps["PointOffsets"] = point_offsets
                 steps["CellOffsets"] = cell_start[step_part][:, None]
-                steps["ConnectivityIdOffsets"] = 3 * cell_start[step_part][:, None]
+                steps["ConnectivityIdOffsets"] = width * cell_start[step_part][:, None]
                 offsets = steps.create_group("PointDataOffsets")
                 for j, k in enumerate(ks):
                     lo, hi = point_offsets[j], point_offsets[j] + step_nodes[j]
@@ -221,7 +240,9 @@ def export_vtu_series(path, output=None, every: int = 1) -> Path:
             for k in ks:
                 pts, tri = tr.mesh(k)
                 name = f"{pvd.stem}_{k:05d}.vtu"
-                mesh = meshio.Mesh(pts, [("triangle", tri.astype(np.int64))], point_data=_point_data(tr, k))
+                cells = _cells(tr, tri)
+                kind = "triangle" if cells.shape[1] == 3 else "triangle6"
+                mesh = meshio.Mesh(pts, [(kind, cells)], point_data=_point_data(tr, k))
                 meshio.write(work / name, mesh, file_format="vtu")
                 entries.append((float(times[k]), name))
             lines = ['<?xml version="1.0"?>', '<VTKFile type="Collection" version="0.1">', "  <Collection>"]

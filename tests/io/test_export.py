@@ -280,3 +280,26 @@ def test_writes_that_fail_for_real_leave_one_line_and_nothing(run, tmp_path, fmt
     assert res.returncode == 2 and len(lines) == 1, res.stderr
     assert lines[0].startswith("cortex-ti: error: ") and "File too large" in lines[0]
     assert list(out.iterdir()) == []
+
+
+def test_a_run_on_curved_cells_is_exported_as_quadratic_triangles(tmp_path, capsys):
+    """formulation rayleigh_p2: every four triangles of the mesh one curved cell, exported as VTK's
+    six-node quadratic triangle (type 22: corners, then the midpoints of edges 01, 12, 20) in both
+    formats, so that ParaView draws the curved surface; the cells are the mesh's split cells."""
+    from cortex_ti.io.export import VTK_QUADRATIC_TRIANGLE
+    from cortex_ti.surface.curved import p2_cells
+
+    h5 = tmp_path / "curved.h5"
+    args = ["--set", "mesh.nodes=162", "--set", "numerics.formulation=rayleigh_p2", "--set", "time.t_end=0.01"]
+    assert main(["run", "furrow_p4_a1", "-o", str(h5), "--threads", "1", *args]) == 0
+    with Trajectory(h5) as tr:
+        cells = p2_cells(tr.mesh(0)[1])
+    assert main(["export", str(h5), "-o", str(tmp_path / "c.vtkhdf")]) == 0
+    with h5py.File(tmp_path / "c.vtkhdf") as f:
+        root = f["VTKHDF"]
+        assert set(root["Types"][()].tolist()) == {VTK_QUADRATIC_TRIANGLE}
+        assert np.array_equal(root["Connectivity"][()].reshape(-1, 6), cells)
+    assert main(["export", str(h5), "--format", "pvd", "-o", str(tmp_path)]) == 0
+    frame = meshio.read(sorted(tmp_path.glob("curved_*.vtu"))[0])
+    assert frame.cells[0].type == "triangle6" and np.array_equal(frame.cells[0].data, cells)
+    capsys.readouterr()
