@@ -43,7 +43,15 @@ from .files import (
 )
 from .trajectory import Trajectory
 
-__all__ = ["EXPORT_FORMATS", "VTK_QUADRATIC_TRIANGLE", "VTK_TRIANGLE", "export_path", "export_trajectory", "export_vtkhdf", "export_vtu_series"]
+__all__ = [
+    "EXPORT_FORMATS",
+    "VTK_QUADRATIC_TRIANGLE",
+    "VTK_TRIANGLE",
+    "export_path",
+    "export_trajectory",
+    "export_vtkhdf",
+    "export_vtu_series",
+]
 
 #: Export formats: name -> file suffix.
 EXPORT_FORMATS: dict[str, str] = {"vtkhdf": ".vtkhdf", "pvd": ".pvd"}
@@ -67,6 +75,7 @@ def _cells(tr, triangles: np.ndarray) -> np.ndarray:
     from ..surface.curved import p2_cells
 
     return p2_cells(np.asarray(triangles)).astype(np.int64)
+
 
 #: VTKHDF version written: 2.0, the first with time steps (the layout used here has not changed since),
 #: so that older readers (ParaView 5.12, VTK 9.3) take it too.
