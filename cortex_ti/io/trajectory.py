@@ -32,7 +32,7 @@ leaves a readable partial file of the frames written so far (and can be
 resumed); :meth:`TrajectoryWriter.finish` renames it atomically to ``<path>``,
 so the final path never holds a half-written file.
 
-* The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.claim`) before it creates or opens
+* The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.lock`) before it creates or opens
   the partial file: a second writer of the same path is refused before anything is truncated.
 * A frame is *committed* last: its values are written and flushed, then the global attribute
   ``committed_frames`` is set to the new count and flushed again. Readers here
@@ -65,10 +65,10 @@ import h5netcdf
 import h5py
 import numpy as np
 
-from .. import __version__
+from ..about import package_version
 from ..errors import CortexError
-from .claim import OutputClaim
 from .files import PARTIAL_SUFFIX, OutputError, describe_os_error
+from .lock import OutputClaim
 
 __all__ = [
     "FRAME_VARIABLES",
@@ -269,7 +269,7 @@ def _global_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     attrs.pop("cortex_ti_version", None)  # always this package's version
     out["effects"] = _attr_value("effects", attrs.pop("effects"))
     out["scene"] = _attr_value("scene", attrs.pop("scene"))
-    out["cortex_ti_version"] = __version__
+    out["cortex_ti_version"] = package_version()
     out["created"] = _attr_value("created", attrs.pop("created", _now()))
     for key, value in attrs.items():
         out[key] = _attr_value(key, value)
@@ -425,7 +425,7 @@ class TrajectoryWriter:
 
     Notes
     -----
-    * The path is claimed first (:class:`~cortex_ti.io.claim.OutputClaim`): a
+    * The path is claimed first (:class:`~cortex_ti.io.lock.OutputClaim`): a
       writer of the same path in another process is refused before anything is
       truncated.
     * Each :meth:`append` reserves the frame's space, writes the frame, flushes it

@@ -41,14 +41,14 @@ from ..errors import (
     check_interrupted,
     interruptible,
 )
-from ..io.claim import OutputClaim
 from ..io.files import OutputError, describe_os_error
+from ..io.lock import OutputClaim
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
 from ..physics.patterns import evaluate_active_stress
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .simulation import Simulation
+    from .core import Simulation
 
 log = logging.getLogger(__name__)
 
