@@ -20,7 +20,7 @@ from sphere_reference_tools import (
     y21,
 )
 
-from cortex_ti.analysis.sphere_exact import (
+from cortex_ti.truth.sphere_exact import (
     L1Error,
     NotConvergedError,
     expand,
@@ -247,8 +247,8 @@ def test_tangential_system_ring_fd_residual(eta_b):
 
 def test_crosscheck_with_the_analytic_module():
     """Two independent derivations of the per-degree flow (this module's and
-    cortex_ti.analysis.analytic.bending_coefficients) agree to rounding."""
-    from cortex_ti.analysis.analytic import bending_coefficients
+    cortex_ti.truth.analytic.bending_coefficients) agree to rounding."""
+    from cortex_ti.truth.analytic import bending_coefficients
 
     for R, es, eb, ebar, ebb in BEND_CASES + [(1.0, 1.0, 1.0, 0.0, 0.0)]:
         for l in [2, 3, 7, 40, 200]:

@@ -1,7 +1,7 @@
 """Scenes run with ``model: axisymmetric``: the same model as the 3D code on surfaces of revolution.
 
 Truths: the analytic sphere flows (docs/method/conventions.md), the exact spectral sphere solution with
-bending viscosity (cortex_ti.analysis.sphere_exact, derived independently), the shipped
+bending viscosity (cortex_ti.truth.sphere_exact, derived independently), the shipped
 external reference run, and the refusals of every way a scene can break the symmetry.
 """
 
@@ -10,16 +10,16 @@ import textwrap
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import (
-    error_measures,
-    sphere_full_solution,
-    sphere_tangential_solution,
-)
-from cortex_ti.analysis.sphere_exact import sphere_flow
 from cortex_ti.axisymmetric.run import AxisymmetricRun, axisymmetric_tension
 from cortex_ti.cli import main
 from cortex_ti.io import Trajectory
 from cortex_ti.scene import load_scene
+from cortex_ti.truth.analytic import (
+    error_measures,
+    sphere_full_solution,
+    sphere_tangential_solution,
+)
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 FURROWS = ["furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3"]
 NO_BENDING = [

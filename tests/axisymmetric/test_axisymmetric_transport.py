@@ -1,7 +1,7 @@
 """The axisymmetric model with a tension carried by the material (``tension_transport: material``)
 and its neck stop.
 
-Truths: the exact sphere flow (cortex_ti.analysis.sphere_exact, derived independently) for the
+Truths: the exact sphere flow (cortex_ti.truth.sphere_exact, derived independently) for the
 rate at which a carried tension changes at a normally moving point, ``-v_t . grad zeta``; the
 rest state of a uniform tension; the invariance of a material model under a rigid translation
 (the two translation gauges); self-convergence in n and in the time tolerance; the neck value at
@@ -11,10 +11,10 @@ which a run is told to stop.
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.sphere_exact import sphere_flow
 from cortex_ti.axisymmetric.evolve import full_meridian_dynamics, simulate
 from cortex_ti.cli import main
 from cortex_ti.io import Trajectory
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 AMP, SIG, P = 3.0, 10.0, 4
 BEND = dict(eta_s=1.0, eta_b=1.0, eta_bar=1e-4, eta_bar_b=3.5e-3)

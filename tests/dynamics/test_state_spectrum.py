@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from cortex_ti.analysis import myosin_stability as ms
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.dynamics.spectrum import normal_jacobian, state_jacobian, state_spectrum
 from cortex_ti.scene import load_scene, scene_from_dict
 from cortex_ti.simulation import Simulation
 from cortex_ti.surface.transport import dual_area_rates, dual_areas
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 pytestmark = pytest.mark.hard
 

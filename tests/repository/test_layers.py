@@ -18,6 +18,7 @@ import ast
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -33,7 +34,7 @@ LAYERS = (
     ("solve", "runtime"),
     ("surface",),
     ("physics",),
-    ("analysis",),
+    ("analysis", "truth"),
     ("dynamics",),
     ("scene",),
     ("io", "plotting"),
@@ -246,6 +247,50 @@ def test_the_cycle_check_sees_a_cycle():
     tree = ast.parse("def f():\n    from ..galerkin import normal_form_force\n")
     node = next(n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom))
     assert _targets(node, ("cortex_ti", "physics", "terms")) == [("cortex_ti", "physics", "galerkin")]
+
+
+#: The truths (exact solutions) and who may import them besides tests and benchmarks: the truths
+#: themselves, the validation studies, and the deprecated paths forwarding to them.
+TRUTH = ("cortex_ti", "truth")
+TRUTH_IMPORTERS = (
+    ("cortex_ti", "truth"),
+    ("cortex_ti", "studies"),
+    ("cortex_ti", "analysis", "sphere_exact"),
+    ("cortex_ti", "analysis", "analytic"),
+)
+
+
+def test_production_code_imports_no_truth():
+    """The exact solutions stay out of what a run computes: only the studies (the validation
+    figures and numbers), the tests and the benchmarks compare with them."""
+    graph = _import_graph()
+    wrong = [
+        f"{'.'.join(v)} imports {'.'.join(w)}"
+        for v in sorted(graph)
+        for w in sorted(graph[v])
+        if w[:2] == TRUTH and not any(v[: len(p)] == p for p in TRUTH_IMPORTERS)
+    ]
+    assert not wrong, "production code imports a truth (use physics.spherical, or move the caller):\n" + "\n".join(
+        wrong
+    )
+    assert any(w[:2] == TRUTH for v in graph for w in graph[v]), "the check sees no import of a truth at all"
+
+
+def test_the_old_truth_paths_forward_with_a_warning():
+    """``cortex_ti.analysis.sphere_exact`` and ``.analytic`` keep working for one release."""
+    import importlib
+
+    from cortex_ti.truth import analytic, sphere_exact
+
+    for name, new, attr in (("sphere_exact", sphere_exact, "sphere_flow"), ("analytic", analytic, "scene_solution")):
+        old = importlib.import_module(f"cortex_ti.analysis.{name}")
+        with pytest.warns(DeprecationWarning, match=f"cortex_ti.truth.{name}"):
+            assert getattr(old, attr) is getattr(new, attr)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a probe for a name it never had warns of nothing
+            assert not hasattr(old, "pytest_plugins")
+        with pytest.warns(DeprecationWarning):
+            exec(f"from cortex_ti.analysis.{name} import {attr}", {})
 
 
 LIGHT = [

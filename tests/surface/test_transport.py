@@ -7,8 +7,6 @@ exact sphere flow, and the state's invariance properties in whole runs."""
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import scene_solution
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.dynamics.motion import MotionContext, ale_velocity, conformal_distortion, volume_gradient
 from cortex_ti.dynamics.state import FieldTransport, Rates, State
 from cortex_ti.physics import fields as fieldreg
@@ -24,6 +22,8 @@ from cortex_ti.surface.transport import (
     implicit_diffusion_reaction,
     triangle_gradients,
 )
+from cortex_ti.truth.analytic import scene_solution
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 EPS = np.finfo(float).eps
 
