@@ -161,6 +161,7 @@ def test_a_python_pattern_varying_about_z_is_refused(tmp_path, monkeypatch, caps
     assert zeta(np.array([0.0, np.pi / 2])) == pytest.approx([2.0, 1.0], abs=1e-15)
 
 
+@pytest.mark.slow
 def test_trajectory_has_the_3d_layout_and_plots(tmp_path, capsys):
     code, out = _run(tmp_path, "furrow_p8_a1", ["time.t_end=0.1"])
     assert code == 0

@@ -89,6 +89,7 @@ def test_a_killed_run_keeps_its_frames_and_resumes(tmp_path, whole):
         assert np.abs(resumed[name].values - whole[name].values).max() <= 2 * error
 
 
+@pytest.mark.slow
 def test_a_resume_without_a_partial_file_starts_over(tmp_path, whole):
     ds = AxisymmetricRun(load_scene("furrow_p4_a1", SETS))
     ds.run(tmp_path / "c.h5", resume=True, progress=False)

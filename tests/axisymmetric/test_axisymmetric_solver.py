@@ -355,6 +355,7 @@ def p4a3_runs():
     return base, fine
 
 
+@pytest.mark.slow
 def test_volume_conservation(p4a3_runs):
     base, fine = p4a3_runs
     assert abs(base.volume[0] - 4 / 3 * np.pi) < 1e-13
@@ -363,6 +364,7 @@ def test_volume_conservation(p4a3_runs):
     assert base.area[-1] > base.area[0]  # an elongating, furrowing cell gains area
 
 
+@pytest.mark.slow
 def test_self_convergence(p4a3_runs):
     base, fine = p4a3_runs
     assert np.max(np.abs(base.pole_radius - fine.pole_radius)) < 1e-7
@@ -376,6 +378,7 @@ def test_self_convergence(p4a3_runs):
     assert fine.pole_radius[-1] > 1.28 and fine.furrow_radius[-1] < 0.78
 
 
+@pytest.mark.slow
 def test_full_meridian_and_arclength_agree(p4a3_runs):
     _, fine = p4a3_runs
     z, v = ax.scene_tension("furrow_p4_a3")
@@ -521,6 +524,7 @@ def test_bad_zeta():
         ax.static_flow(3.0, **V1)
 
 
+@pytest.mark.slow
 def test_step_failure_is_value_error():
     # a compressive (negative) tension without bending viscosity buckles at the grid scale:
     # the integrator cannot keep the error small -> ValueError, not a hang or another exception

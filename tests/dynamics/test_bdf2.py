@@ -366,6 +366,7 @@ Simulation(load_scene("furrow_p4_a1", sys.argv[3:])).run(sys.argv[1], progress=F
 """
 
 
+@pytest.mark.slow
 def test_a_resumed_run_is_the_uninterrupted_one(tmp_path):
     """furrow_p4_a1 (bdf2, the scene's default) at 162 nodes to t = 2, and the same run killed (no
     clean-up) once its frame at t = 1.5 is written, then resumed: the step history saved with the
@@ -405,6 +406,7 @@ def test_a_resumed_run_is_the_uninterrupted_one(tmp_path):
     assert float(np.abs(a.velocity.values - b.velocity.values).max()) <= 1e-12
 
 
+@pytest.mark.slow
 def test_a_resume_without_its_history_restarts_within_the_time_error(tmp_path):
     """Without the step history (a file of another version, or a run killed between its frames and
     their history), a resumed bdf2 run restarts with its Euler start from the last frame and lands

@@ -140,6 +140,7 @@ def test_myosin_sphere_spectrum_converges_to_the_closed_form():
             assert abs((4.0 * fine - coarse) / 3.0 - exact[branch]) < 0.2 * abs(e642)
 
 
+@pytest.mark.slow
 def test_the_carried_tension_of_a_furrow_grows_no_faster_than_its_flow_compresses(tmp_path):
     """furrow_p4_a1, 642 nodes, the tension carried by the material, at t = 1 (the state of a run, in
     the centroid gauge): the linearised transport of the tension by the frozen flow (the tension block

@@ -215,6 +215,7 @@ def test_rings_without_bending_642(name, formulation, bound):
         ("fold_broad", "paper", 0.107),  # 9.66e-2
     ],
 )
+@pytest.mark.slow
 def test_scenes_with_their_bending_viscosity_642(name, formulation, bound):
     """The scenes' own bending viscosity; truth: the exact spectral flow with it."""
     sim = static_sim(name, 642, formulation, bending=True)
