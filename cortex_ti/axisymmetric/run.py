@@ -212,6 +212,7 @@ class AxisymmetricRun:
         self.myosin = axisymmetric_myosin(self.settings)
         self.result = None
         self.seconds = 0.0
+        self.resumed_at_end = False
 
     # ------------------------------------------------------------------------------- solving
     def solve(self):
@@ -398,6 +399,7 @@ class AxisymmetricRun:
         try:
             if start is not None and start[0] >= s.time.t_end - 1e-12 * max(1.0, s.time.t_end):
                 res = None  # the partial file reaches t_end: only its rename was missing
+                self.resumed_at_end = True
             else:
                 res = self.simulate(on_save=on_save, start=None if start is None else start[:2])
             self.result = res
@@ -450,7 +452,9 @@ class AxisymmetricRun:
             "implicit_tension": False,
             "fit_residual_weight": 0.0,
         }
-        if r is None or not s.dynamic:
+        if r is None and s.dynamic and self.resumed_at_end:  # the partial file had reached t_end
+            out.update(steps=0, rejected=0, solves=0, t_reached=float(s.time.t_end), stopped="t_end")
+        elif r is None or not s.dynamic:
             out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
         else:
             out.update(
