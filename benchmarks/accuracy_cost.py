@@ -44,9 +44,9 @@ def one(nodes: int, method: str, backend: str) -> list[dict]:
     import numpy as np
 
     from cortex_ti import runtime
-    from cortex_ti.analysis import analytic
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import analytic
 
     runtime.init(threads=int(os.environ.get("CORTEX_TI_THREADS", "0")) or None)
     out = []

@@ -26,9 +26,9 @@ import sys
 import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.dynamics.motion import MotionContext, ale_velocity, conformal_distortion
 from cortex_ti.surface.mesh import icosphere
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 
 def _flow(x, ctx, dt, steps):

@@ -55,7 +55,7 @@ def _scene(name, nodes, form, extra=()):
 
 
 def spheres(nodes_list, forms):
-    from cortex_ti.analysis import analytic
+    from cortex_ti.truth import analytic
     from cortex_ti.simulation import Simulation
 
     rows = []

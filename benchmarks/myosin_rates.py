@@ -121,12 +121,12 @@ def dilution_split(nodes: int, l: int, eps: float = 1e-3) -> tuple:
     """Where the error of the myosin's response sits, for a tension perturbation ``eps Y_l0``: the
     dilution rate ``-div v`` (per unit ``eps``, projected on ``Y_l0``; exact ``A X_l / D_l`` = 1
     here) from the 3D flow and the transport's operators, from the exact sphere flow
-    (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`) and the same operators, and the 3D
+    (:func:`cortex_ti.truth.sphere_exact.sphere_flow`) and the same operators, and the 3D
     normal velocity's amplitude against the exact one. Without bending viscosity and with eta_s =
     eta_b the flow of an l >= 2 tension is normal, so the operator is the dual cells' area rate."""
-    from cortex_ti.analysis.sphere_exact import real_sph_harm, sphere_flow
     from cortex_ti.dynamics.state import State
     from cortex_ti.surface.transport import DENSITY, advective_rate, dual_area_rates, dual_areas
+    from cortex_ti.truth.sphere_exact import real_sph_harm, sphere_flow
 
     sim = myosin_sphere(nodes)
     pts, faces = sim.mesh.points, sim.mesh.faces

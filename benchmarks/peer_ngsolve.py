@@ -173,8 +173,8 @@ def peer_solve(
     """Solve the t = 0 problem of ``scene_name`` (bending viscosity off) with NGSolve at order ``order``,
     the geometry curved to ``geometry_order`` (0: the same order, isoparametric), the forms integrated
     ``bonus`` orders above NGSolve's default; the fastest of ``repeat`` solves is timed."""
-    from cortex_ti.analysis.analytic import error_measures
-    from cortex_ti.analysis.sphere_exact import sphere_flow
+    from cortex_ti.truth.analytic import error_measures
+    from cortex_ti.truth.sphere_exact import sphere_flow
     from cortex_ti.physics.patterns import evaluate_active_stress
     from cortex_ti.scene import load_scene
 

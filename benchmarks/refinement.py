@@ -24,9 +24,9 @@ import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 
 def one(scene_name, nodes, fit, formulation, refine):
     from cortex_ti import runtime
-    from cortex_ti.analysis import analytic
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import analytic
 
     runtime.init(threads=int(os.environ.get("CORTEX_TI_THREADS", "1")))
     sc = load_scene(

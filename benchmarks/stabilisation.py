@@ -22,9 +22,9 @@ import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
 import numpy as np
 
 from cortex_ti import runtime
-from cortex_ti.analysis import analytic
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
+from cortex_ti.truth import analytic
 
 SPHERES = ("sphere_y20_full", "sphere_y21_full", "sphere_y20_tangential")
 

@@ -2,7 +2,7 @@
 
 The first solve of each scene on its undeformed sphere (effects without ``shape_evolution``;
 with ``--no-bending`` also without the bending viscosity) is compared with the exact flow for
-the scene's own pattern and viscosities (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`,
+the scene's own pattern and viscosities (:func:`cortex_ti.truth.sphere_exact.sphere_flow`,
 degree by degree, independent of the 3D code): eps_rel (paper Eq. 58), the normal velocity at
 the pole against the exact one, and the pressure. Without bending viscosity the exact flow of a
 ring is ``v = -(R / 2 eta_b)(zeta - zeta_bar) n`` (docs/method/conventions.md).
@@ -28,11 +28,11 @@ import numpy as np
 
 
 def t0_error(scene_name: str, nodes: int, fit: str, formulation: str, bending: bool, overrides=()) -> dict:
-    from cortex_ti.analysis.analytic import error_measures
-    from cortex_ti.analysis.sphere_exact import sphere_flow
     from cortex_ti.physics.patterns import evaluate_active_stress
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
+    from cortex_ti.truth.analytic import error_measures
+    from cortex_ti.truth.sphere_exact import sphere_flow
 
     ov = [
         f"mesh.nodes={nodes}",

@@ -71,9 +71,9 @@ def main(argv=None) -> int:
     if args.smoke:
         args.nodes = [162]
     from cortex_ti import runtime
-    from cortex_ti.analysis import analytic
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import analytic
 
     runtime.init(threads=1)
     print("| mesh | N | fit | formulation | Y20 full eps_rel | ratio |")

@@ -40,6 +40,7 @@ _PACKAGE_DIR = Path(__file__).resolve().parent
 UNKNOWN = "unknown"
 
 
+@functools.lru_cache(maxsize=1)
 def package_version() -> str:
     """The package's version: from setuptools-scm at build time (``cortex_ti/_version.py``: the
     latest tag, or ``0.1.1.devN+g<commit>`` without one, counted from the fallback 0.1.0), else the
@@ -92,10 +93,8 @@ def provenance() -> dict[str, str]:
     """The attributes an output file carries about what made it (all strings, keys
     :data:`PROVENANCE_KEYS`): ``cortex_ti_version``, ``cortex_ti_commit`` (``unknown`` outside a
     git checkout), ``python_version`` and ``<dependency>_version`` for :data:`DEPENDENCIES`."""
-    from . import __version__
-
     out = {
-        "cortex_ti_version": __version__,
+        "cortex_ti_version": package_version(),
         "cortex_ti_commit": git_commit() or UNKNOWN,
         "python_version": platform.python_version(),
     }

@@ -18,14 +18,14 @@ import pytest
 import xarray as xr
 import yaml
 
-from cortex_ti.analysis.analytic import (
+from cortex_ti.cli import main
+from cortex_ti.io import partial_path
+from cortex_ti.surface.mesh import icosphere
+from cortex_ti.truth.analytic import (
     error_measures,
     sphere_full_solution,
     sphere_tangential_solution,
 )
-from cortex_ti.cli import main
-from cortex_ti.io import partial_path
-from cortex_ti.surface.mesh import icosphere
 
 pytestmark = pytest.mark.usefixtures("taichi_runtime")
 

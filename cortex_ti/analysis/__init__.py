@@ -1,10 +1,11 @@
 """Measuring results: shape diagnostics, exact solutions and reference data.
 
 Owns the per-frame diagnostics of a shape (``diagnostics``: volume, radii, orientation, fold,
-mesh quality), the analytic solutions on a static sphere and the error measures of paper
-Eqs. 57-58 (``analytic``), and the comparison with the shipped external axisymmetric reference
-(``reference``, data in ``cortex_ti/data/axisym``), and the exact spectral flow on a sphere for
-any pattern (``sphere_exact``, which imports nothing of the package: it is a truth for tests).
+mesh quality), the harmonic content of a field (``harmonics``), the linear stability of the
+myosin model (``myosin_stability``) and the comparison with the shipped external axisymmetric
+reference (``reference``, data in ``cortex_ti/data/axisym``). The exact solutions moved to
+:mod:`cortex_ti.truth`; ``analytic`` and ``sphere_exact`` here forward to them with a
+deprecation warning for one release.
 May import ``physics.patterns`` and ``physics.spherical`` (to evaluate a pattern); never the
 solver, and no file beyond its own data.
 """

@@ -1,7 +1,7 @@
 r"""Spherical-harmonic content of a nodal field on a closed, star-shaped surface, and growth rates.
 
 A field ``f`` at the nodes (the myosin density of a frame, say) is expanded in the real
-orthonormal harmonics ``Y_lm`` (:func:`cortex_ti.analysis.sphere_exact.real_sph_harm`) of the
+orthonormal harmonics ``Y_lm`` (:func:`cortex_ti.physics.spherical.real_sph_harm`) of the
 directions ``u_i`` of the nodes seen from the surface's area centroid (so a cell that moves does
 not mix its degrees): the coefficients ``a_lm`` minimise ``sum_i w_i (f_i - sum a_lm Y_lm(u_i))^2``
 with the barycentric dual areas ``w_i`` scaled to a total ``4 pi`` (by the normal equations). A
@@ -9,10 +9,10 @@ field that is a combination of the harmonics up to ``lmax`` is reproduced exactl
 on any mesh; otherwise ``a_lm`` tends to ``oint f Y_lm dOmega`` on a sphere at the quadrature's
 second order. The amplitude of degree l is ``|a_l| = sqrt(sum_m a_lm^2)``, invariant under rotations.
 
->>> from cortex_ti.analysis.sphere_exact import real_sph_harm
+>>> from cortex_ti.physics.spherical import real_sph_harms_at
 >>> from cortex_ti.surface.mesh import icosphere
 >>> m = icosphere(642)
->>> f = 1.0 + 0.02 * real_sph_harm(2, 0, m.points)
+>>> f = 1.0 + 0.02 * real_sph_harms_at(2, m.points)[:, 6]
 >>> degree_amplitudes(m.points, m.faces, f, lmax=3).round(6) + 0.0
 array([3.544908, 0.      , 0.02    , 0.      ])
 >>> round(growth_rate([0.0, 1.0, 2.0], [1.0, np.e**0.5, np.e]), 12)
@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from .sphere_exact import real_sph_harms
+from ..physics.spherical import real_sph_harms_at
 
 __all__ = ["harmonic_coefficients", "degree_amplitudes", "growth_rate"]
 
@@ -43,10 +43,10 @@ def harmonic_coefficients(points, faces, values, lmax: int) -> dict[int, np.ndar
 
     Needs more nodes than the ``(lmax + 1)^2`` harmonics.
 
-    >>> from cortex_ti.analysis.sphere_exact import real_sph_harm
+    >>> from cortex_ti.physics.spherical import real_sph_harms_at
     >>> from cortex_ti.surface.mesh import icosphere
     >>> m = icosphere(162)
-    >>> harmonic_coefficients(m.points, m.faces, real_sph_harm(1, -1, m.points), 1)[1].round(12) + 0.0
+    >>> harmonic_coefficients(m.points, m.faces, real_sph_harms_at(1, m.points)[:, 1], 1)[1].round(12) + 0.0
     array([1., 0., 0.])
     """
     pts = np.asarray(points, dtype=float)
@@ -61,7 +61,7 @@ def harmonic_coefficients(points, faces, values, lmax: int) -> dict[int, np.ndar
     # the area centroid of the surface (of its triangles)
     centre = (area[:, None] * pts[faces].mean(axis=1)).sum(0) / area.sum()
     u = pts - centre
-    Y = real_sph_harms(lmax, u)
+    Y = real_sph_harms_at(lmax, u)
     # the normal equations: the weighted harmonics are orthonormal up to the quadrature's O(h^2), so
     # their Gram matrix is close to the identity and as well conditioned (an SVD costs 10x more)
     Ys = Y * np.sqrt(w)[:, None]

@@ -22,7 +22,7 @@ displacement of the shape; real orthonormal ``Y_lm``). Only the activity
 
 enters at linear order. Each ``(l, m)`` evolves alone, ``d/dt (c_lm, u_lm) = J_l (c_lm, u_lm)``,
 with (``L = l(l+1)``, ``mu_l = D L / R^2 + k``, ``kappa_l`` the bending normal drag of
-:func:`cortex_ti.analysis.sphere_exact.bending_kappa`)::
+:func:`cortex_ti.truth.sphere_exact.bending_kappa`)::
 
     E_l = eta_s (L-2) + eta_b L,  X_l = L R^2 kappa_l + 4 eta_s (L-2),
     D_l = R^2 kappa_l E_l + 4 eta_b eta_s (L-2)

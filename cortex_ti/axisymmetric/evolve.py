@@ -616,6 +616,8 @@ def simulate(
     stop_ill_posed: bool = True,
     myosin: Myosin | None = None,
     bending_form: str = "paper",
+    on_save=None,
+    start: tuple[float, ArrayF] | None = None,
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -685,6 +687,15 @@ def simulate(
         force as the 3D formulations ``rayleigh_p1`` and ``rayleigh_p2`` integrate it, the force of
         ``1/2 int B^cd d_c v_n d_d v_n dA``; the two differ by ``(nabla_c beta^cd) d_d v_n``, zero on
         a sphere (:class:`~cortex_ti.axisymmetric.balance._Physics`).
+    on_save : callable or None
+        ``on_save(frame, y)`` as each save time is reached (before the next step): ``frame`` the
+        :class:`SimulationResult` of that one frame (its statistics zero), ``y`` the integrator's
+        state there, from which ``start`` continues. A run writes its frames as they come.
+    start : (t, y) or None
+        Continue from the state ``y`` at time ``t`` (an earlier run's ``on_save``) instead of the
+        sphere at t = 0; only the save times after ``t`` are saved. The integrator starts afresh
+        there, so the continued run agrees with the uninterrupted one to its tolerance, not to
+        round-off.
 
     Returns
     -------
@@ -734,22 +745,20 @@ def simulate(
     if myosin is not None:  # q = c r h on the sphere (h = R)
         y0.append(myosin.density(sp.u) * R * np.sin(sp.u) * R)
     y0 = np.concatenate(y0)  # on the sphere the monitor is uniform: the nodes start equidistributed
+    t_start = 0.0
+    if start is not None:
+        t_start, y_start = float(start[0]), np.asarray(start[1], dtype=float)
+        if y_start.shape != y0.shape or not (0.0 <= t_start <= t_end):
+            raise ValueError(
+                f"cannot continue from a state of size {y_start.size} at t = {t_start:g}: this run's state has size "
+                f"{y0.size} (n, symmetry, parametrization, tension and myosin must agree) and ends at {t_end:g}"
+            )
+        y0, st = y_start.copy(), st[st > t_start + 1e-12 * max(1.0, t_end)]
     stops = {}
     if stop_neck is not None:
         stops["neck"] = lambda y: _neck(dyn, y) - stop_neck
     if stop_ill_posed and phys.bending:
         stops["bending"] = lambda y: _bending_margin(phys, sp, y)
-    t0 = time.perf_counter()
-    failure = None
-    try:
-        saved, nsteps, nlu, stopped = _integrate(
-            dyn, y0, st, float(t_end), Radau if method == "Radau" else BDF, rtol, atol, interpolate, max_steps, stops
-        )
-    except _Failed as exc:
-        if not exc.saved:
-            raise ValueError(str(exc)) from None
-        (failure, saved, nsteps, nlu), stopped = exc.args, f"failed: {exc.args[0]}"
-    stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
     params = dict(
         eta_s=phys.eta_s,
         eta_b=phys.eta_b,
@@ -770,6 +779,33 @@ def simulate(
         stop_ill_posed=stop_ill_posed,
         myosin=None if myosin is None else {k: v for k, v in vars(myosin).items() if k != "initial"},
     )
+
+    def hook(t, y):
+        if on_save is not None:
+            on_save(_result(dyn, [(t, y)], R, dict(_NO_STATS), params), y)
+
+    t0 = time.perf_counter()
+    failure = None
+    try:
+        saved, nsteps, nlu, stopped = _integrate(
+            dyn,
+            y0,
+            st,
+            float(t_end),
+            Radau if method == "Radau" else BDF,
+            rtol,
+            atol,
+            interpolate,
+            max_steps,
+            stops,
+            t_start=t_start,
+            hook=hook,
+        )
+    except _Failed as exc:
+        if not exc.saved:
+            raise ValueError(str(exc)) from None
+        (failure, saved, nsteps, nlu), stopped = exc.args, f"failed: {exc.args[0]}"
+    stats = dict(wall_time=time.perf_counter() - t0, n_rhs=dyn.nrhs, n_steps=nsteps, n_jac=dyn.njac, n_lu=nlu)
     out = _result(dyn, saved, R, stats, params)
     out.stopped = stopped
     if failure is not None:
@@ -927,17 +963,34 @@ _STOP_MESSAGES = {
 }
 
 
-def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stops=None):
-    """Step from 0 to the save times (or, with ``interpolate``, to ``t_end`` reading the dense
-    output at the save times), or until one of ``stops`` (name -> f(y)) falls to 0. Returns
-    ``(saved [(t, y)], steps, LU factorisations, why it stopped)``."""
+class _Saved(list):
+    """The saved ``(t, y)`` of :func:`_integrate`, each also handed to ``hook(t, y)`` as it comes."""
+
+    def __init__(self, hook=None):
+        super().__init__()
+        self.hook = hook
+
+    def append(self, item) -> None:
+        super().append(item)
+        if self.hook is not None:
+            self.hook(*item)
+
+
+_NO_STATS = dict(wall_time=0.0, n_rhs=0, n_steps=0, n_jac=0, n_lu=0)
+
+
+def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stops=None, t_start=0.0, hook=None):
+    """Step from ``t_start`` (0: the sphere) to the save times (or, with ``interpolate``, to
+    ``t_end`` reading the dense output at the save times), or until one of ``stops`` (name -> f(y))
+    falls to 0; ``hook(t, y)`` is called as each is saved. Returns ``(saved [(t, y)], steps, LU
+    factorisations, why it stopped)``."""
     stops = stops or {}
-    saved: list[tuple[float, ArrayF]] = []
+    saved: list[tuple[float, ArrayF]] = _Saved(hook)
     nsteps = nlu = k = 0
-    while k < st.size and st[k] <= 0.0:
+    while k < st.size and st[k] <= t_start:
         saved.append((float(st[k]), y0.copy()))
         k += 1
-    t, y = 0.0, y0
+    t, y = float(t_start), y0
     first = None
     while k < st.size:
         bound = t_end if interpolate else float(st[k])

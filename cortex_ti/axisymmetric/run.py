@@ -23,9 +23,9 @@ import numpy as np
 
 from ..about import provenance
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics
-from ..errors import CortexError, SceneError, SolverError
+from ..errors import CortexError, SceneError, SolverError, check_interrupted
 from ..io.claim import check_output, claim_output
-from ..io.trajectory import TrajectoryWriter
+from ..io.trajectory import TrajectoryWriter, last_frame, partial_path
 from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
@@ -104,6 +104,13 @@ MYOSIN_VARIABLES = {
     "myosin_total": (("time",), {"units": "c0 R0^2", "long_name": "total myosin, oint c dA (spectral quadrature)"}),
 }
 _EXACT = ("pole_radius", "furrow_radius", "volume", "area")
+#: The integrator's state written with every frame of a dynamic run, from which ``--resume`` continues.
+STATE_VAR = "axisymmetric_state"
+STATE_ATTRS = {
+    "units": "R0",
+    "long_name": "the integrator's state at the frame (collocation points' r and z, and labels and myosin content "
+    "where the run carries them): --resume continues from it",
+}
 
 
 def axisymmetric_tension(settings: RunSettings):
@@ -206,6 +213,7 @@ class AxisymmetricRun:
         self.myosin = axisymmetric_myosin(self.settings)
         self.result = None
         self.seconds = 0.0
+        self.resumed_at_end = False
 
     # ------------------------------------------------------------------------------- solving
     def solve(self):
@@ -229,14 +237,14 @@ class AxisymmetricRun:
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
-    def simulate(self):
+    def simulate(self, on_save=None, start=None):
         """The shape evolution to ``time.t_end`` with frames every ``time.save_every`` and at
-        ``time.save_times`` (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`)."""
+        ``time.save_times`` (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`); ``on_save``
+        and ``start`` as in :func:`~cortex_ti.axisymmetric.evolve.simulate` (each frame as it comes;
+        continue from an earlier frame's state)."""
         s = self.settings
         st = s.time
-        n_frames = int(math.floor(st.t_end / st.save_every + 1e-9))
-        times = np.concatenate([np.arange(n_frames + 1) * st.save_every, st.save_times, [st.t_end]])
-        times = np.unique(np.round(np.minimum(times, st.t_end), 12))
+        times = self._save_times()
         try:
             res = simulate(
                 self.zeta,
@@ -249,6 +257,8 @@ class AxisymmetricRun:
                 interpolate=True,
                 gauge=GAUGES[s.translation],
                 myosin=self.myosin,
+                on_save=on_save,
+                start=start,
                 **evolution_options(s),
             )
         except StepFailed as exc:
@@ -310,27 +320,33 @@ class AxisymmetricRun:
     def run(self, output: str | Path, resume: bool = False, progress: bool = True, force: bool = False) -> Path:
         """Solve (static scene) or evolve (``shape_evolution``) and write the trajectory atomically.
 
-        What is already at ``output`` is refused as the command line refuses it
-        (:func:`cortex_ti.io.claim.check_output`) unless ``resume`` or ``force``. Runs take a second or
-        less, so ``resume`` starts over (a partial file is replaced)."""
+        A dynamic run writes each frame to ``<output>.partial`` as the integrator reaches it
+        (flushed, with the integrator's state ``axisymmetric_state``), so an interrupted or killed
+        run keeps its frames; ``resume`` continues from the last of them (the integrator starts
+        afresh there, so the continued run agrees with an uninterrupted one to the integrator's
+        tolerance ``axisymmetric.rtol``, not to round-off). A partial file without that state (an
+        older one) is started over; a static run (one solve) always starts over. What is already at
+        ``output`` is refused as the command line refuses it (:func:`cortex_ti.io.claim.check_output`)
+        unless ``resume`` or ``force``."""
         output = Path(output)
         with claim_output(output):
             check_output(output, resume, force)
-            return self._run(output, replace=force or resume)  # resume: this model starts over
+            if self.settings.dynamic:
+                return self._run_dynamic(output, resume, force)
+            return self._run_static(output, replace=force or resume)
 
-    def _run(self, output: Path, replace: bool) -> Path:
+    def _run_static(self, output: Path, replace: bool) -> Path:
         t0 = time.perf_counter()
-        frames = list(self._static_frames() if not self.settings.dynamic else self._dynamic_frames())
+        frames = list(self._static_frames())
         self.seconds = time.perf_counter() - t0
         first = frames[0][1]
-        n_meridian = len(first["meridian_label"])
         writer = TrajectoryWriter(
             output,
             first["triangles"],
             len(first["points"]),
             self._attrs(),
             extra_vars=self._extra_vars(),
-            extra_dims={"meridian": n_meridian},
+            extra_dims={"meridian": len(first["meridian_label"])},
             force=replace,
         )
         with writer:
@@ -338,21 +354,100 @@ class AxisymmetricRun:
                 writer.append(
                     t, f["points"], f["velocity"], f["zeta"], f["pressure"], **{k: f[k] for k in self._extra_vars()}
                 )
-            failed = self.result is not None and getattr(self.result, "stopped", "").startswith("failed: ")
-            if failed:  # the frames before the failed step are kept, in the partial file
-                kept = writer.close_partial()
-                raise SolverError(
-                    f"scene '{self.settings.name}', axisymmetric model: {self.result.stopped[8:]}; the "
-                    f"{len(frames)} frames to t = {frames[-1][0]:.6g} before it are kept in {kept}"
-                )
-        log.info(
-            "%s (axisymmetric): %d frames to t = %.4g in %.2f s",
-            self.settings.name,
-            len(frames),
-            frames[-1][0],
-            self.seconds,
-        )
+        log.info("%s (axisymmetric): static flow in %.2f s", self.settings.name, self.seconds)
         return output
+
+    def _save_times(self) -> np.ndarray:
+        st = self.settings.time
+        n_frames = int(math.floor(st.t_end / st.save_every + 1e-9))
+        times = np.concatenate([np.arange(n_frames + 1) * st.save_every, st.save_times, [st.t_end]])
+        return np.unique(np.round(np.minimum(times, st.t_end), 12))
+
+    def _resume_from(self, output: Path):
+        """``(t, y, frames, label resolved)`` of the last frame of ``<output>.partial``, or None."""
+        partial = partial_path(output)
+        if not partial.exists():
+            log.info("nothing to resume at %s; starting from t = 0", partial)
+            return None
+        last = last_frame(partial)
+        y = last["extra"].get(STATE_VAR)
+        if not last["n_frames"] or y is None:
+            log.info("%s holds no frame with the integrator's state; starting from t = 0", partial)
+            return None
+        resolved = last["extra"].get("label_resolved")
+        return float(last["time"]), np.asarray(y, dtype=float), int(last["n_frames"]), resolved
+
+    def _run_dynamic(self, output: Path, resume: bool, force: bool = False) -> Path:
+        s = self.settings
+        times = self._save_times()
+        labels = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
+        limit = STRETCH_LIMITS.get(evolution_options(s)["parametrization"]) if label_matters(self.zeta) else None
+        start = self._resume_from(output) if resume else None
+        box = {"writer": None, "frames": 0, "t": 0.0, "unresolved": False}
+        if start is not None:
+            box["frames"], box["t"] = start[2], start[0]
+            box["unresolved"] = start[3] is not None and float(start[3]) == 0.0
+            log.info("resuming %s at t = %.4g (frame %d)", output, start[0], start[2])
+
+        def on_save(res, y):
+            check_interrupted()
+            t = float(res.t[0])
+            if limit is not None and first_unresolved(res.stretch, limit) is not None:
+                box["unresolved"] = True
+            later = times[times > t + 1e-12 * max(1.0, s.time.t_end)]
+            dt = float(later[0] - t) if later.size else float(s.time.save_every)
+            f = self._dynamic_frame(res, labels, dt, resolved=not box["unresolved"])
+            if box["writer"] is None:
+                box["writer"] = self._writer(output, y.size, resume=start is not None, force=force)
+            extra = {k: f[k] for k in self._extra_vars()}
+            box["writer"].append(t, f["points"], f["velocity"], f["zeta"], f["pressure"], **extra, **{STATE_VAR: y})
+            box["frames"] += 1
+            box["t"] = t
+
+        t0 = time.perf_counter()
+        try:
+            if start is not None and start[0] >= s.time.t_end - 1e-12 * max(1.0, s.time.t_end):
+                res = None  # the partial file reaches t_end: only its rename was missing
+                self.resumed_at_end = True
+            else:
+                res = self.simulate(on_save=on_save, start=None if start is None else start[:2])
+            self.result = res
+        except BaseException:
+            if box["writer"] is not None:
+                box["writer"].close_partial()  # the frames so far, for --resume
+            raise
+        finally:
+            self.seconds = time.perf_counter() - t0
+        writer = box["writer"]
+        if writer is None:  # resumed at the end (killed before the rename): nothing left to compute
+            writer = self._writer(output, start[1].size, resume=True, force=force)
+        failed = res is not None and res.stopped.startswith("failed: ")
+        if failed:  # the frames before the failed step are kept, in the partial file
+            kept = writer.close_partial()
+            raise SolverError(
+                f"scene '{s.name}', axisymmetric model: {res.stopped[8:]}; the "
+                f"{box['frames']} frames to t = {box['t']:.6g} before it are kept in {kept}"
+            )
+        writer.finish()
+        log.info("%s (axisymmetric): %d frames to t = %.4g in %.2f s", s.name, box["frames"], box["t"], self.seconds)
+        return output
+
+    def _writer(self, output: Path, state_size: int, resume: bool, force: bool = False) -> TrajectoryWriter:
+        """The writer of a dynamic run: the revolved surface's triangles (the same in every frame),
+        the frame's variables and the integrator's state (``state_size`` numbers)."""
+        s = self.settings
+        labels = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
+        points, triangles, _ = revolve(np.sin(labels), np.cos(labels), s.axisymmetric.azimuthal_points)
+        return TrajectoryWriter(
+            output,
+            triangles,
+            len(points),
+            self._attrs(),
+            extra_vars={**self._extra_vars(), STATE_VAR: (("time", "state"), STATE_ATTRS)},
+            extra_dims={"meridian": len(labels), "state": state_size},
+            resume=resume,
+            force=force,
+        )
 
     def summary(self) -> dict:
         """What the run took (the cost tables' fields of a 3D run's summary)."""
@@ -367,7 +462,9 @@ class AxisymmetricRun:
             "implicit_tension": False,
             "fit_residual_weight": 0.0,
         }
-        if r is None or not s.dynamic:
+        if r is None and s.dynamic and self.resumed_at_end:  # the partial file had reached t_end
+            out.update(steps=0, rejected=0, solves=0, t_reached=float(s.time.t_end), stopped="t_end")
+        elif r is None or not s.dynamic:
             out.update(steps=0, rejected=0, solves=1, t_reached=0.0, stopped="static")
         else:
             out.update(
@@ -440,35 +537,25 @@ class AxisymmetricRun:
             exact["myosin_total"] = float(2 * np.pi * s.mesh.radius**2 * (w @ self.myosin.density(np.arccos(x))))
         yield 0.0, self._frame(e, pressure, exact, dt=None)
 
-    def _dynamic_frames(self):
+    def _dynamic_frame(self, res, labels: np.ndarray, dt: float, resolved: bool) -> dict:
+        """The frame of a one-frame :class:`~cortex_ti.axisymmetric.evolve.SimulationResult`."""
         s = self.settings
-        res = self.simulate()
-        self.result = res
-        labels = np.linspace(0.0, np.pi, s.axisymmetric.surface_points)
         # the written points: the normally moving ones (the 3D code's nodes) when the meridian
         # points move normally, whatever carries the tension; else the material points
         coordinate = "sigma" if res.params["parametrization"] == "lagrangian" else "label"
-        unresolved = self._unresolved(res)
-        for i, t in enumerate(res.t):
-            e = res.evaluate(i, labels, coordinate=coordinate)
-            pressure = float(res.P[i]) if s.has("incompressibility") else float("nan")
-            exact = {k: float(getattr(res, k)[i]) for k in _EXACT}
-            neck = float(res.neck_radius[i])
-            exact["neck_radius"] = neck if math.isfinite(neck) else float("nan")  # inf there: no neck
-            if res.myosin_total is not None:
-                exact["myosin_total"] = float(res.myosin_total[i])
-            dt = float(res.t[i + 1] - t) if i + 1 < len(res.t) else float(s.time.save_every)
-            resolved = float(unresolved is None or i < unresolved)
-            frame = self._frame(e, pressure, exact, dt=dt)
-            yield (
-                float(t),
-                {
-                    **frame,
-                    "material_stretch": float(res.stretch[i]),
-                    "label_resolved": resolved,
-                    "min_stress": float(res.min_stress[i]),
-                },
-            )
+        e = res.evaluate(0, labels, coordinate=coordinate)
+        pressure = float(res.P[0]) if s.has("incompressibility") else float("nan")
+        exact = {k: float(getattr(res, k)[0]) for k in _EXACT}
+        neck = float(res.neck_radius[0])
+        exact["neck_radius"] = neck if math.isfinite(neck) else float("nan")  # inf there: no neck
+        if res.myosin_total is not None:
+            exact["myosin_total"] = float(res.myosin_total[0])
+        return {
+            **self._frame(e, pressure, exact, dt=dt),
+            "material_stretch": float(res.stretch[0]),
+            "label_resolved": float(resolved),
+            "min_stress": float(res.min_stress[0]),
+        }
 
     def _frame(self, e: dict, pressure: float, exact: dict, dt) -> dict:
         """One frame: the meridian values ``e`` revolved about z, with the diagnostics."""

@@ -60,6 +60,7 @@ def integrate(
     save_times: tuple[float, ...] = (),
     remesh=None,
     stop=None,
+    restored=None,
 ) -> RunStats:
     """Advance the shape from ``t0`` to ``t_end``.
 
@@ -73,6 +74,9 @@ def integrate(
     mesh) replaces the step's, the scheme forgets its history (:meth:`Scheme.restart`) and the
     guard follows the new triangles; None: the mesh stays. ``stop(t) -> str | None``, asked where the
     steady state is (after each step's frames): a reason ends the run there (``RunStats.stopped``).
+    ``restored = (checkpoint, dt)``: a dense scheme (bdf2) continues from its saved step history
+    (:meth:`~cortex_ti.dynamics.schemes.BDF2.checkpoint`) with the step ``dt`` it had proposed,
+    ``t0`` being the last frame written: the run goes on as the uninterrupted one did.
     """
     stats = RunStats()
     start = _time.perf_counter()
@@ -108,6 +112,7 @@ def integrate(
             start,
             remesh,
             stop,
+            restored,
         )
 
     next_save = next_frame(t0)
@@ -195,6 +200,7 @@ def _integrate_dense(
     start,
     remesh=None,
     stop=None,
+    restored=None,
 ) -> RunStats:
     """:func:`integrate` for a scheme that steps on its own and interpolates its frames (module
     docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
@@ -203,12 +209,19 @@ def _integrate_dense(
     solve on the new mesh, with its Euler start of the first ``dt0``."""
     t, dt = t0, dt0
     eps = 1e-9 * max(save_every, 1e-12)
+    if restored is not None:  # the history's newest state, solved for the diagnostics it lends
+        dt = restored[1]
+        x = State(np.asarray(restored[0][f"{int(restored[0]['n']) - 1}__points"]), x.fields, x.faces)
     try:
         ev = evaluate(x, scheme.start_step(dt) if implicit else 0.0)  # the solve the start steps with
     except SolverError as exc:
         raise _which_solve(exc, t, dt, implicit) from None
     stats.solves += 1
-    scheme.start(t, ev)
+    if restored is not None:
+        t = scheme.restore(restored[0], x.faces, ev)
+        x, ev = scheme.history[-1][1], scheme.last_evaluation
+    else:
+        scheme.start(t, ev)
     if write_first:
         on_frame(t, ev, dt, final=False)
     next_save = next_frame(t0)

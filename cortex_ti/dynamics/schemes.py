@@ -477,6 +477,55 @@ class BDF2(Scheme):
     def _accept(self, t: float, state: State, ev: Evaluation | None) -> None:
         self.history = [*self.history[-2:], (t, state, ev)]
 
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        """The step history as named arrays, from which :meth:`restore` continues exactly: the
+        accepted states (time, positions, fields) and, of the steps' solves, what the steps and
+        the interpolation of frames read (velocity, normal, pressure, mesh velocity, edge lengths)."""
+        out = {"n": np.array(len(self.history))}
+        for k, (t, state, ev) in enumerate(self.history):
+            out[f"{k}__t"] = np.array(float(t))
+            out[f"{k}__points"] = state.points
+            for name, values in state.fields.items():
+                out[f"{k}__field__{name}"] = values
+            if ev is not None:
+                out[f"{k}__velocity"], out[f"{k}__normal"] = ev.velocity, ev.normal
+                out[f"{k}__pressure"] = np.array(float(ev.pressure))
+                for name in ("mesh_velocity", "edge_length"):
+                    if getattr(ev, name) is not None:
+                        out[f"{k}__{name}"] = getattr(ev, name)
+        return out
+
+    def restore(self, data, faces: np.ndarray, solved: Evaluation) -> float:
+        """Continue from a :meth:`checkpoint` (on the mesh ``faces``); ``solved``, a solve on its
+        newest state, lends the restored solves its solver diagnostics and field transport (their
+        flows are the saved ones). Returns the time of the newest state."""
+        history, shared = [], {}
+        for k in range(int(data["n"])):
+            fields = {}
+            for key in (key for key in data if key.startswith(f"{k}__field__")):
+                name, values = key[len(f"{k}__field__") :], np.asarray(data[key])
+                same = shared.get(name)
+                # a field glued to the nodes is one array in every state (interpolate keeps it exactly)
+                fields[name] = same if same is not None and np.array_equal(same, values) else values
+                shared[name] = fields[name]
+            state = State(np.asarray(data[f"{k}__points"]), fields, faces)
+            ev = None
+            if f"{k}__velocity" in data:
+                ev = Evaluation(
+                    points=state.points,
+                    velocity=np.asarray(data[f"{k}__velocity"]),
+                    normal=np.asarray(data[f"{k}__normal"]),
+                    pressure=float(data[f"{k}__pressure"]),
+                    solution=solved.solution,
+                    edge_length=np.asarray(data[f"{k}__edge_length"]) if f"{k}__edge_length" in data else None,
+                    state=state,
+                    mesh_velocity=np.asarray(data[f"{k}__mesh_velocity"]) if f"{k}__mesh_velocity" in data else None,
+                    transport=solved.transport,
+                )
+            history.append((float(data[f"{k}__t"]), state, ev))
+        self.history = history
+        return history[-1][0]
+
     @property
     def last_evaluation(self) -> Evaluation:
         """The solve of the last step (during the start: the Euler step's solve, at its beginning)."""

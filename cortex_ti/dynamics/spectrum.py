@@ -500,10 +500,11 @@ def state_spectrum(sim, state=None, dt: float = 0.0, modes: bool = False, jacobi
 def degree_basis(points: np.ndarray, faces: np.ndarray, l: int) -> tuple[np.ndarray, np.ndarray]:
     """``(q, w)``: an orthonormal basis ``q`` (N, 2l + 1) of the degree-l harmonics at the nodes in
     the dual-area inner product (``q / w[:, None]`` are nodal values), and ``w = sqrt(dual areas)``."""
-    from ..analysis.sphere_exact import real_sph_harm
+    from ..physics.spherical import direction_angles, real_sph_harm
 
     w = np.sqrt(dual_areas(points, faces))
-    q, _ = np.linalg.qr(np.stack([real_sph_harm(l, m, points) for m in range(-l, l + 1)], 1) * w[:, None])
+    theta, phi = direction_angles(points)
+    q, _ = np.linalg.qr(np.stack([real_sph_harm(l, m, theta, phi) for m in range(-l, l + 1)], 1) * w[:, None])
     return q, w
 
 

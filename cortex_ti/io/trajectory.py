@@ -32,7 +32,7 @@ leaves a readable partial file of the frames written so far (and can be
 resumed); :meth:`TrajectoryWriter.finish` renames it atomically to ``<path>``,
 so the final path never holds a half-written file.
 
-* The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.claim`) before it creates or opens
+* The writer claims ``<path>`` exclusively (:mod:`cortex_ti.io.lock`) before it creates or opens
   the partial file: a second writer of the same path is refused before anything is truncated.
 * A frame is *committed* last: its values are written and flushed, then the global attribute
   ``committed_frames`` is set to the new count and flushed again. Readers here
@@ -65,10 +65,12 @@ import h5netcdf
 import h5py
 import numpy as np
 
-from .. import __version__
+from ..about import package_version
 from ..errors import CortexError
-from .claim import OutputClaim, check_output
+from .claim import check_output
 from .files import PARTIAL_SUFFIX, OutputError, describe_os_error, hdf5_os_error
+from .frames import COMMIT_ATTR, SEGMENT_GROUP, SEGMENTS_ATTR, _committed, _open_h5, _segments, committed_frames
+from .lock import OutputClaim
 
 __all__ = [
     "FRAME_VARIABLES",
@@ -107,12 +109,6 @@ _RESERVED = {"time", "triangles", *FRAME_VARIABLES}
 _TIME_CHUNK = 1024
 #: Prefix of the stored values of the scene's ``field`` patterns: ``field_values_<i>`` (node), pattern i.
 FIELD_PREFIX = "field_values_"
-#: Global attribute: the number of complete frames (written after each frame's values are on disk).
-COMMIT_ATTR = "committed_frames"
-#: Global attribute: the number of mesh segments (root + groups ``mesh_<k>``) with a committed frame.
-SEGMENTS_ATTR = "mesh_segments"
-#: Group of segment k >= 1.
-SEGMENT_GROUP = "mesh_{}"
 _REFERENCE_ATTRS = {"units": "R0", "long_name": "node positions right after the remeshing (the ALE reference)"}
 #: Room reserved for HDF5's metadata on top of a frame's chunks (object headers, chunk index nodes).
 _METADATA_RESERVE = 1 << 16
@@ -204,56 +200,6 @@ def _trim(path: Path) -> None:
         pass
 
 
-def _committed(h5) -> int:
-    """The number of complete frames of an open file: its ``committed_frames`` attribute, or for a file
-    written before it existed the leading frames with finite, increasing times."""
-    n_time = int(h5["time"].shape[0]) if "time" in h5 else 0
-    if COMMIT_ATTR in h5.attrs:
-        # a scalar as this package writes it; a one-element array where xarray wrote the attributes
-        return min(int(np.asarray(h5.attrs[COMMIT_ATTR]).reshape(-1)[0]), n_time)
-    t = np.asarray(h5["time"][...], dtype=float) if n_time else np.zeros(0)
-    ok = np.isfinite(t)
-    ok[1:] &= np.diff(t) > 0.0
-    bad = np.flatnonzero(~ok)
-    return int(bad[0]) if bad.size else n_time
-
-
-def _open_h5(file: Path):
-    """``h5py.File(file, "r")`` without HDF5's lock (a running writer holds it), or with it when this
-    process has the file open already (HDF5 refuses two opens with different locking flags)."""
-    try:
-        return h5py.File(file, "r", locking=False)
-    except OSError as exc:
-        if "locking flag" not in str(exc):
-            raise
-        return h5py.File(file, "r")
-
-
-def _segments(h5) -> list:
-    """The committed segments of an open file: ``[(group, committed frames), ...]``, the root first."""
-    count = int(np.asarray(h5.attrs.get(SEGMENTS_ATTR, 1)).reshape(-1)[0])
-    out = [(h5, _committed(h5))]
-    for k in range(1, count):
-        group = h5[SEGMENT_GROUP.format(k)]
-        out.append((group, _committed(group)))
-    return out
-
-
-def committed_frames(path: str | os.PathLike) -> tuple[int, float | None]:
-    """``(number of complete frames, time of the last)`` of a trajectory file (``None``: no frame),
-    over all its mesh segments."""
-    file = Path(os.fspath(path))
-    try:
-        with _open_h5(file) as h5:
-            if "time" not in h5 or "points" not in h5:
-                raise CortexError(f"'{file}' is not a trajectory (no time and points)")
-            segs = [(g, n) for g, n in _segments(h5) if n]
-            total = sum(n for _, n in segs)
-            return total, (float(segs[-1][0]["time"][segs[-1][1] - 1]) if segs else None)
-    except (OSError, KeyError, ValueError, RuntimeError) as exc:
-        raise CortexError(f"cannot read trajectory '{file}': {exc}") from None
-
-
 def _now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
@@ -298,7 +244,7 @@ def _global_attrs(attrs: Mapping[str, Any]) -> dict[str, Any]:
     attrs.pop("cortex_ti_version", None)  # always this package's version
     out["effects"] = _attr_value("effects", attrs.pop("effects"))
     out["scene"] = _attr_value("scene", attrs.pop("scene"))
-    out["cortex_ti_version"] = __version__
+    out["cortex_ti_version"] = package_version()
     out["created"] = _attr_value("created", attrs.pop("created", _now()))
     for key, value in attrs.items():
         out[key] = _attr_value(key, value)
@@ -459,7 +405,7 @@ class TrajectoryWriter:
 
     Notes
     -----
-    * The path is claimed first (:class:`~cortex_ti.io.claim.OutputClaim`): a
+    * The path is claimed first (:class:`~cortex_ti.io.lock.OutputClaim`): a
       writer of the same path in another process is refused before anything is
       truncated.
     * Each :meth:`append` reserves the frame's space, writes the frame, flushes it

@@ -7,7 +7,8 @@ per physical term (``terms/``, registry :data:`~cortex_ti.physics.terms.TERMS`; 
 what it adds to every formulation), and the discretisations of the force balance a scene chooses
 (``formulations``, registry :data:`~cortex_ti.physics.formulations.FORMULATIONS`): the paper's
 strong form (``assembly``) and the Rayleighian on the flat triangles (``galerkin``), each looping
-over the switched-on terms. May import ``surface`` and ``solve.system`` (the systems it
+over the switched-on terms; the flat-triangle blocks that a term and a formulation both use live
+in ``p1_blocks`` (a term imports no formulation). May import ``surface`` and ``solve.system`` (the systems it
 produces); not scenes, dynamics or I/O. The registries import no Taichi (the scene layer reads
 them); the assemblies and the paper's viscous kernel load it when they first run.
 """

@@ -1,5 +1,5 @@
 """The Taichi kernels of the per-triangle blocks of formulation ``rayleigh_p1``
-(:func:`cortex_ti.physics.galerkin.viscous_blocks` and :func:`~cortex_ti.physics.galerkin.normal_blocks`,
+(:func:`cortex_ti.physics.p1_blocks.viscous_blocks` and :func:`~cortex_ti.physics.p1_blocks.normal_blocks`,
 which have the derivations). A module of its own so that importing the assembly starts no Taichi.
 
 Only the innermost loops are unrolled (``ti.static``): unrolled whole, a kernel's syntax tree is

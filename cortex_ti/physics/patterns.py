@@ -35,7 +35,7 @@ Each pattern type registers its parameters as a JSON-schema fragment
 
 :func:`integrate_patterns` and :func:`mean_over_sphere` integrate patterns over the unit
 sphere by quadrature (the exact mean ``zeta_bar`` sets the pressure ``P = 2 zeta_bar / R`` and
-the analytic flow, see :mod:`cortex_ti.analysis.analytic`).
+the analytic flow, see :mod:`cortex_ti.truth.analytic`).
 """
 
 from __future__ import annotations
@@ -437,7 +437,7 @@ def mean_over_sphere(patterns: list[dict], order: int | None = None) -> float:
     Computed pattern by pattern on a grid aligned with the pattern's axis (see
     :func:`sphere_quadrature`), by default with the order doubled until converged to ~1e-13
     (Eq. 59, p = 8, sigma = 10, zeta0 = amplitude = 1: 1.6454788579...; p = 4: 1.4829937138...;
-    the tests check it against :func:`cortex_ti.analysis.sphere_exact.sphere_mean`).
+    the tests check it against :func:`cortex_ti.truth.sphere_exact.sphere_mean`).
     For a ``harmonics`` pattern the mean is ``coeff_00 / sqrt(4 pi)``.
     """
     return float(integrate_patterns(patterns, order=order)) / (4.0 * np.pi)

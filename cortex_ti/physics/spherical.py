@@ -1,8 +1,11 @@
 """Functions on the unit sphere: pattern frames and angles, real spherical harmonics and
 their surface gradients, and quadrature.
 
-Used by the active-stress patterns (:mod:`cortex_ti.physics.patterns`) and by the analytic
-sphere solutions (:mod:`cortex_ti.analysis.analytic`).
+Used by the active-stress patterns (:mod:`cortex_ti.physics.patterns`), the harmonic content of a
+field (:mod:`cortex_ti.analysis.harmonics`), the spectrum of the normal dynamics
+(:mod:`cortex_ti.dynamics.spectrum`) and by the analytic sphere solutions
+(:mod:`cortex_ti.truth.analytic`). The exact sphere flow (:mod:`cortex_ti.truth.sphere_exact`) has
+its own harmonics, written independently: production code does not import the truths.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ __all__ = [
     "pattern_frame",
     "direction_angles",
     "real_sph_harm",
+    "real_sph_harms_at",
     "real_sph_harm_surface_gradient",
     "sphere_quadrature",
     "integrate_over_sphere",
@@ -172,6 +176,26 @@ def real_sph_harm(l: int, m: int, theta, phi) -> np.ndarray:
     if m > 0:
         return np.asarray(math.sqrt(2.0) * leg * np.cos(am * phi))
     return np.asarray(math.sqrt(2.0) * leg * np.sin(am * phi))
+
+
+def real_sph_harms_at(lmax: int, points) -> np.ndarray:
+    """Every :func:`real_sph_harm` up to degree ``lmax`` at the directions of ``points`` (seen from
+    the origin), ``(N, (lmax + 1)^2)``, column ``l^2 + l + m`` holding ``Y_lm`` (m = -l..l).
+
+    >>> p = np.array([[0.0, 0.0, 2.0], [1.0, 0.0, 0.0]])
+    >>> y1 = math.sqrt(3 / (4 * math.pi)) * np.array([[0, 1, 0], [0, 0, 1]])  # Y_1-1 = c y, Y_10 = c z, Y_11 = c x
+    >>> bool(np.allclose(real_sph_harms_at(1, p)[:, 1:], y1))
+    True
+    """
+    lmax = int(lmax)
+    if lmax < 0:
+        raise ValueError(f"lmax must be >= 0, got {lmax}")
+    theta, phi = direction_angles(points)
+    out = np.empty((theta.shape[0], (lmax + 1) ** 2))
+    for l in range(lmax + 1):
+        for m in range(-l, l + 1):
+            out[:, l * l + l + m] = real_sph_harm(l, m, theta, phi)
+    return out
 
 
 def _log_double_factorial_odd(m: int) -> float:

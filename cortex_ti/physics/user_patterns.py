@@ -304,7 +304,7 @@ def python_pattern(points, function, params=None) -> np.ndarray:
     original (whose traceback the command line shows with ``--debug``).
 
     A callable as ``function`` works wherever a pattern list is used directly
-    (:func:`evaluate_active_stress`, :func:`integrate_patterns`, :mod:`cortex_ti.analysis.analytic`), not
+    (:func:`evaluate_active_stress`, :func:`integrate_patterns`, :mod:`cortex_ti.truth.analytic`), not
     in a :class:`~cortex_ti.scene.Scene`: a scene is stored as YAML text with every trajectory,
     so its ``function`` must be the ``"module:func"`` string.
     """

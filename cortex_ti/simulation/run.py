@@ -51,8 +51,8 @@ from ..physics.patterns import evaluate_active_stress
 from ..surface.transport import DENSITY
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .core import Simulation
     from .setup import SceneSetup
-    from .simulation import Simulation
 
 log = logging.getLogger(__name__)
 
@@ -387,10 +387,17 @@ def _integrate_to_file(
         raise
     if extended:
         log.info("extending the finished run %s from its last frame", output)
+    history = read_history(output, state) if state is not None and scheme.dense else None
+    if state is None:
+        history_path(output).unlink(missing_ok=True)  # a stale one belongs to another run
+    restored = None
     if state is not None:
         t0 = state.time
         if scheme.dense:
-            pass  # a multistep scheme restarts with its Euler start of time.dt (the file holds one state)
+            # a multistep scheme continues from its step history when the file's frames have it
+            # (read_history); else it restarts with its Euler start of time.dt from the last frame
+            if history is not None:
+                restored = (history, float(history["dt"]))
         elif scheme.adaptive and state.dt is not None:
             # continue with the controller's step (a fixed-step scheme takes the scene's, so
             # --resume --set time.dt=... after a stability stop does what it says)
@@ -465,8 +472,13 @@ def _integrate_to_file(
         )
         return "neck"
 
+    saved = {"frames": writer.n_frames}
+
     def watch(t, ev, dt, stats):
         writer.commit()  # the frames of the step just made, in one write
+        if scheme.dense and writer.n_frames != saved["frames"]:  # the history those frames continue from
+            write_history(output, scheme, dt, writer.n_frames, writer.last_time)
+            saved["frames"] = writer.n_frames
         check_interrupted()
         seen["stats"] = stats  # the counts so far, for the summary of a run that does not finish
         if bar is not None:
@@ -490,6 +502,7 @@ def _integrate_to_file(
             save_times=st.save_times,
             remesh=remesh,
             stop=stop_at_neck if st.stop_neck is not None else None,
+            restored=restored,
         )
     except BaseException:
         sim.on_remesh = None
@@ -505,6 +518,7 @@ def _integrate_to_file(
     seen["stats"] = stats
     sim.on_remesh = None
     path = writer.finish()
+    history_path(output).unlink(missing_ok=True)
     per = {k: v / max(stats.solves, 1) * 1e3 for k, v in sim.seconds.items()}
     log.info(
         "%s: t = %.4g reached (%s) in %.1f s: %d steps, %d rejected, %d solves; per solve %s",
@@ -518,6 +532,49 @@ def _integrate_to_file(
         ", ".join(f"{k} {v:.1f} ms" for k, v in per.items()),
     )
     return RunReport(path=path, stats=stats, stopped=stats.stopped)
+
+
+def history_path(output: str | os.PathLike) -> Path:
+    """Beside ``<output>.partial``: the step history of a dense scheme (bdf2) at its last frame."""
+    return Path(os.fspath(partial_path(output)) + ".history.npz")
+
+
+def write_history(output, scheme, dt: float, n_frames: int, frame_time: float) -> None:
+    """Save ``scheme``'s step history (:meth:`~cortex_ti.dynamics.schemes.BDF2.checkpoint`), the
+    step it proposes next and the frames of the partial file it belongs to, atomically (a
+    temporary file renamed over the last one)."""
+    path = history_path(output)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        np.savez(
+            f,
+            dt=np.array(float(dt)),
+            n_frames=np.array(int(n_frames)),
+            frame_time=np.array(frame_time),
+            **scheme.checkpoint(),
+        )
+    os.replace(tmp, path)
+
+
+def read_history(output, state: ResumeState) -> dict | None:
+    """The saved step history that continues the partial file's last frame, or None (no file, or one
+    of other frames: the run was killed between its frames and its history)."""
+    path = history_path(output)
+    if not path.exists():
+        return None
+    try:
+        with np.load(path) as data:
+            history = {k: data[k] for k in data.files}
+    except (OSError, ValueError, KeyError) as exc:
+        log.warning("cannot read %s (%s): restarting the scheme from the last frame", path, exc)
+        return None
+    if int(history["n_frames"]) != state.n_frames or float(history["frame_time"]) != state.time:
+        log.info("%s belongs to other frames: restarting the scheme from the last frame", path)
+        return None
+    newest = history[f"{int(history['n']) - 1}__points"]
+    if int(history["n"]) < 2 or newest.shape != np.shape(state.points):
+        return None  # at the start (one state): the restart is the same computation
+    return history
 
 
 def stored_fields(sim: Simulation) -> list:

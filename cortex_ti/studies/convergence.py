@@ -8,8 +8,8 @@ import numpy as np
 import xarray as xr
 
 from ..about import provenance
-from ..analysis.analytic import error_measures, scene_solution
 from ..io.trajectory import Trajectory
+from ..truth.analytic import error_measures, scene_solution
 
 
 def run_errors(path) -> dict:

@@ -503,8 +503,8 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
     ``|v|`` with arrows, and the velocity against the polar angle theta at the nodes (the normal
     part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
     pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
-    from ..analysis.analytic import scene_solution
     from ..plotting import colorbar_below, plot_frame
+    from ..truth.analytic import scene_solution
 
     fig = Figure(figsize=(7.2, 2.8 * len(paths)), layout="constrained")
     for r, path in enumerate(paths):

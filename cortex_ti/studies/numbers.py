@@ -48,7 +48,7 @@ def _convergence(stores) -> pd.DataFrame:
 
 
 def _sphere_flows(paths) -> pd.DataFrame:
-    from ..analysis.analytic import error_measures, scene_solution
+    from ..truth.analytic import error_measures, scene_solution
 
     rows = []
     for path in paths:
@@ -69,7 +69,7 @@ def _sphere_flows(paths) -> pd.DataFrame:
 
 
 def _furrow_pictures(runs) -> pd.DataFrame:
-    from ..analysis.sphere_exact import sphere_flow
+    from ..truth.sphere_exact import sphere_flow
 
     rows = []
     for label, path in runs:

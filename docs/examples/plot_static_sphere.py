@@ -17,10 +17,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from cortex_ti.analysis.analytic import error_measures, scene_solution
 from cortex_ti.io import Trajectory
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation.core import Simulation
+from cortex_ti.truth.analytic import error_measures, scene_solution
 
 out = Path(tempfile.mkdtemp())
 results = {}

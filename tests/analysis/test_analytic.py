@@ -1,4 +1,4 @@
-"""Tests of cortex_ti.analysis.analytic: static-sphere solutions (docs/method/conventions.md) and error measures.
+"""Tests of cortex_ti.truth.analytic: static-sphere solutions (docs/method/conventions.md) and error measures.
 
 Besides limits and reference values, the solutions are checked against an independent
 finite-difference evaluation of the force balance on the sphere: with
@@ -12,20 +12,20 @@ import math
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import (
-    bending_coefficients,
-    error_measures,
-    l1_moments,
-    sphere_bending_solution,
-    sphere_full_solution,
-    sphere_tangential_solution,
-)
 from cortex_ti.analysis.reference import DEFAULT_DIR
 from cortex_ti.physics.patterns import evaluate_active_stress, mean_over_sphere
 from cortex_ti.physics.spherical import (
     real_sph_harm,
     real_sph_harm_surface_gradient,
     sphere_quadrature,
+)
+from cortex_ti.truth.analytic import (
+    bending_coefficients,
+    error_measures,
+    l1_moments,
+    sphere_bending_solution,
+    sphere_full_solution,
+    sphere_tangential_solution,
 )
 
 AXISYM = DEFAULT_DIR / "caseA_p8_zh1_velocity_t0.0.csv"  # shipped with the package

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from cortex_ti.analysis.harmonics import degree_amplitudes, growth_rate, harmonic_coefficients
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.surface.mesh import icosphere
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 
 def test_a_combination_of_harmonics_is_reproduced_exactly_wherever_the_cell_sits():

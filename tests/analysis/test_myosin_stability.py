@@ -32,10 +32,10 @@ import pytest
 from scipy.special import eval_legendre
 
 from cortex_ti.analysis import myosin_stability as ms
-from cortex_ti.analysis.sphere_exact import l1_coefficients, real_sph_harm, sphere_flow
 from cortex_ti.axisymmetric.balance import static_flow
 from cortex_ti.axisymmetric.evolve import full_meridian_dynamics, normal_embedding
 from cortex_ti.physics.spherical import real_sph_harm_surface_gradient
+from cortex_ti.truth.sphere_exact import l1_coefficients, real_sph_harm, sphere_flow
 
 PAPER_BENDING = {"eta_bar": 5e-4, "eta_bar_b": 2.5e-3}
 STRONG_BENDING = {"eta_bar": 0.05, "eta_bar_b": 0.1}

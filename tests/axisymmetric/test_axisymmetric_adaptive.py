@@ -33,6 +33,7 @@ def ring(amplitude):
         (20.0, 0.6, 0.350697676, 2e-7),  # arc-length n = 128 (96: 8e-8 off)
     ],
 )
+@pytest.mark.slow
 def test_adaptive_points_reach_the_arclength_converged_necks(amplitude, t_end, converged, tol):
     res = simulate(ring(amplitude), **NOBEND, t_end=t_end, n=40, rtol=1e-9, parametrization="adaptive")
     assert res.params["parametrization"] == "adaptive"
@@ -47,6 +48,7 @@ def test_uniform_tension_sphere_stays_a_sphere_with_evenly_spread_points():
     assert np.abs(res.v_n[-1]).max() <= 1e-10 and np.abs(res.v_s[-1]).max() <= 1e-10
 
 
+@pytest.mark.slow
 def test_deep_glued_furrow_closes_to_a_tenth_keeping_its_volume():
     """Amplitude 20 to a neck of 0.1 R0: the arc-length points' label map is unresolved from a
     neck of ~0.19, the adaptive points converge: the time of closing at n = 40 within 1e-5 of
@@ -58,6 +60,7 @@ def test_deep_glued_furrow_closes_to_a_tenth_keeping_its_volume():
     assert abs(res.t[-1] - 1.1854708) <= 1e-5
 
 
+@pytest.mark.slow
 def test_adaptive_points_from_the_scene(tmp_path, capsys):
     """axisymmetric.points = adaptive reaches the solver; with neck_resolution it is refused in one
     line (exit 2), as a value outside the key's vocabulary is."""
@@ -82,6 +85,7 @@ def test_adaptive_points_from_the_scene(tmp_path, capsys):
         assert len(err) == 1 and word in err[0], err
 
 
+@pytest.mark.slow
 def test_adaptive_points_weigh_the_myosin_tension_by_its_own_scale(tmp_path):
     """myosin_constriction (no prescribed pattern, the tension from the myosin): the adaptive points'
     tension term is scaled by the law's tension at c0 (1 here), not by the range of the prescribed

@@ -1,7 +1,7 @@
 """Scenes run with ``model: axisymmetric``: the same model as the 3D code on surfaces of revolution.
 
 Truths: the analytic sphere flows (docs/method/conventions.md), the exact spectral sphere solution with
-bending viscosity (cortex_ti.analysis.sphere_exact, derived independently), the shipped
+bending viscosity (cortex_ti.truth.sphere_exact, derived independently), the shipped
 external reference run, and the refusals of every way a scene can break the symmetry.
 """
 
@@ -10,16 +10,16 @@ import textwrap
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import (
-    error_measures,
-    sphere_full_solution,
-    sphere_tangential_solution,
-)
-from cortex_ti.analysis.sphere_exact import sphere_flow
 from cortex_ti.axisymmetric.run import AxisymmetricRun, axisymmetric_tension
 from cortex_ti.cli import main
 from cortex_ti.io import Trajectory
 from cortex_ti.scene import load_scene
+from cortex_ti.truth.analytic import (
+    error_measures,
+    sphere_full_solution,
+    sphere_tangential_solution,
+)
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 FURROWS = ["furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3"]
 NO_BENDING = [
@@ -161,6 +161,7 @@ def test_a_python_pattern_varying_about_z_is_refused(tmp_path, monkeypatch, caps
     assert zeta(np.array([0.0, np.pi / 2])) == pytest.approx([2.0, 1.0], abs=1e-15)
 
 
+@pytest.mark.slow
 def test_trajectory_has_the_3d_layout_and_plots(tmp_path, capsys):
     code, out = _run(tmp_path, "furrow_p8_a1", ["time.t_end=0.1"])
     assert code == 0

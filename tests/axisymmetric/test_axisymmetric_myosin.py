@@ -152,6 +152,7 @@ def test_non_axisymmetric_myosin_is_refused_in_one_line(tmp_path, capsys, overri
     assert code == 2 and not out.exists() and len(err) == 1 and message in err[0], err
 
 
+@pytest.mark.slow
 def test_the_parametrisations_agree_and_keep_the_total():
     """A strong ring (c = 1 - 0.3 P2, bending viscosity): the points moving normally (lagrangian)
     and the points kept equidistant in arc length, or gathered at the neck (monitor 0.5), which

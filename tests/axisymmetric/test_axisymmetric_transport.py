@@ -1,7 +1,7 @@
 """The axisymmetric model with a tension carried by the material (``tension_transport: material``)
 and its neck stop.
 
-Truths: the exact sphere flow (cortex_ti.analysis.sphere_exact, derived independently) for the
+Truths: the exact sphere flow (cortex_ti.truth.sphere_exact, derived independently) for the
 rate at which a carried tension changes at a normally moving point, ``-v_t . grad zeta``; the
 rest state of a uniform tension; the invariance of a material model under a rigid translation
 (the two translation gauges); self-convergence in n and in the time tolerance; the neck value at
@@ -11,10 +11,10 @@ which a run is told to stop.
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.sphere_exact import sphere_flow
 from cortex_ti.axisymmetric.evolve import full_meridian_dynamics, simulate
 from cortex_ti.cli import main
 from cortex_ti.io import Trajectory
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 AMP, SIG, P = 3.0, 10.0, 4
 BEND = dict(eta_s=1.0, eta_b=1.0, eta_bar=1e-4, eta_bar_b=3.5e-3)
@@ -115,6 +115,7 @@ def _gauge_difference(tension, n):
     return shift, max(np.max(np.abs(r1 - r2)), np.max(np.abs(z1 - z2 - shift)))
 
 
+@pytest.mark.slow
 def test_translation_gauges_differ_by_a_rigid_translation_with_a_carried_tension():
     """A rigid translation carries a material tension with it, so holding the mean velocity or the
     volume's centroid gives one shape up to a shift along the axis: what is left converges to 0
@@ -132,6 +133,7 @@ def test_translation_gauges_change_a_glued_tension_shape():
     assert dev > 0.1
 
 
+@pytest.mark.slow
 def test_carried_tension_self_converges_in_n_and_rtol():
     """furrow_p8_a1's ring carried to t = 1 (bending on): the furrow and pole radii at n = 16, 24,
     32 and rtol 1e-6, 1e-8 against n = 48, rtol 1e-11; spectral in n, and each reference
@@ -153,6 +155,7 @@ def test_carried_tension_self_converges_in_n_and_rtol():
     assert et[0] > et[1] and et[1] <= 1e-7
 
 
+@pytest.mark.slow
 def test_run_stops_cleanly_at_the_neck(tmp_path):
     """axisymmetric.stop_neck: the run ends where the neck reaches it, the frames kept."""
     out = tmp_path / "a.h5"
@@ -208,6 +211,7 @@ def test_ill_posed_stop_where_the_bending_force_changes_sign():
 
 
 @pytest.mark.parametrize("tension", ["nodes", "material"])
+@pytest.mark.slow
 def test_neck_resolving_points_give_the_same_shapes(tension):
     """The curvature-weighted parametrisation (points moving tangentially, the tension's label
     carried) and the normally moving points are two discretisations of one model: their radii at
@@ -226,6 +230,7 @@ def test_neck_resolving_points_give_the_same_shapes(tension):
     assert diffs[1] < diffs[0] / 10 and diffs[1] <= 1e-8
 
 
+@pytest.mark.slow
 def test_arclength_points_from_the_scene_resolve_a_deep_neck(tmp_path):
     """axisymmetric.points = arclength: the same shapes as simulate(parametrization='arclength'),
     and a deep glued neck (amplitude 12, no bending viscosity) that the normally moving points do
@@ -271,6 +276,7 @@ def test_arclength_points_from_the_scene_resolve_a_deep_neck(tmp_path):
     assert necks["normal"] - refs[96] > 1e-2
 
 
+@pytest.mark.slow
 def test_neck_resolving_points_gather_in_the_neck():
     """neck_resolution equidistributes ``h rho`` (derivation Sec. 11): the points are denser in a
     deep neck than at the poles, and the neck converges with n to the adaptive points' value

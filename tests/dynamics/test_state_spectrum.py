@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 from cortex_ti.analysis import myosin_stability as ms
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.dynamics.spectrum import normal_jacobian, state_jacobian, state_spectrum
 from cortex_ti.scene import load_scene, scene_from_dict
 from cortex_ti.simulation import Simulation
 from cortex_ti.surface.transport import dual_area_rates, dual_areas
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 pytestmark = pytest.mark.hard
 
@@ -140,6 +140,7 @@ def test_myosin_sphere_spectrum_converges_to_the_closed_form():
             assert abs((4.0 * fine - coarse) / 3.0 - exact[branch]) < 0.2 * abs(e642)
 
 
+@pytest.mark.slow
 def test_the_carried_tension_of_a_furrow_grows_no_faster_than_its_flow_compresses(tmp_path):
     """furrow_p4_a1, 642 nodes, the tension carried by the material, at t = 1 (the state of a run, in
     the centroid gauge): the linearised transport of the tension by the frozen flow (the tension block

@@ -4,7 +4,7 @@
   active force as the exact gradient of the discrete energy, the triangulated volume under normal
   advection), checked by finite differences of quantities computed here from the mesh alone;
 * the exact flow on the static sphere for the scenes' own patterns and viscosities, bending
-  viscosity included (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`, derived degree by
+  viscosity included (:func:`cortex_ti.truth.sphere_exact.sphere_flow`, derived degree by
   degree independently of the 3D code), at t = 0 of the ring, fold and harmonic scenes, in both
   formulations;
 * the solver's refinement against the residual of the unsquared problem.
@@ -15,14 +15,14 @@ Bounds are the measured errors plus 10-15 %; each docstring gives the measuremen
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import error_measures, scene_solution
 from cortex_ti.analysis.diagnostics import enclosed_volume
-from cortex_ti.analysis.sphere_exact import sphere_flow
 from cortex_ti.errors import SolverError
 from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 from cortex_ti.solve.constrained import ConstrainedSolver
+from cortex_ti.truth.analytic import error_measures, scene_solution
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 NO_BENDING = [
     "viscosity.bending=0",
@@ -215,6 +215,7 @@ def test_rings_without_bending_642(name, formulation, bound):
         ("fold_broad", "paper", 0.107),  # 9.66e-2
     ],
 )
+@pytest.mark.slow
 def test_scenes_with_their_bending_viscosity_642(name, formulation, bound):
     """The scenes' own bending viscosity; truth: the exact spectral flow with it."""
     sim = static_sim(name, 642, formulation, bending=True)

@@ -1,14 +1,14 @@
 """The per-triangle normal form of ``rayleigh_p1`` (bending viscosity, semi-implicit tension) against
 its definition: ``B_T`` is the corner mean of ``B^cd e_c e_d`` projected on the triangle and clipped to
-its positive semidefinite part, and the force of :func:`~cortex_ti.physics.galerkin.normal_form_force`
-is the blocks of :func:`~cortex_ti.physics.galerkin.normal_blocks` applied to the rate. The truths are
+its positive semidefinite part, and the force of :func:`~cortex_ti.physics.p1_blocks.normal_form_force`
+is the blocks of :func:`~cortex_ti.physics.p1_blocks.normal_blocks` applied to the rate. The truths are
 computed here with numpy's dense eigendecomposition and matrix products; the bounds are round-off
 (a few ulp of the entries, 1e-12 relative)."""
 
 import numpy as np
 import pytest
 
-from cortex_ti.physics.galerkin import _triangle_form, normal_blocks, normal_form_force
+from cortex_ti.physics.p1_blocks import _triangle_form, normal_blocks, normal_form_force
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 from cortex_ti.surface.transport import triangle_gradients

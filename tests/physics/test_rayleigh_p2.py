@@ -13,8 +13,8 @@ of one order fails; absolute values against the issue's bars with the measured m
 import numpy as np
 import pytest
 
-from cortex_ti.analysis import analytic
-from cortex_ti.analysis.sphere_exact import sphere_flow
+from cortex_ti.truth import analytic
+from cortex_ti.truth.sphere_exact import sphere_flow
 from cortex_ti.errors import SceneError
 from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.scene import load_scene

@@ -524,7 +524,7 @@ def test_field_errors_name_the_file_and_the_problem(tmp_path, ico162):
 def test_sphere_quadrature_refuses_a_field_but_not_a_python_pattern(tmp_path, ico162, user_module):
     """A field exists only at the nodes: the analytic sphere solution (which integrates the pattern
     by quadrature) must say so; a python pattern is a function of position and integrates."""
-    from cortex_ti.analysis.analytic import sphere_full_solution
+    from cortex_ti.truth.analytic import sphere_full_solution
 
     file = write_field(tmp_path / "ring.npy", ring_closed_form(ico162.points))
     field = {"type": "field", "file": str(file)}

@@ -3,6 +3,12 @@
 * every import of every module of the package, read with :mod:`ast` (module-level and inside
   functions alike), goes to the module's own layer or a layer below it, in the order
   :data:`LAYERS` (the one list; CONTRIBUTING.md states it in words and a test checks they agree);
+* no module imports itself through others: the graph of the package's modules, with an edge for
+  every import that runs (module-level and inside functions alike: a deferred import is a cycle
+  deferred, not removed), has no cycle. Imports under ``if TYPE_CHECKING:`` are left out: they
+  never run (every module has ``from __future__ import annotations``) and only name a type;
+* the exact solutions (:mod:`cortex_ti.truth`) are imported by no production module: only tests,
+  benchmarks, the validation studies and the deprecated paths that forward to them;
 * in a fresh interpreter, loading a scene, the study registry, the sweeps and the stores, the
   formulation and term registries, the run set-up and the axisymmetric model import no Taichi,
   nor does ``cortex-ti check``.
@@ -12,6 +18,7 @@ import ast
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -27,7 +34,7 @@ LAYERS = (
     ("solve", "runtime"),
     ("surface",),
     ("physics",),
-    ("analysis",),
+    ("analysis", "truth"),
     ("dynamics",),
     ("scene",),
     ("io", "plotting"),
@@ -127,6 +134,163 @@ def test_contributing_states_the_same_order():
         if names:
             stated.append(names)
     assert tuple(stated) == LAYERS
+
+
+#: Modules generated at build time (setuptools-scm), absent from a clean checkout.
+GENERATED = {("cortex_ti", "_version")}
+
+
+def _module_name(parts):
+    return parts[:-1] if parts[-1] == "__init__" else parts
+
+
+def _type_checking_nodes(tree):
+    """The nodes inside ``if TYPE_CHECKING:`` blocks (never run)."""
+    skip = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If):
+            test = node.test
+            name = test.id if isinstance(test, ast.Name) else getattr(test, "attr", None)
+            if name == "TYPE_CHECKING":
+                for child in node.body:
+                    skip.update(id(n) for n in ast.walk(child))
+    return skip
+
+
+def _import_graph():
+    """``{module: {modules it imports}}`` over the package, module names as tuples of parts. An
+    ``from package import name`` goes to the submodule ``name`` when there is one, else to the
+    package's ``__init__``; imports under ``if TYPE_CHECKING:`` are left out."""
+    modules = {_module_name(parts): (path, package) for path, parts, package in _modules()}
+    graph, unknown = {}, set()
+    for name, (path, package) in modules.items():
+        tree = ast.parse(path.read_text(), filename=str(path))
+        skip = _type_checking_nodes(tree)
+        edges = set()
+        for node in ast.walk(tree):
+            if id(node) in skip:
+                continue
+            for target in _targets(node, package):
+                if target == ("cortex_ti", "<metadata>"):
+                    target = ("cortex_ti",)
+                if target in GENERATED:
+                    continue
+                if isinstance(node, ast.ImportFrom) and node.names and target in modules:
+                    subs = [target + (a.name,) for a in node.names if target + (a.name,) in modules]
+                    rest = [a for a in node.names if target + (a.name,) not in modules]
+                    edges.update(subs)
+                    if rest:
+                        edges.add(target)
+                    continue
+                if target not in modules:
+                    unknown.add(".".join(target))
+                    continue
+                edges.add(target)
+        edges.discard(name)
+        graph[name] = edges
+    assert not unknown, f"imports of modules that do not exist: {sorted(unknown)}"
+    return graph
+
+
+def _cycles(graph):
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                out.append(sorted(".".join(c) for c in comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_cycle():
+    """Terms declare and formulations integrate: no module reaches itself through its imports."""
+    graph = _import_graph()
+    cycles = _cycles(graph)
+    shown = []
+    for comp in cycles:
+        members = {tuple(c.split(".")) for c in comp}
+        edges = [f"  {'.'.join(v)} -> {'.'.join(w)}" for v in sorted(members) for w in sorted(graph[v]) if w in members]
+        shown.append(", ".join(comp) + "\n" + "\n".join(edges))
+    assert not cycles, "import cycles (break each by moving what both sides share to a lower module):\n" + "\n".join(
+        shown
+    )
+
+
+def test_the_cycle_check_sees_a_cycle():
+    """The check itself: a cycle through a function-level import is found, a TYPE_CHECKING one is not."""
+    graph = {("a",): {("b",)}, ("b",): {("c",)}, ("c",): {("a",)}, ("d",): {("a",)}}
+    assert _cycles(graph) == [["a", "b", "c"]]
+    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .core import Simulation\n")
+    skipped = _type_checking_nodes(tree)
+    assert [n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and id(n) not in skipped][0].module == "typing"
+    tree = ast.parse("def f():\n    from ..galerkin import normal_form_force\n")
+    node = next(n for n in ast.walk(tree) if isinstance(n, ast.ImportFrom))
+    assert _targets(node, ("cortex_ti", "physics", "terms")) == [("cortex_ti", "physics", "galerkin")]
+
+
+#: The truths (exact solutions) and who may import them besides tests and benchmarks: the truths
+#: themselves, the validation studies, and the deprecated paths forwarding to them.
+TRUTH = ("cortex_ti", "truth")
+TRUTH_IMPORTERS = (
+    ("cortex_ti", "truth"),
+    ("cortex_ti", "studies"),
+    ("cortex_ti", "analysis", "sphere_exact"),
+    ("cortex_ti", "analysis", "analytic"),
+)
+
+
+def test_production_code_imports_no_truth():
+    """The exact solutions stay out of what a run computes: only the studies (the validation
+    figures and numbers), the tests and the benchmarks compare with them."""
+    graph = _import_graph()
+    wrong = [
+        f"{'.'.join(v)} imports {'.'.join(w)}"
+        for v in sorted(graph)
+        for w in sorted(graph[v])
+        if w[:2] == TRUTH and not any(v[: len(p)] == p for p in TRUTH_IMPORTERS)
+    ]
+    assert not wrong, "production code imports a truth (use physics.spherical, or move the caller):\n" + "\n".join(
+        wrong
+    )
+    assert any(w[:2] == TRUTH for v in graph for w in graph[v]), "the check sees no import of a truth at all"
+
+
+def test_the_old_truth_paths_forward_with_a_warning():
+    """``cortex_ti.analysis.sphere_exact`` and ``.analytic`` keep working for one release."""
+    import importlib
+
+    from cortex_ti.truth import analytic, sphere_exact
+
+    for name, new, attr in (("sphere_exact", sphere_exact, "sphere_flow"), ("analytic", analytic, "scene_solution")):
+        old = importlib.import_module(f"cortex_ti.analysis.{name}")
+        with pytest.warns(DeprecationWarning, match=f"cortex_ti.truth.{name}"):
+            assert getattr(old, attr) is getattr(new, attr)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a probe for a name it never had warns of nothing
+            assert not hasattr(old, "pytest_plugins")
+        with pytest.warns(DeprecationWarning):
+            exec(f"from cortex_ti.analysis.{name} import {attr}", {})
 
 
 LIGHT = [

@@ -138,9 +138,9 @@ def test_irregular_mesh(tmp_path):
     """
     import meshio
 
-    from cortex_ti.analysis.analytic import error_measures
-    from cortex_ti.analysis.sphere_exact import sphere_flow
     from cortex_ti.physics.patterns import evaluate_active_stress
+    from cortex_ti.truth.analytic import error_measures
+    from cortex_ti.truth.sphere_exact import sphere_flow
 
     mesh = icosphere(2562)
     rng = np.random.default_rng(3)

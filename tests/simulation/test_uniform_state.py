@@ -85,6 +85,7 @@ def test_the_uniform_state_is_subcritical_with_these_values():
 
 
 @pytest.mark.parametrize("motion", ["normal", "lagrangian", "ale"])
+@pytest.mark.slow
 def test_uniform_myosin_stays_uniform_and_the_cortex_comes_to_rest(tmp_path, motion):
     """162 nodes to t = 20 (dt = 0.01, a fifth of the ALE relaxation time). The residual flow at
     t = 0 is the O(h^4) normal residual of the uniform tension's force (max |v| 8e-7); it must decay

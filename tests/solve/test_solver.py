@@ -20,18 +20,18 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from cortex_ti.analysis.analytic import (
-    error_measures,
-    sphere_bending_solution,
-    sphere_full_solution,
-    sphere_tangential_solution,
-)
 from cortex_ti.errors import CortexError, SolverError
 from cortex_ti.physics.assembly import assemble
 from cortex_ti.physics.model import Physics
 from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.solve.constrained import ConstrainedSolver
 from cortex_ti.solve.factorizations import FACTORIZATIONS
+from cortex_ti.truth.analytic import (
+    error_measures,
+    sphere_bending_solution,
+    sphere_full_solution,
+    sphere_tangential_solution,
+)
 
 pytestmark = pytest.mark.usefixtures("taichi_runtime")
 

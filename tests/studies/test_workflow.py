@@ -33,6 +33,7 @@ def expected_outputs(config):
 
 
 @pytest.mark.parametrize("configfile", ["config/config.yaml", "config/smoke.yaml", "config/paper.yaml"])
+@pytest.mark.slow
 def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     res = snakemake(tmp_path, "-n", "--cores", "2", "--configfile", str(ROOT / configfile), timeout=300)
     assert res.returncode == 0, res.stderr[-2000:]
@@ -59,6 +60,7 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
         assert row and int(row[0][1]) == n, f"{rule}: expected {n} jobs"
 
 
+@pytest.mark.slow
 def test_lint_gives_only_the_environment_advice(tmp_path):
     """``snakemake --lint`` finds nothing but its advice to give each rule a conda environment or a
     container (the README says why the package's own install is the environment)."""
@@ -69,6 +71,7 @@ def test_lint_gives_only_the_environment_advice(tmp_path):
     assert lints == {"Specify a conda environment or container for each rule."}, lints
 
 
+@pytest.mark.slow
 def test_slurm_profile_dry_runs(tmp_path):
     pytest.importorskip("snakemake_executor_plugin_slurm")
     shutil.copytree(ROOT / "profiles", tmp_path / "profiles")
@@ -85,6 +88,7 @@ def test_slurm_profile_dry_runs(tmp_path):
         ({"colour": "blue"}, "colour"),
     ],
 )
+@pytest.mark.slow
 def test_invalid_config_is_rejected_naming_the_problem(tmp_path, change, message):
     config = yaml.safe_load(TINY.read_text())
     config.update(change)

@@ -7,8 +7,6 @@ exact sphere flow, and the state's invariance properties in whole runs."""
 import numpy as np
 import pytest
 
-from cortex_ti.analysis.analytic import scene_solution
-from cortex_ti.analysis.sphere_exact import real_sph_harm
 from cortex_ti.dynamics.motion import MotionContext, ale_velocity, conformal_distortion, volume_gradient
 from cortex_ti.dynamics.state import FieldTransport, Rates, State
 from cortex_ti.physics import fields as fieldreg
@@ -24,6 +22,8 @@ from cortex_ti.surface.transport import (
     implicit_diffusion_reaction,
     triangle_gradients,
 )
+from cortex_ti.truth.analytic import scene_solution
+from cortex_ti.truth.sphere_exact import real_sph_harm
 
 EPS = np.finfo(float).eps
 
@@ -123,6 +123,7 @@ def test_cotan_laplacian_is_symmetric_with_zero_row_sums_and_diffuses_harmonics_
     assert errs[1] < errs[0] / 3.0, errs  # second order: a factor ~4 per halving of h
 
 
+@pytest.mark.slow
 def test_implicit_diffusion_decays_a_harmonic_at_the_continuum_rate():
     """Diffusion alone of Y_lm on a fixed unit sphere decays as exp(-D l(l+1) t): backward Euler
     gives (1 + D l(l+1) dt)^-n in the continuum, so against that discrete-time truth what remains is
@@ -181,6 +182,7 @@ def _rotate_once(n):
     return _rms(s.fields["q"] - bump, dual_areas(x, f)), s.fields["q"]
 
 
+@pytest.mark.slow
 def test_a_rigid_rotation_brings_a_tracer_back_converging_with_the_mesh():
     """After a full turn the tracer is back, its error falling with h at the order of the limited
     upwind reconstruction: 2 where the field is smooth and monotone, 1 at its extrema where the

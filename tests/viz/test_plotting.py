@@ -389,6 +389,7 @@ def run(argv, capsys):
     return rc, out, err
 
 
+@pytest.mark.slow
 def test_cli_plot_writes_png_and_pdf(traj, tmp_path, capsys):
     out = tmp_path / "frame.png"
     rc, stdout, stderr = run(["plot", str(traj), "-o", str(out), "--time", "0.6", "--color", "normal_velocity"], capsys)
@@ -482,6 +483,7 @@ sys.stdin.readline()                                # until the test is done
 """
 
 
+@pytest.mark.slow
 def test_cli_plot_reads_the_partial_file_of_a_running_simulation(tmp_path, capsys):
     path = tmp_path / "live.h5"
     code = textwrap.dedent(WRITER.format(tests=str(Path(__file__).parent), path=str(path)))

@@ -191,6 +191,7 @@ def test_pyvista_picture_is_the_colour_map_of_the_quantity(ds, pyvista_renderer,
     assert (colormap_distance(surface, other) > 0.05).mean() > 0.2
 
 
+@pytest.mark.slow
 def test_cli_plot_with_pyvista_says_so_in_one_line(run, tmp_path, capsys, pyvista_renderer):
     out = tmp_path / "p.png"
     assert main(["plot", str(run), "-o", str(out), "--renderer", "pyvista", "--color", "active_stress"]) == 0

@@ -14,7 +14,7 @@ in the paper). Its extra term ``C v_n C^ab`` is the one the paper adds "for reas
 numerical stability"; the signs lost in the extracted text are fixed here so that
 the term adds drag: on a sphere, mode ``l`` of ``v_n`` feels an extra normal force
 ``kappa_l v_n`` with ``kappa_l = (2 eta_bar_b l(l+1) + 8 eta_bar - 4 eta_bar_b) / R^3``
-(see :func:`cortex_ti.analysis.analytic.sphere_bending_solution`, which the tests compare with).
+(see :func:`cortex_ti.truth.analytic.sphere_bending_solution`, which the tests compare with).
 
 Written out, with ``C~ = C^a_b C^b_a`` and ``C- = C^a_b C^b_c C^c_a``:
 

@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import SolverError
+from ..p1_blocks import normal_form_force  # the P1 blocks the formulation shares, not the formulation
 from .base import ROW_NORMAL, Context, P1Context, P2Context, PaperContext, Term, register
 from .bending import curvature_invariants, hessian_weights
 
@@ -76,8 +77,6 @@ class ImplicitTension(Term):
         bform = (ctx.implicit_dt * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv
         ctx.add_normal_form(bform)
         if ctx.implicit_rate is not None:
-            from ..galerkin import normal_form_force  # the formulation's module imports the terms
-
             ctx.add_triangle_force(
                 normal_form_force(
                     ctx.geometry, ctx.faces, bform, ctx.tnormal, ctx.grads, ctx.area, np.asarray(ctx.implicit_rate)

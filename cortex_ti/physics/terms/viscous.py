@@ -23,7 +23,7 @@ Shear and bulk viscosity are separate effects sharing one kernel.
 Formulation ``paper`` writes these weights with one Taichi kernel (:mod:`.viscous_kernel`,
 loaded when the term is first applied, so the registry imports no Taichi). Formulation
 ``rayleigh_p1`` integrates the dissipation ``A_T [eta_s |U~_T|^2 + eta_b/2 (tr U_T)^2]`` exactly on
-each flat triangle (:func:`cortex_ti.physics.galerkin.viscous_blocks`): the terms give its two
+each flat triangle (:func:`cortex_ti.physics.p1_blocks.viscous_blocks`): the terms give its two
 coefficients.
 """
 
