@@ -55,8 +55,8 @@ def _scene(name, nodes, form, extra=()):
 
 
 def spheres(nodes_list, forms):
-    from cortex_ti.truth import analytic
     from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import analytic
 
     rows = []
     for name in SPHERES:

@@ -1,7 +1,7 @@
 """A peer on the t = 0 sphere problem: NGSolve's curved surface finite elements, error against wall time.
 
 The first solve of a ring scene on the unit sphere, without bending viscosity, whose exact flow is
-known (:func:`cortex_ti.analysis.sphere_exact.sphere_flow`), solved by an established finite
+known (:func:`cortex_ti.truth.sphere_exact.sphere_flow`), solved by an established finite
 element library (NGSolve, the ``peers`` extra: ``pip install -e '.[peers]'``) with its own
 isoparametric surface elements, beside ``rayleigh_p1`` (``--ours``), at about equal velocity nodes.
 
@@ -29,10 +29,10 @@ The peer's recipe (what the lead needs to match it):
   one thread (``SetNumThreads(1)``, OMP/OpenBLAS/MKL threads 1); wall time = curving + assembly
   + factorisation + solve, the fastest of ``--repeat`` (mesh generation and the error evaluation
   excluded);
-* **error**: eps_rel (paper Eq. 58, ``cortex_ti.analysis.analytic.error_measures``) at every
+* **error**: eps_rel (paper Eq. 58, ``cortex_ti.truth.analytic.error_measures``) at every
   velocity node (the Lagrange points of order ``k`` of each curved triangle, deduplicated: their
   count equals ndof / 3) and, second, at the mesh vertices only, and the L2 error over the curved
-  surface; the exact flow (``cortex_ti.analysis.sphere_exact.sphere_flow``, about the ring's axis)
+  surface; the exact flow (``cortex_ti.truth.sphere_exact.sphere_flow``, about the ring's axis)
   is evaluated at the point projected on the unit sphere.
 
 Usage::
@@ -173,10 +173,10 @@ def peer_solve(
     """Solve the t = 0 problem of ``scene_name`` (bending viscosity off) with NGSolve at order ``order``,
     the geometry curved to ``geometry_order`` (0: the same order, isoparametric), the forms integrated
     ``bonus`` orders above NGSolve's default; the fastest of ``repeat`` solves is timed."""
-    from cortex_ti.truth.analytic import error_measures
-    from cortex_ti.truth.sphere_exact import sphere_flow
     from cortex_ti.physics.patterns import evaluate_active_stress
     from cortex_ti.scene import load_scene
+    from cortex_ti.truth.analytic import error_measures
+    from cortex_ti.truth.sphere_exact import sphere_flow
 
     ng = _ngsolve()
     s = load_scene(scene_name, list(overrides)).settings

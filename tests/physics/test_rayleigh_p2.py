@@ -13,13 +13,13 @@ of one order fails; absolute values against the issue's bars with the measured m
 import numpy as np
 import pytest
 
-from cortex_ti.truth import analytic
-from cortex_ti.truth.sphere_exact import sphere_flow
 from cortex_ti.errors import SceneError
 from cortex_ti.physics.patterns import evaluate_active_stress
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 from cortex_ti.surface.curved import curved_surface, p2_cells
+from cortex_ti.truth import analytic
+from cortex_ti.truth.sphere_exact import sphere_flow
 
 P2 = ["numerics.formulation=rayleigh_p2", "numerics.fit=quartic", "solver.reuse=false"]
 NO_BENDING = [
