@@ -127,7 +127,7 @@ def run_rows(
                         f"time.save_every={max(dt, t_end / 200):g}",
                     ]
                     sim = Simulation(_scene(nodes, sets))
-                    ds = xr.load_dataset(sim.run(Path(tmp) / "run.h5", progress=False), engine="h5netcdf")
+                    ds = xr.load_dataset(sim.run(Path(tmp) / "run.h5", progress=False, force=True), engine="h5netcdf")
                     faces = sim.mesh.faces
                     dev = []
                     for k in range(ds.sizes["time"]):
