@@ -415,6 +415,9 @@ def _integrate_to_file(
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
     for sentence in unphysical(sim):
         log.warning("scene '%s': %s; the run goes on", sim.settings.name, sentence)
+    caveat = sim.settings.numerics.formulation_entry.dynamic_caveat
+    if caveat:
+        log.warning("scene '%s': numerics.formulation = %s: %s", sim.settings.name, sim.formulation, caveat)
 
     neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
     curved = sim.settings.numerics.formulation_entry.curved
