@@ -58,6 +58,7 @@ __all__ = [
     "PRESSURE_WEIGHTS",
     "assemble_p1",
     "block_pattern",
+    "energy_system",
     "normal_blocks",
     "normal_form_force",
     "triangle_gradients",
@@ -160,21 +161,28 @@ def assemble_p1(
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
 
-    cons = np.concatenate([c.rows for c in ctx.constraints])
-    force = None
-    if any(c.force_rows is not None for c in ctx.constraints):
-        force = np.concatenate([c.rows if c.force_rows is None else c.force_rows for c in ctx.constraints])
-    offsets = np.cumsum([0] + [c.rows.shape[0] for c in ctx.constraints])
-    pidx = next((int(offsets[k]) for k, c in enumerate(ctx.constraints) if c.pressure), None)
+    return energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
 
-    basis = velocity_basis(geometry, physics)
+
+def energy_system(kmat, f: np.ndarray, constraints: list, basis: np.ndarray, terms) -> EnergySystem:
+    """The :class:`EnergySystem` of a Rayleighian formulation from its Cartesian matrix and force (3 per
+    node), its constraints (rows, force rows, the pressure's) and the velocity basis (N, nb, 3): with
+    tangential unknowns only (``nb = 2``) the matrix, force and rows are taken onto the basis."""
+    n = basis.shape[0]
+    cons = np.concatenate([c.rows for c in constraints])
+    force = None
+    if any(c.force_rows is not None for c in constraints):
+        force = np.concatenate([c.rows if c.force_rows is None else c.force_rows for c in constraints])
+    offsets = np.cumsum([0] + [c.rows.shape[0] for c in constraints])
+    pidx = next((int(offsets[k]) for k, c in enumerate(constraints) if c.pressure), None)
+    cartesian = basis.shape[1] == 3 and np.array_equal(basis[0], np.eye(3))
     if basis.shape[1] != 3:  # tangential unknowns only (fixed_normal_velocity)
         bmat = sp.block_diag([basis[i].T for i in range(n)], format="csr")  # (3N, nb N)
         kmat = (bmat.T @ kmat @ bmat).tocsr()
         f = bmat.T @ f
 
     def on_unknowns(rows):
-        if physics.normal_balance:  # the basis is the Cartesian one (velocity_basis)
+        if cartesian:
             return rows.reshape(rows.shape[0], -1)
         return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
 
@@ -182,7 +190,7 @@ def assemble_p1(
         stiffness=kmat,
         rhs=f,
         constraints=on_unknowns(cons),
-        constraint_names=constraint_names(ctx.constraints),
+        constraint_names=constraint_names(constraints),
         basis=basis,
         pressure_index=pidx,
         pressure_sign=-1.0,

@@ -50,10 +50,10 @@ import numpy as np
 from ..solve.system import EnergySystem
 from ..surface.curved import curved_surface
 from ..surface.geometry import Geometry
-from .galerkin import block_pattern
+from .galerkin import block_pattern, energy_system
 from .model import Physics
 from .terms import P2Context, terms_for
-from .terms.base import check_inputs, constraint_names
+from .terms.base import check_inputs
 
 __all__ = ["assemble_p2", "cell_blocks"]
 
@@ -151,34 +151,11 @@ def assemble_p2(
         f = f + (ctx.balanced_tension[:, None] * tangential).ravel()
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
-    cons = np.concatenate([c.rows for c in ctx.constraints])
-    force_rows = None
-    if any(c.force_rows is not None for c in ctx.constraints):
-        force_rows = np.concatenate([c.rows if c.force_rows is None else c.force_rows for c in ctx.constraints])
-    offsets = np.cumsum([0] + [c.rows.shape[0] for c in ctx.constraints])
-    pidx = next((int(offsets[k]) for k, c in enumerate(ctx.constraints) if c.pressure), None)
     if physics.normal_balance:
         basis = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()
     else:  # v_n = 0: the tangent frames of the smooth normals at every node
         basis = _tangent_frames(surf.normal)
-        bmat = _block_basis(basis)
-        kmat = (bmat.T @ kmat @ bmat).tocsr()
-        f = bmat.T @ f
-
-    def on_unknowns(rows):
-        return np.einsum("mnc,nbc->mnb", rows, basis).reshape(rows.shape[0], -1)
-
-    return EnergySystem(
-        stiffness=kmat,
-        rhs=f,
-        constraints=on_unknowns(cons),
-        constraint_names=constraint_names(ctx.constraints),
-        basis=basis,
-        pressure_index=pidx,
-        pressure_sign=-1.0,
-        terms=[t.name for t in terms],
-        force_rows=None if force_rows is None else on_unknowns(force_rows),
-    )
+    return energy_system(kmat, f, ctx.constraints, basis, terms)
 
 
 def _tangent_frames(normal: np.ndarray) -> np.ndarray:
@@ -187,12 +164,3 @@ def _tangent_frames(normal: np.ndarray) -> np.ndarray:
     t1 = np.cross(normal, helper)
     t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
     return np.ascontiguousarray(np.stack([t1, np.cross(normal, t1)], axis=1))
-
-
-def _block_basis(basis: np.ndarray):
-    import scipy.sparse as sp
-
-    m, nb, _ = basis.shape
-    rows = (np.arange(m)[:, None, None] * 3 + np.arange(3)[None, None, :]).repeat(nb, axis=1)
-    cols = (np.arange(m)[:, None, None] * nb + np.arange(nb)[None, :, None]).repeat(3, axis=2)
-    return sp.csr_matrix((basis.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * m, nb * m))
