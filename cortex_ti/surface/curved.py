@@ -26,7 +26,7 @@ from math import factorial
 import numpy as np
 
 from ..errors import MeshError
-from .mesh import per_connectivity
+from .mesh import per_connectivity, split_faces
 
 __all__ = [
     "GAUSS_POINTS",
@@ -130,62 +130,24 @@ def split_mesh(points: np.ndarray, faces: np.ndarray, geometry) -> tuple[np.ndar
     """The 1-to-4 split of a triangulation (its ``geometry`` from :func:`compute_geometry`) in the
     layout of :func:`p2_cells`: the nodes (the old ones first, then one per edge, placed on the fitted
     surface) and the triangles."""
-    f = np.asarray(faces)
-    n = len(points)
-    pairs = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    edges, inverse = np.unique(pairs, axis=0, return_inverse=True)
+    edges, split = split_faces(np.asarray(faces), len(points))
     straight = 0.5 * (points[edges[:, 0]] + points[edges[:, 1]])
-    xa, _, _ = _patch(geometry, edges[:, 0], straight)
-    xb, _, _ = _patch(geometry, edges[:, 1], straight)
-    m = n + inverse.reshape(3, len(f)).T  # midpoints of ab, bc, ca
-    a, b, c = f[:, 0], f[:, 1], f[:, 2]
-    ab, bc, ca = m[:, 0], m[:, 1], m[:, 2]
-    split = np.stack(
-        [np.stack([a, ab, ca], 1), np.stack([b, bc, ab], 1), np.stack([c, ca, bc], 1), np.stack([ab, bc, ca], 1)],
-        axis=1,
-    ).reshape(-1, 3)
-    return np.vstack([points, 0.5 * (xa + xb)]), split
+    on_patches = 0.5 * (_patch_point(geometry, edges[:, 0], straight) + _patch_point(geometry, edges[:, 1], straight))
+    return np.vstack([points, on_patches]), split
 
 
-def _patch(geometry, vertex: np.ndarray, points: np.ndarray):
-    """Vertex ``vertex[k]``'s fitted patch over the point ``points[k]`` (projected on its tangent
-    plane): the patch point (K, 3), its unit normal (K, 3) and curvature tensor (K, 3, 3)."""
+def _patch_point(geometry, vertex: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Vertex ``vertex[k]``'s fitted Monge patch over the point ``points[k]`` (projected on its
+    tangent plane): ``x_v + xi e_xi + eta e_eta + h(xi, eta) n`` (K, 3), ``h`` the whole fitted
+    polynomial."""
     frame = geometry.frame[vertex]
     exi, eeta, n0 = frame[:, 0], frame[:, 1], frame[:, 2]
     d = points - geometry.points[vertex]
     xi = np.einsum("kc,kc->k", d, exi)
     eta = np.einsum("kc,kc->k", d, eeta)
     coef = geometry.height_poly[vertex]
-    h = np.zeros(len(vertex))
-    hd = np.zeros((len(vertex), 2))
-    hdd = np.zeros((len(vertex), 2, 2))
-
-    def mono(a, b):
-        return (xi**a if a > 0 else 1.0) * (eta**b if b > 0 else 1.0)
-
-    for t, (a, b) in enumerate(geometry.fit_powers):
-        c = coef[:, t] / (factorial(a) * factorial(b))
-        h += c * mono(a, b)
-        if a >= 1:
-            hd[:, 0] += c * a * mono(a - 1, b)
-        if b >= 1:
-            hd[:, 1] += c * b * mono(a, b - 1)
-        if a >= 2:
-            hdd[:, 0, 0] += c * a * (a - 1) * mono(a - 2, b)
-        if b >= 2:
-            hdd[:, 1, 1] += c * b * (b - 1) * mono(a, b - 2)
-        if a >= 1 and b >= 1:
-            hdd[:, 0, 1] += c * a * b * mono(a - 1, b - 1)
-    hdd[:, 1, 0] = hdd[:, 0, 1]
-    x = geometry.points[vertex] + xi[:, None] * exi + eta[:, None] * eeta + h[:, None] * n0
-    e = np.stack([exi + hd[:, :1] * n0, eeta + hd[:, 1:] * n0], axis=1)  # (K, 2, 3)
-    w = 1.0 + (hd**2).sum(1)
-    normal = (n0 - hd[:, :1] * exi - hd[:, 1:] * eeta) / np.sqrt(w)[:, None]
-    g = np.einsum("kac,kbc->kab", e, e)
-    gi = np.linalg.inv(g)
-    cab = -hdd / np.sqrt(w)[:, None, None]
-    cup = np.einsum("kac,kcd,kdb->kab", gi, cab, gi)
-    return x, normal, np.einsum("kab,kac,kbd->kcd", cup, e, e)
+    h = sum(coef[:, t] * xi**a * eta**b / (factorial(a) * factorial(b)) for t, (a, b) in enumerate(geometry.fit_powers))
+    return geometry.points[vertex] + xi[:, None] * exi + eta[:, None] * eeta + h[:, None] * n0
 
 
 @dataclass
@@ -233,12 +195,6 @@ class CurvedSurface:
     def area(self) -> float:
         """The curved cells' area."""
         return float(self.weight.sum())
-
-    @property
-    def volume(self) -> float:
-        """The volume the curved cells enclose, ``1/3 int x . n dA`` (exact for the quadratic cells up
-        to the quadrature of their rational area element)."""
-        return float(np.einsum("tq,tqc,tqc->", self.weight, self.qpoint, self.cell_normal) / 3.0)
 
     def rigid_motion_rows(self, centroid_gauge: bool) -> np.ndarray:
         """Rows (6, M, 3) of the rigid-body gauge on the curved cells, integrated exactly (the

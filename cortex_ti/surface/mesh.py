@@ -159,16 +159,17 @@ def _icosahedron() -> tuple[np.ndarray, np.ndarray]:
     return pts, faces
 
 
-def _subdivide(pts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One midpoint subdivision on the unit sphere (each face -> 4 faces)."""
-    n = pts.shape[0]
+def split_faces(faces: np.ndarray, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
+    """The 1-to-4 split of a triangulation: its edges (E, 2), sorted (the new node ``n_nodes + e`` is
+    edge e's midpoint), and the new triangles, each old face ``(a, b, c)`` with its midpoints ``ab, bc,
+    ca`` becoming ``(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)`` in this order (the layout the
+    curved cells read back, :func:`cortex_ti.surface.curved.p2_cells`)."""
+    n = n_nodes
     a, b, c = faces[:, 0], faces[:, 1], faces[:, 2]
     lo = np.minimum(np.stack([a, b, c], axis=1), np.stack([b, c, a], axis=1))
     hi = np.maximum(np.stack([a, b, c], axis=1), np.stack([b, c, a], axis=1))
-    keys = (lo * n + hi).ravel()
+    keys = (lo.astype(np.int64) * n + hi).ravel()
     ukeys, inv = np.unique(keys, return_inverse=True)
-    mid = pts[ukeys // n] + pts[ukeys % n]
-    mid /= np.linalg.norm(mid, axis=1, keepdims=True)
     m = inv.reshape(-1, 3) + n  # midpoints of edges ab, bc, ca
     ab, bc, ca = m[:, 0], m[:, 1], m[:, 2]
     new_faces = np.stack(
@@ -180,6 +181,14 @@ def _subdivide(pts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarr
         ],
         axis=1,
     ).reshape(-1, 3)
+    return np.stack([ukeys // n, ukeys % n], axis=1), new_faces
+
+
+def _subdivide(pts: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One midpoint subdivision on the unit sphere (each face -> 4 faces)."""
+    edges, new_faces = split_faces(faces, pts.shape[0])
+    mid = pts[edges[:, 0]] + pts[edges[:, 1]]
+    mid /= np.linalg.norm(mid, axis=1, keepdims=True)
     return np.vstack([pts, mid]), new_faces
 
 
