@@ -31,10 +31,6 @@ _REF = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.
 _SUB = np.array([[0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]])
 
 
-def _shape_rows(ref: np.ndarray) -> np.ndarray:
-    return p2_shape(ref)[0]
-
-
 def _quadrature(points, cells):
     q, w = triangle_rule(4)
     n, dn = p2_shape(q)
@@ -69,7 +65,7 @@ def _section_points(points, faces, cells, axis, c):
         ra, rb = _REF[a[idx]], _REF[b[idx]]
         p0 = xc[idx, a[idx]]
         p1 = xc[idx, b[idx]]
-        ph = np.einsum("ki,kic->kc", _shape_rows(0.5 * (ra + rb)), xc[idx])
+        ph = np.einsum("ki,kic->kc", p2_shape(0.5 * (ra + rb))[0], xc[idx])
         # X(s) = p0 + s b1 + s^2 b2 on the curved cell, h(s) = (X(s) - c) . axis
         b1 = -3.0 * p0 + 4.0 * ph - p1
         b2 = 2.0 * p0 - 4.0 * ph + 2.0 * p1

@@ -68,7 +68,7 @@ def _cells(tr, triangles: np.ndarray) -> np.ndarray:
     (formulation ``rayleigh_p2``, read from the trajectory's scene), else the triangles themselves."""
     try:
         curved = tr.settings.numerics.formulation_entry.curved
-    except Exception:  # a trajectory without a readable scene: its triangles as they are
+    except (KeyError, CortexError):  # no stored scene, or one this version cannot read: the triangles
         curved = False
     if not curved:
         return np.asarray(triangles, dtype=np.int64)

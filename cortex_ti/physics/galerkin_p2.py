@@ -53,7 +53,7 @@ from ..surface.geometry import Geometry
 from .galerkin import block_pattern, energy_system
 from .model import Physics
 from .terms import P2Context, terms_for
-from .terms.base import check_inputs
+from .terms.base import check_inputs, velocity_basis
 
 __all__ = ["assemble_p2", "cell_blocks"]
 
@@ -132,7 +132,6 @@ def assemble_p2(
         implicit_dt=float(implicit_dt),
         implicit_rate=implicit_rate,
         surface=surf,
-        zeta_nodes=zeta,
         active_force=active_force,
     )
     terms = terms_for(ctx)
@@ -151,16 +150,6 @@ def assemble_p2(
         f = f + (ctx.balanced_tension[:, None] * tangential).ravel()
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
-    if physics.normal_balance:
-        basis = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()
-    else:  # v_n = 0: the tangent frames of the smooth normals at every node
-        basis = _tangent_frames(surf.normal)
-    return energy_system(kmat, f, ctx.constraints, basis, terms)
-
-
-def _tangent_frames(normal: np.ndarray) -> np.ndarray:
-    """Orthonormal tangent pairs (M, 2, 3) perpendicular to unit normals (M, 3)."""
-    helper = np.where(np.abs(normal[:, :1]) < 0.9, np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]))
-    t1 = np.cross(normal, helper)
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    return np.ascontiguousarray(np.stack([t1, np.cross(normal, t1)], axis=1))
+    # Cartesian unknowns, or the tangent frames of the fitted normals (the curved cells' nodes are the
+    # geometry's, and so are their normals) when v_n is held at 0
+    return energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)

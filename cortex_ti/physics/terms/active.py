@@ -60,9 +60,9 @@ class ActiveStress(Term):
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
         # the power int zeta tr u dA on the curved cells, zeta interpolated from all six nodes
-        ctx.add_tension(ctx.zeta_nodes)
+        ctx.add_tension(ctx.zeta)
         if ctx.active_force == "balanced":
-            ctx.balanced_tension = ctx.zeta_nodes
+            ctx.balanced_tension = ctx.zeta
 
 
 def tangential_area_force(points, faces, area, grads, zeta, normal) -> np.ndarray:

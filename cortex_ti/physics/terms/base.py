@@ -203,11 +203,10 @@ class P1Context(Context):
 @dataclass
 class P2Context(Context):
     """What the terms declare to the Rayleighian on curved cells (module docstring). ``surface`` is
-    the :class:`~cortex_ti.surface.curved.CurvedSurface` of the shape; ``zeta_nodes`` the tension at
-    its nodes (the mesh's)."""
+    the :class:`~cortex_ti.surface.curved.CurvedSurface` of the shape, whose nodes are the mesh's
+    (``zeta`` is the tension at every one of them)."""
 
     surface: object = None
-    zeta_nodes: np.ndarray = None
     shear: float = 0.0
     bulk: float = 0.0
     tension: np.ndarray | None = None  # (M,) whose power int zeta tr u dA is added

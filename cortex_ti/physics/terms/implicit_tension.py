@@ -86,7 +86,7 @@ class ImplicitTension(Term):
     def rayleigh_p2(self, ctx: P2Context) -> None:
         # dt zeta |grad (v_n - r_n)|^2 at the quadrature points, zeta clipped at 0
         surf = ctx.surface
-        zq = np.clip(surf.at_quadrature(ctx.zeta_nodes), 0.0, None)
+        zq = np.clip(surf.at_quadrature(ctx.zeta), 0.0, None)
         n = surf.qnormal
         proj = np.eye(3) - n[..., :, None] * n[..., None, :]
         centre = None if ctx.implicit_rate is None else np.asarray(ctx.implicit_rate)
