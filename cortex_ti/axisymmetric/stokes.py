@@ -114,7 +114,9 @@ def _basis(sp: Spectral, cls: str, u: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return (c, -s * m) if kind == "c" else (s, c * m)
 
 
-def with_fluids(A: np.ndarray, b: np.ndarray, sp: Spectral, g: dict, *, mu_in: float, mu_out: float, body_force=0.0):
+def with_fluids(
+    A: np.ndarray, b: np.ndarray, sp: Spectral, g: dict, *, mu_in: float, mu_out: float, body_force=0.0, far_field=None
+):
     """The axisymmetric force balance ``A x = b`` (:meth:`~cortex_ti.axisymmetric.balance.ForceBalance.assemble`,
     ``x = [v_s, v_n, P(, lam)]``) coupled to a cytoplasm (viscosity ``mu_in``) and a medium (``mu_out``).
 
@@ -122,9 +124,15 @@ def with_fluids(A: np.ndarray, b: np.ndarray, sp: Spectral, g: dict, *, mu_in: f
     traction jump ``sigma_out . n - sigma_in . n``, the cytoplasm's hydrostatic part ``body_force z``
     taken out) joins the cortex's balance, ``grad_a t^as + Δf . e_s = 0`` and
     ``C_ab t^ab = Δf . n + body_force z``, and the two reciprocal identities of :func:`layers`,
-    weighted by the viscosities and added, tie it to the velocity (a medium at rest far away):
+    weighted by the viscosities and added, tie it to the velocity:
 
-        (mu_in + mu_out) v + S Δf / (4 pi) - (mu_in - mu_out) D v / (4 pi) = 0.
+        (mu_in + mu_out) v + S Δf / (4 pi) - (mu_in - mu_out) D v / (4 pi) = 2 mu_out u_inf.
+
+    ``far_field``: ``None`` (the medium at rest far away) or the far-field flow ``u_inf`` at the
+    nodes, ``(u_r, u_z)`` stacked (an axisymmetric Stokes flow without swirl, regular inside the
+    cell: a uniform flow along the axis, an axisymmetric extension); its identity
+    ``u_inf = (S f_inf / mu_out + D u_inf) / 4 pi`` turns the medium's into
+    ``u = 2 u_inf - (S f_out / mu_out + D u) / 4 pi``.
 
     The pressure jump is now the fluids' (``P = 0``) and the medium fixes the translation
     (``lam = 0``); the enclosed volume is kept by the inner flow, to the quadrature's accuracy.
@@ -159,4 +167,6 @@ def with_fluids(A: np.ndarray, b: np.ndarray, sp: Spectral, g: dict, *, mu_in: f
     rows = slice(nx, nx + 2 * n)
     out[rows, : 2 * n] = M @ Q
     out[rows, nx:] = S / (4.0 * np.pi)
+    if far_field is not None:
+        rhs[rows] = 2.0 * mu_out * np.asarray(far_field, float)
     return out, rhs

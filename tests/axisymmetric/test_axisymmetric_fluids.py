@@ -19,13 +19,13 @@ def _legendre(l, u):
     return leg.legval(x, c), -np.sin(u) * leg.legval(x, leg.legder(c))
 
 
-def _solve(sp, r, z, zeta, mu, body_force=0.0, visc=(1.0, 1.0, 5e-4, 2.5e-3)):
+def _solve(sp, r, z, zeta, mu, body_force=0.0, visc=(1.0, 1.0, 5e-4, 2.5e-3), far_field=None):
     """``mu``: a viscosity for both fluids or ``(mu_in, mu_out)``."""
     mu_in, mu_out = (mu, mu) if np.isscalar(mu) else mu
     g = geometry(sp, r, z)
     g["zeta"] = zeta
     A, b = ForceBalance(sp, _check_visc(*visc, 1.0)).assemble(g)
-    A2, b2 = with_fluids(A, b, sp, g, mu_in=mu_in, mu_out=mu_out, body_force=body_force)
+    A2, b2 = with_fluids(A, b, sp, g, mu_in=mu_in, mu_out=mu_out, body_force=body_force, far_field=far_field)
     x = np.linalg.solve(A2, b2)
     return x[: sp.n], x[sp.n : 2 * sp.n], g
 
@@ -121,3 +121,26 @@ def test_single_layer_invariants_on_deformed_shapes(shape):
     v = -S @ np.concatenate([np.sin(u) * np.cos(u) ** 2, np.cos(u) ** 3 + 0.3]) / (8 * np.pi)
     flux = 2 * np.pi * sp.wR @ ((v[:n] * nr + v[n:] * nz) * g["r"] * g["h"])
     assert abs(flux) <= bound
+
+
+@pytest.mark.parametrize("mu", [1.0, (0.3, 2.0), (5.0, 0.5)])
+def test_far_field_extension_and_uniform_flow(mu):
+    """u_inf = E (-r/2 e_r + z e_z): q = n.E.n = E P_2, and the surface moves with (a q n + b R grad q) of
+    strain_response; a uniform flow along the axis carries the cell along unchanged (Faxén)."""
+    mu_in, mu_out = (mu, mu) if np.isscalar(mu) else mu
+    sp = Spectral(16, False)
+    r, z = np.sin(sp.u), np.cos(sp.u)
+    E = 0.7
+    vs, vn, _ = _solve(
+        sp, r, z, np.ones(16), mu, visc=(1.0, 1.0, 0.0, 0.0), far_field=np.concatenate([-E * r / 2, E * z])
+    )
+    a, b = fs.strain_response(mu_in=mu_in, mu_out=mu_out, eta_s=1.0, eta_b=1.0)
+    P, dP = _legendre(2, sp.u)
+    assert np.abs(vn - a * E * P).max() <= 1e-11
+    assert np.abs(vs - b * E * dP).max() <= 1e-11
+    U = 0.4
+    vs, vn, _ = _solve(
+        sp, r, z, np.ones(16), mu, visc=(1.0, 1.0, 0.0, 0.0), far_field=np.concatenate([0 * r, U + 0 * z])
+    )
+    assert np.abs(vn - U * np.cos(sp.u)).max() <= 1e-11
+    assert np.abs(vs + U * np.sin(sp.u)).max() <= 1e-11
