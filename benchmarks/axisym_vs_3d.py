@@ -23,7 +23,7 @@ Expected cost: a few seconds per file (the 3D runs are the expensive part).
 import argparse
 import sys
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 
 from cortex_ti.axisymmetric.compare import PROFILE_TIMES, compare
 
@@ -32,10 +32,10 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("trajectories", nargs="*")
     p.add_argument("--convergence", action="store_true", help="error ratios between the files (one scene, by N)")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # a tiny furrow past the first profile time
-        args.trajectories = [str(_smoke.tiny_run("furrow_p4_a1", t_end=0.12))]
+        args.trajectories = [str(_bench.tiny_run("furrow_p4_a1", t_end=0.12))]
     if not args.trajectories:
         p.error("give at least one trajectory")
     rows = [compare(path) for path in args.trajectories]

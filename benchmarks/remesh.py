@@ -31,7 +31,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 MOTIONS = {
@@ -201,12 +201,12 @@ def main(argv=None) -> int:
     ap.add_argument("--motions", nargs="+", choices=["normal", "ale"], default=["normal", "ale"])
     ap.add_argument("--sizings", nargs="+", choices=list(SIZINGS), default=["budget"], help="remesher variants")
     ap.add_argument("--keep", type=Path, default=None, help="write the trajectories here (default: a temporary folder)")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     if args.smoke:  # the code path only: too short to remesh
         args.nodes, args.amplitudes, args.t_end = [162], [6.0], 0.03
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
-    where = _smoke.folder() if args.smoke else args.keep or Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
+    where = _bench.folder() if args.smoke else args.keep or Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
     where.mkdir(parents=True, exist_ok=True)
     motions = [m for m in MOTIONS if m.split()[0] in args.motions]
     rows = [

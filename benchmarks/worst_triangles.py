@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 import xarray as xr
 
@@ -37,10 +37,10 @@ def main(argv=None) -> int:
     p.add_argument("trajectory", nargs="?")
     p.add_argument("--below", type=float, default=30.0)
     p.add_argument("--worst", type=int, default=4)
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
-        args.trajectory = str(_smoke.tiny_run("shear_075", t_end=0.02))
+        args.trajectory = str(_bench.tiny_run("shear_075", t_end=0.02))
     if not args.trajectory:
         p.error("give a trajectory")
     ds = xr.load_dataset(args.trajectory, engine="h5netcdf")

@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | movie | view | scenes | schema``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) and every operating-system or file error
 (a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
@@ -123,6 +123,21 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
     add_renderer_option(plot)
     add_commands(sub)  # movie, view (cortex_ti.viz.commands)
+
+    modes = sub.add_parser(
+        "modes",
+        help="the growing and the stiffest modes of a stored frame (eigenvalues of the linearised normal "
+        "dynamics on the frame's own mesh): where they live, whether they are mesh-scale, the BDF2 step limit",
+    )
+    modes.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
+    modes.add_argument(
+        "--time", type=float, nargs="+", default=None, help="the frames nearest these times (default: the last)"
+    )
+    modes.add_argument(
+        "--dt", type=float, nargs="+", default=None, help="the steps to linearise at (default: the frame's own)"
+    )
+    modes.add_argument("--growing", type=int, default=4, help="growing modes shown (largest real part; default 4)")
+    modes.add_argument("--stiffest", type=int, default=0, help="stiff modes shown (most negative real part)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser(
@@ -345,6 +360,13 @@ def _plot(args) -> int:
     return 0
 
 
+def _modes(args) -> int:
+    from .simulation.modes import frame_modes
+
+    print(frame_modes(args.trajectory, args.time, args.dt, args.growing, args.stiffest))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -395,6 +417,7 @@ def _main(argv: list[str] | None) -> int:
             "check": _check,
             "export": _export,
             "plot": _plot,
+            "modes": _modes,
             "scenes": _scenes,
             "schema": _schema,
         }
