@@ -7,6 +7,8 @@
 * section-wise reports (:func:`run_sections`);
 * a table block of a page rewritten in place (:func:`write_block`), the fixed SciPy workload that
   times are quoted against (:func:`reference_seconds`);
+* measurements several scripts take: the first solve of a scene against the exact sphere flow
+  (:func:`t0_error`), the axisymmetric twin of a ring furrow (:func:`twin`, :func:`at`);
 * what the ``--smoke`` modes share: the help text, a temporary folder, a tiny trajectory.
 
 A smoke mode runs a benchmark's own code path on a tiny case (162 nodes, a few steps) in seconds,
@@ -25,6 +27,8 @@ import tempfile
 import time
 from datetime import datetime, timezone
 from pathlib import Path
+
+import numpy as np
 
 HELP = (
     "smoke test: a tiny case (162 nodes, a few steps, files in a temporary folder) that checks the "
@@ -139,3 +143,92 @@ def tiny_run(
     where = where or folder()
     scene_ = load_scene(scene, [f"mesh.nodes={nodes}", f"time.t_end={t_end}", *overrides])
     return Simulation(scene_).run(where / f"{name or scene}.h5", progress=False)
+
+
+def t0_error(scene_name: str, nodes: int, fit: str, formulation: str, bending: bool, overrides=()) -> dict:
+    from cortex_ti.physics.patterns import evaluate_active_stress
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+    from cortex_ti.truth.analytic import error_measures
+    from cortex_ti.truth.sphere_exact import sphere_flow
+
+    ov = [
+        f"mesh.nodes={nodes}",
+        f"numerics.fit={fit}",
+        f"numerics.formulation={formulation}",
+        "solver.reuse=false",
+        *overrides,
+    ]
+    base = load_scene(scene_name, ov)
+    drop = ("shape_evolution",) if bending else ("bending_viscosity", "shape_evolution")
+    extra = [] if bending else ["viscosity.bending=0", "viscosity.bending_bulk=0"]
+    effects = "effects=[" + ",".join(sorted(e for e in base.effects if e not in drop)) + "]"
+    scene = load_scene(scene_name, ov + extra + [effects])
+    sim = Simulation(scene)
+    t0 = time.perf_counter()
+    sol = sim.solve()
+    wall = time.perf_counter() - t0
+    s = scene.settings
+    v = s.viscosity
+    pats = list(s.patterns)
+    x = sim.mesh.points
+    exact, p_exact, info = sphere_flow(
+        lambda p: evaluate_active_stress(p, pats),
+        x,
+        eta_s=v.shear,
+        eta_b=v.bulk,
+        eta_bar=v.bending if bending else 0.0,
+        eta_bar_b=v.bending_bulk if bending else 0.0,
+        lmax="auto",
+        tol=1e-6,
+    )
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    pole = int(np.argmax(x @ np.asarray(s.pattern_axis)))
+    return dict(
+        scene=scene_name,
+        nodes=nodes,
+        fit=fit,
+        formulation=formulation,
+        bending=bending,
+        eps_rel=error_measures(sol.velocity, exact)[1],
+        pole_vn=float(sol.velocity[pole] @ n[pole]),
+        pole_exact=float(exact[pole] @ n[pole]),
+        pressure=sol.pressure,
+        pressure_exact=float(p_exact),
+        truncation=float(info["truncation_error_rel"]),
+        seconds=wall,
+    )
+
+
+def twin(amplitude: float, t_end: float, where, scene: str) -> dict:
+    """The axisymmetric model of the same scene: its furrow radius over time, the time its material
+    stretch passes the limit (inf: never) and why it stopped."""
+    from cortex_ti.axisymmetric.evolve import first_unresolved
+    from cortex_ti.io.trajectory import load_trajectory
+    from cortex_ti.models import MODELS
+    from cortex_ti.scene import load_scene
+
+    sets = ["model=axisymmetric", "mesh.remesh.min_angle=null", f"active_stress.0.amplitude={amplitude}"]
+    scene_ = load_scene(scene, [*sets, f"time.t_end={t_end}", "time.save_every=0.05"])
+    runner = MODELS["axisymmetric"].build(scene_, "cpu", 1)
+    out = where / f"axisym_a{amplitude:g}.h5"
+    runner.run(out, progress=False, force=True)
+    ds = load_trajectory(out)
+    if "label_resolved" in ds:  # the run judged it by its own points' limit (adaptive: only a fold)
+        bad = np.flatnonzero(ds["label_resolved"].values < 0.5)
+        k = int(bad[0]) if bad.size else None
+    else:
+        k = first_unresolved(ds["material_stretch"].values)
+    return {
+        "times": ds["time"].values,
+        "furrow": ds["furrow_radius"].values,
+        "stopped": runner.summary()["stopped"],
+        "resolved_until": float("inf") if k is None else float(ds["time"].values[k]),
+    }
+
+
+def at(times, values, t):
+    """The value at the frame nearest ``t`` (NaN past the last frame)."""
+    if t > times[-1] + 1e-9:
+        return float("nan")
+    return float(values[int(np.argmin(np.abs(times - t)))])

@@ -96,7 +96,7 @@ def main(argv=None) -> int:
         args.times = [0.05, 0.1]
     if len(args.files) < 2:
         ap.error("give trajectories at two or more node counts")
-    from remesh import twin  # benchmarks/remesh.py: the axisymmetric twin of the same ring
+    from _bench import twin  # the axisymmetric twin of the same ring
 
     t_end = max(float(necks(f)[1][-1]) for f in args.files)
     where = _bench.folder()

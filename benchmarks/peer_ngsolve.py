@@ -295,7 +295,7 @@ OURS = {"rayleigh_p1": "quadratic", "rayleigh_p2": "quartic"}
 def ours(scene_name: str, nodes: int, repeat: int = 1, overrides=(), formulation: str = "rayleigh_p1") -> dict:
     """One of our formulations on the same problem (benchmarks/t0_accuracy.py: its first solve, geometry +
     assembly + solve, timed), the fastest of ``repeat``; every node of ours is a velocity node."""
-    from t0_accuracy import t0_error
+    from _bench import t0_error
 
     runs = [
         t0_error(scene_name, nodes, OURS[formulation], formulation, bending=False, overrides=overrides)

@@ -38,7 +38,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: its _bench
 import _bench  # noqa: E402  (benchmarks/_bench.py: the helpers every benchmark shares)
 import numpy as np
-from remesh import at, twin
+from _bench import at, twin
 
 AMPLITUDE, SIGMA, P = 6.0, 10.0, 4  # constriction_p4's ring
 
