@@ -18,7 +18,7 @@ Usage::
 
     python benchmarks/furrow_cost.py                            # 642 and 2562 nodes, t_end = 3
     python benchmarks/furrow_cost.py --nodes 10242 --scenes furrow_p4_a1
-    python benchmarks/furrow_cost.py --smoke                    # 642 nodes, t_end = 0.1 (~1 min)
+    python benchmarks/furrow_cost.py --smoke                    # furrow_p8_a1, 162 nodes, t_end = 0.02
     python benchmarks/furrow_cost.py --write docs/validation/speed.md
 
 ``--write`` replaces the block between ``<!-- furrow_cost:begin -->`` and
@@ -39,7 +39,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from _bench import header, reference_seconds, write_block  # benchmarks/_bench.py
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
+from _bench import header, reference_seconds, write_block
 
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
 
@@ -121,11 +122,13 @@ def main(argv=None) -> int:
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
     p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's, 3)")
-    p.add_argument("--smoke", action="store_true", help="642 nodes, t_end = 0.1: checks that it runs")
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose furrow_cost block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
     args = p.parse_args(argv)
-    nodes, t_end = ([642], 0.1) if args.smoke else (args.nodes, args.t_end)
+    nodes, t_end = ([162], 0.02) if args.smoke else (args.nodes, args.t_end)
+    if args.smoke:  # one run: the others take the same code path
+        args.scenes = args.scenes[:1]
     ref = reference_seconds()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
