@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | scenes | schema``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | twin | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) and every operating-system or file error
 (a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
@@ -138,6 +138,16 @@ def _parser() -> argparse.ArgumentParser:
     )
     modes.add_argument("--growing", type=int, default=4, help="growing modes shown (largest real part; default 4)")
     modes.add_argument("--stiffest", type=int, default=0, help="stiff modes shown (most negative real part)")
+
+    twin = sub.add_parser(
+        "twin",
+        help="3D runs against the axisymmetric solution of their own scene (solved here at the files' frame "
+        "times): radii over the frames and velocity profiles",
+    )
+    twin.add_argument("trajectories", type=Path, nargs="+", help="3D trajectory files of axisymmetric scenes")
+    twin.add_argument(
+        "--convergence", action="store_true", help="error ratios between the files (one scene at several N)"
+    )
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser(
@@ -367,6 +377,13 @@ def _modes(args) -> int:
     return 0
 
 
+def _twin(args) -> int:
+    from .axisymmetric.compare import twin_report
+
+    print(twin_report(args.trajectories, args.convergence))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -418,6 +435,7 @@ def _main(argv: list[str] | None) -> int:
             "export": _export,
             "plot": _plot,
             "modes": _modes,
+            "twin": _twin,
             "scenes": _scenes,
             "schema": _schema,
         }
