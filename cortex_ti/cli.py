@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | twin | scenes | schema``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | twin | angles | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) and every operating-system or file error
 (a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
@@ -148,6 +148,13 @@ def _parser() -> argparse.ArgumentParser:
     twin.add_argument(
         "--convergence", action="store_true", help="error ratios between the files (one scene at several N)"
     )
+
+    angles = sub.add_parser(
+        "angles", help="where and when a stored run's smallest triangle angle falls: per frame, and the worst triangles"
+    )
+    angles.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
+    angles.add_argument("--below", type=float, default=30.0, help="count the triangles below this angle (deg, 30)")
+    angles.add_argument("--worst", type=int, default=4, help="the worst triangles listed (default 4)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser(
@@ -384,6 +391,13 @@ def _twin(args) -> int:
     return 0
 
 
+def _angles(args) -> int:
+    from .io.angles import angle_report
+
+    print(angle_report(args.trajectory, args.below, args.worst))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -436,6 +450,7 @@ def _main(argv: list[str] | None) -> int:
             "plot": _plot,
             "modes": _modes,
             "twin": _twin,
+            "angles": _angles,
             "scenes": _scenes,
             "schema": _schema,
         }
