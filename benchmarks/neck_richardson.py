@@ -92,8 +92,8 @@ def main(argv=None) -> int:
     if args.smoke:
         where = _bench.folder()
         sets = ["mesh.remesh.min_angle=null", "time.save_every=0.05"]
-        args.files = [_bench.tiny_run(args.scene, 0.1, n, where, sets, name=f"n{n}") for n in (162, 642)]
-        args.times = [0.05, 0.1]
+        args.files = [_bench.tiny_run(args.scene, 0.05, n, where, sets, name=f"n{n}") for n in (162, 642)]
+        args.times = [0.05]
     if len(args.files) < 2:
         ap.error("give trajectories at two or more node counts")
     from _bench import twin  # the axisymmetric twin of the same ring
