@@ -27,14 +27,13 @@ import argparse
 import csv
 import json
 import os
-import platform
 import resource
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 
 SCENES = ("sphere_y20_full", "sphere_y20_tangential", "sphere_y21_full", "sphere_y21_tangential")
 
@@ -86,26 +85,6 @@ def one(nodes: int, method: str, backend: str) -> list[dict]:
     return out
 
 
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    import numpy
-    import scipy
-    import taichi
-
-    return (
-        f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, NumPy {numpy.__version__}, "
-        f"SciPy {scipy.__version__}, Taichi {taichi.__version__}"
-    )
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562, 10242])
@@ -118,13 +97,13 @@ def main(argv=None) -> int:
     p.add_argument("--backend", default="auto")
     p.add_argument("--out", type=Path, default=Path("results/benchmarks/static.csv"))
     p.add_argument("--one", nargs=2, metavar=("NODES", "METHOD"), help=argparse.SUPPRESS)
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.methods, args.out = (
             [162],
             ["paper:quartic", "rayleigh_p1:quadratic"],
-            _smoke.folder() / "static.csv",
+            _bench.folder() / "static.csv",
         )
     if args.one:
         print(json.dumps(one(int(args.one[0]), args.one[1], args.backend)))
@@ -150,7 +129,7 @@ def main(argv=None) -> int:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"Machine: {machine()}; backend {rows[0]['backend']}\n")
+    print(_bench.header(note=f"backend {rows[0]['backend']}"))
     print("| formulation:fit | N | scene | eps | eps_rel | geometry s | assembly s | solve s (cold / warm) | peak MB |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:

@@ -21,7 +21,7 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _sections import run_sections  # noqa: E402  (a sibling script)
+from _bench import run_sections  # noqa: E402  (benchmarks/_bench.py)
 
 from cortex_ti.axisymmetric.evolve import simulate  # noqa: E402
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities  # noqa: E402
@@ -207,7 +207,7 @@ def main():
     ap.add_argument("sections", nargs="*", choices=[*SECTIONS, []], default=[])
     args = ap.parse_args()
     SMOKE = args.smoke
-    run_sections("axisym_deep_furrow.py", SECTIONS, args.sections, SMOKE)
+    run_sections(SECTIONS, args.sections)
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ import argparse
 import sys
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -117,7 +117,7 @@ def growth(ns) -> None:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     n = 8 if args.smoke else 24
     print("## Total myosin without turnover\n")

@@ -34,15 +34,11 @@ import resource
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
+import _bench  # benchmarks/_bench.py
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _smoke  # noqa: E402  (a sibling script)
-from accuracy_cost import machine  # noqa: E402
-from furrow_cost import commit, write_block  # noqa: E402
+from _bench import header, write_block
 
 SCENE = "furrow_p4_a1"
 
@@ -86,8 +82,7 @@ def run_one(nodes: int, tol: float, t_end: float | None, workdir: Path) -> dict:
 def table(rows: list[dict], t_end: float | None, command: str) -> str:
     load = os.getloadavg()
     head = (
-        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
-        f"{SCENE} to t_end = {t_end if t_end is not None else 'the scene (3)'}, one thread; "
+        f"{header()}\n{SCENE} to t_end = {t_end if t_end is not None else 'the scene (3)'}, one thread; "
         f"load average at the end {load[0]:.1f} (`{command}`).\n\n"
     )
     lines = [
@@ -110,7 +105,7 @@ def main(argv=None) -> int:
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562, 10242])
     p.add_argument("--factors", type=float, nargs="+", default=[1 / 16, 1 / 4, 1.0, 4.0])
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's, 3)")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose default_tol block gets the table")
     args = p.parse_args(argv)
     if args.smoke:

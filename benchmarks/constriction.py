@@ -38,7 +38,7 @@ for _k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
 import argparse  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _sections import run_sections  # noqa: E402  (a sibling script)
+from _bench import run_sections  # noqa: E402  (benchmarks/_bench.py)
 
 from cortex_ti.axisymmetric.evolve import STRETCH_LIMIT as STRETCH_MAX  # noqa: E402
 from cortex_ti.axisymmetric.evolve import StepFailed, first_unresolved, simulate  # noqa: E402
@@ -267,7 +267,7 @@ def main():
     args = ap.parse_args()
     SMOKE = args.smoke
     P_VALUES = tuple(args.p)
-    run_sections("constriction.py", SECTIONS, args.sections, SMOKE)
+    run_sections(SECTIONS, args.sections)
 
 
 if __name__ == "__main__":

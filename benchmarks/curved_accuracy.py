@@ -39,7 +39,7 @@ import argparse
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 METHODS = {"rayleigh_p1": "quadratic", "rayleigh_p2": "quartic"}
@@ -181,12 +181,12 @@ def main(argv=None) -> int:
         help="the twin's bending viscosity: paper Eq. 45 or the 3D formulations' dissipation form",
     )
     p.add_argument("--threads", type=int, default=1)
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     from cortex_ti import runtime
 
     runtime.init(threads=args.threads)
-    folder = _smoke.folder()
+    folder = _bench.folder()
     if args.smoke:
         args.nodes, args.times, args.t_end = [42, 162], [0.05], 0.02
     if "spheres" in args.parts:

@@ -33,9 +33,7 @@ under way; the table then names the commit given as ``CORTEX_TI_COMMIT``.
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import os
-import platform
 import random
 import resource
 import shutil
@@ -46,6 +44,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 SIGNALS = (signal.SIGKILL, signal.SIGTERM, signal.SIGINT)
@@ -326,15 +325,10 @@ def main(argv=None) -> int:
             )
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    commit = subprocess.run(
-        ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=Path(__file__).parent
-    ).stdout.strip() or os.environ.get("CORTEX_TI_COMMIT", "unknown")
     header = (
-        f"{args.scene}, {args.nodes} nodes, t_end = {args.t_end}, `--threads 1`; reference run "
-        f"{ref_wall:.1f} s, {size} bytes; full disk by {'tmpfs' if mount else 'RLIMIT_FSIZE'}; "
-        f"{_dt.date.today().isoformat()}, commit {commit}, {platform.node()} "
-        f"({platform.processor() or platform.machine()}, "
-        f"{os.cpu_count()} cores), seed {args.seed}, atol {args.atol:g}"
+        f"{_bench.header()}\n{args.scene}, {args.nodes} nodes, t_end = {args.t_end}, `--threads 1`; "
+        f"reference run {ref_wall:.1f} s, {size} bytes; full disk by {'tmpfs' if mount else 'RLIMIT_FSIZE'}; "
+        f"seed {args.seed}, atol {args.atol:g}"
     )
     lines = table(rows, ["SIGKILL", "SIGTERM", "SIGINT", "tmpfs", "RLIMIT_FSIZE"], header)
     text = "\n".join(lines) + "\n"

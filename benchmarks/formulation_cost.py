@@ -14,7 +14,7 @@ import argparse
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 
@@ -27,7 +27,7 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=15)
     p.add_argument("--dt", type=float, default=1e-3, help="step of the semi-implicit tension (0: explicit)")
     p.add_argument("--threads", type=int, default=1)
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.repeat = [162], 2
@@ -36,11 +36,9 @@ def main(argv=None) -> int:
     from cortex_ti.simulation import Simulation
 
     runtime.init(threads=args.threads)
-    import platform
-
     print(
-        f"{platform.node()}, {platform.processor() or platform.machine()}, {args.threads} thread(s); "
-        f"median of {args.repeat} warm solves for a step dt = {args.dt:g}\n"
+        f"{_bench.header(note=f'{args.threads} thread(s)')}\n"
+        f"Median of {args.repeat} warm solves for a step dt = {args.dt:g}\n"
     )
     print("| N | fit | formulation | geometry ms | assembly ms | solve ms | total ms | CPU ms | ratio |")
     print("|---|---|---|---|---|---|---|---|---|")

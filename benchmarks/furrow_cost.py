@@ -18,7 +18,7 @@ Usage::
 
     python benchmarks/furrow_cost.py                            # 642 and 2562 nodes, t_end = 3
     python benchmarks/furrow_cost.py --nodes 10242 --scenes furrow_p4_a1
-    python benchmarks/furrow_cost.py --smoke                    # 642 nodes, t_end = 0.1 (~1 min)
+    python benchmarks/furrow_cost.py --smoke                    # furrow_p8_a1, 162 nodes, t_end = 0.02
     python benchmarks/furrow_cost.py --write docs/validation/speed.md
 
 ``--write`` replaces the block between ``<!-- furrow_cost:begin -->`` and
@@ -39,29 +39,10 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from accuracy_cost import machine  # noqa: E402  (a sibling script)
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
+from _bench import header, reference_seconds, write_block
 
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
-
-
-def reference_seconds(repeats: int = 5) -> float:
-    """Best of ``repeats`` wall times of a fixed SciPy workload: SuperLU factorisation and solve
-    of the 5-point Laplacian on a 160 x 160 grid (~0.1 s on an idle 2-core machine)."""
-    import numpy as np
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
-
-    n = 160
-    lap = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(n, n))
-    a = (sp.kron(lap, sp.eye(n)) + sp.kron(sp.eye(n), lap)).tocsc()
-    b = np.ones(n * n)
-    best = float("inf")
-    for _ in range(repeats):
-        t = time.perf_counter()
-        spla.splu(a).solve(b)
-        best = min(best, time.perf_counter() - t)
-    return best
 
 
 def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
@@ -112,23 +93,10 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     )
 
 
-def commit() -> str:
-    try:
-        here = Path(__file__).resolve().parent
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=here, capture_output=True, text=True)
-        dirty = subprocess.run(
-            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=here, capture_output=True, text=True
-        ).stdout.strip()
-        return rev.stdout.strip() + ("+changes" if dirty else "")
-    except OSError:
-        return "unknown"
-
-
 def table(rows: list[dict], ref: float, t_end: float | None) -> str:
     load = os.getloadavg()
     head = (
-        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
-        f"one thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
+        f"{header()}\nOne thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
         f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
         f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
         f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n"
@@ -149,29 +117,18 @@ def table(rows: list[dict], ref: float, t_end: float | None) -> str:
     return head + "\n".join(lines) + "\n"
 
 
-def write_block(page: Path, text: str, name: str = "furrow_cost") -> None:
-    """Replace the block between ``<!-- name:begin -->`` and ``<!-- name:end -->`` of ``page`` with ``text``."""
-    begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
-    body = page.read_text() if page.exists() else f"{begin}\n{end}\n"
-    if begin not in body or end not in body:
-        body += f"\n{begin}\n{end}\n"
-    pre, rest = body.split(begin, 1)
-    _, post = rest.split(end, 1)
-    tmp = page.with_suffix(".tmp")
-    tmp.write_text(f"{pre}{begin}\n{text}{end}{post}")
-    os.replace(tmp, page)
-
-
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
     p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's, 3)")
-    p.add_argument("--smoke", action="store_true", help="642 nodes, t_end = 0.1: checks that it runs")
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose furrow_cost block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
     args = p.parse_args(argv)
-    nodes, t_end = ([642], 0.1) if args.smoke else (args.nodes, args.t_end)
+    nodes, t_end = ([162], 0.02) if args.smoke else (args.nodes, args.t_end)
+    if args.smoke:  # one run: the others take the same code path
+        args.scenes = args.scenes[:1]
     ref = reference_seconds()
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -184,7 +141,7 @@ def main(argv=None) -> int:
     text = table(rows, ref, t_end)
     print(text)
     if args.write:
-        write_block(args.write, text)
+        write_block(args.write, text, "furrow_cost")
     return 0
 
 

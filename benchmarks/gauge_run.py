@@ -29,7 +29,7 @@ import copy
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 Y10 = {"type": "harmonics", "terms": [{"l": 1, "m": 0, "coeff": 0.3}]}
@@ -91,11 +91,11 @@ def main(argv=None) -> int:
     p.add_argument("--force", default="gradient", help="numerics.active_force")
     p.add_argument("--shift", type=float, nargs=3, default=None, help="compare with the start moved by this vector")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.t_end, args.frames = 162, 0.004, 2
-    where = _smoke.folder()
+    where = _bench.folder()
     data = scene_data(args.nodes, args.t_end, args.frames, args.force, args.sets)
     if args.shift is None:
         cases = [("mean_velocity", "mean_velocity", None), ("centroid", "centroid", None)]

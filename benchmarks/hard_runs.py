@@ -29,7 +29,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 SCENES = (
@@ -158,11 +158,11 @@ def main(argv=None) -> int:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--jobs", type=int, default=1, help="runs side by side (one thread each)")
     p.add_argument("--table-only", action="store_true")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # one scene, the coarse mesh, one step, a few steps of it
         args.out, args.scenes, args.nodes, args.dts, args.bending = (
-            _smoke.folder(),
+            _bench.folder(),
             ["furrow_p4_a1"],
             [162],
             [5e-3],

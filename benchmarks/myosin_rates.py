@@ -36,7 +36,7 @@ import argparse
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 D, K, ZETA0 = 0.05, 0.2, 1.0
@@ -158,7 +158,7 @@ def main(argv=None) -> int:
     ap.add_argument("--check", action="store_true", help="check the affine gamma law with derivatives at 0.5")
     ap.add_argument("--full", action="store_true", help="also the whole dense Jacobian's eigenvalues (<= 642 nodes)")
     ap.add_argument("--split", action="store_true", help="where the error sits: the dilution of the flow (exact flow)")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     if args.smoke:
         args.nodes, args.gammas, args.degrees, args.check, args.full, args.split = [162], [1.0], [2], False, False, True

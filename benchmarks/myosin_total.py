@@ -25,7 +25,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 
@@ -78,11 +78,11 @@ def main(argv=None) -> int:
     ap.add_argument("--motions", nargs="+", default=list(MESH_MOTIONS), choices=list(MESH_MOTIONS))
     ap.add_argument("--tols", nargs="+", default=["default"], help="time.tol of the runs")
     ap.add_argument("--dt-max", type=float, default=None, help="time.dt_max of the runs (default: the scene's)")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     if args.smoke:
         args.nodes, args.t_end, args.t_end_free, args.tols = [162], 0.3, 0.3, ["default"]
-    where = _smoke.folder()
+    where = _bench.folder()
 
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation.core import Simulation

@@ -29,7 +29,7 @@ import argparse
 import logging
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 TIMES = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)
@@ -86,20 +86,20 @@ def main(argv=None) -> int:
     ap.add_argument("--amplitude", type=float, default=6.0, help="the ring's amplitude (the twin's)")
     ap.add_argument("--scene", default="constriction_p4")
     ap.add_argument("--times", type=float, nargs="+", default=list(TIMES))
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
     if args.smoke:
-        where = _smoke.folder()
+        where = _bench.folder()
         sets = ["mesh.remesh.min_angle=null", "time.save_every=0.05"]
-        args.files = [_smoke.tiny_run(args.scene, 0.1, n, where, sets, name=f"n{n}") for n in (162, 642)]
-        args.times = [0.05, 0.1]
+        args.files = [_bench.tiny_run(args.scene, 0.05, n, where, sets, name=f"n{n}") for n in (162, 642)]
+        args.times = [0.05]
     if len(args.files) < 2:
         ap.error("give trajectories at two or more node counts")
-    from remesh import twin  # benchmarks/remesh.py: the axisymmetric twin of the same ring
+    from _bench import twin  # the axisymmetric twin of the same ring
 
     t_end = max(float(necks(f)[1][-1]) for f in args.files)
-    where = _smoke.folder()
+    where = _bench.folder()
     tw = twin(args.amplitude, t_end, where, args.scene)
     tw["neck"] = tw["furrow"]  # the symmetric ring's neck is its equator's radius
     runs = [necks(f) for f in args.files]

@@ -51,7 +51,7 @@ import os
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -295,7 +295,7 @@ OURS = {"rayleigh_p1": "quadratic", "rayleigh_p2": "quartic"}
 def ours(scene_name: str, nodes: int, repeat: int = 1, overrides=(), formulation: str = "rayleigh_p1") -> dict:
     """One of our formulations on the same problem (benchmarks/t0_accuracy.py: its first solve, geometry +
     assembly + solve, timed), the fastest of ``repeat``; every node of ours is a velocity node."""
-    from t0_accuracy import t0_error
+    from _bench import t0_error
 
     runs = [
         t0_error(scene_name, nodes, OURS[formulation], formulation, bending=False, overrides=overrides)
@@ -360,7 +360,7 @@ def main(argv=None) -> int:
         help="scene overrides (e.g. another active_stress), for both methods",
     )
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     ng = _ngsolve()
     if ng is None:

@@ -18,7 +18,7 @@ import argparse
 import sys
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 from cortex_ti.plotting import save_figure
@@ -35,12 +35,12 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", type=Path, default=None, help="folder of the runs (required)")
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # one fold and one shear scene, tiny, to t = 0.1
-        args.runs = args.out = _smoke.folder()
+        args.runs = args.out = _bench.folder()
         for name in ("fold_narrow", "shear_035"):
-            _smoke.tiny_run(name, t_end=0.1, where=args.runs)
+            _bench.tiny_run(name, t_end=0.1, where=args.runs)
     if args.runs is None:
         p.error("--runs is required")
     args.out.mkdir(parents=True, exist_ok=True)

@@ -31,8 +31,9 @@ import tempfile
 import time
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
+from _bench import at, twin
 
 MOTIONS = {
     "normal (glued)": [],
@@ -133,33 +134,6 @@ def one(
     }
 
 
-def twin(amplitude: float, t_end: float, where, scene: str) -> dict:
-    """The axisymmetric model of the same scene: its furrow radius over time, the time its material
-    stretch passes the limit (inf: never) and why it stopped."""
-    from cortex_ti.axisymmetric.evolve import first_unresolved
-    from cortex_ti.io.trajectory import load_trajectory
-    from cortex_ti.models import MODELS
-    from cortex_ti.scene import load_scene
-
-    sets = ["model=axisymmetric", "mesh.remesh.min_angle=null", f"active_stress.0.amplitude={amplitude}"]
-    scene_ = load_scene(scene, [*sets, f"time.t_end={t_end}", "time.save_every=0.05"])
-    runner = MODELS["axisymmetric"].build(scene_, "cpu", 1)
-    out = where / f"axisym_a{amplitude:g}.h5"
-    runner.run(out, progress=False, force=True)
-    ds = load_trajectory(out)
-    if "label_resolved" in ds:  # the run judged it by its own points' limit (adaptive: only a fold)
-        bad = np.flatnonzero(ds["label_resolved"].values < 0.5)
-        k = int(bad[0]) if bad.size else None
-    else:
-        k = first_unresolved(ds["material_stretch"].values)
-    return {
-        "times": ds["time"].values,
-        "furrow": ds["furrow_radius"].values,
-        "stopped": runner.summary()["stopped"],
-        "resolved_until": float("inf") if k is None else float(ds["time"].values[k]),
-    }
-
-
 def deviation(r: dict, tw: dict, until: float = np.inf) -> tuple[float, float, float]:
     """The largest |3D - twin| neck radius over the run's frames while the twin runs and is
     resolved (and up to ``until``), the time it is at, and the time up to which that is."""
@@ -184,13 +158,6 @@ def order(coarse: float, fine: float, log_h_ratio: float) -> str:
     return "-"
 
 
-def at(times, values, t):
-    """The value at the frame nearest ``t`` (NaN past the last frame)."""
-    if t > times[-1] + 1e-9:
-        return float("nan")
-    return float(values[int(np.argmin(np.abs(times - t)))])
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nodes", type=int, nargs="+", default=[642, 2562])
@@ -201,12 +168,12 @@ def main(argv=None) -> int:
     ap.add_argument("--motions", nargs="+", choices=["normal", "ale"], default=["normal", "ale"])
     ap.add_argument("--sizings", nargs="+", choices=list(SIZINGS), default=["budget"], help="remesher variants")
     ap.add_argument("--keep", type=Path, default=None, help="write the trajectories here (default: a temporary folder)")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     if args.smoke:  # the code path only: too short to remesh
         args.nodes, args.amplitudes, args.t_end = [162], [6.0], 0.03
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
-    where = _smoke.folder() if args.smoke else args.keep or Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
+    where = _bench.folder() if args.smoke else args.keep or Path(tempfile.mkdtemp(prefix="cortex-ti-remesh-"))
     where.mkdir(parents=True, exist_ok=True)
     motions = [m for m in MOTIONS if m.split()[0] in args.motions]
     rows = [

@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -120,12 +120,12 @@ def main(argv=None) -> int:
     ap.add_argument("--nodes", type=int, default=2562)
     ap.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     ap.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     sets = [f"mesh.nodes={args.nodes}"]
     if args.smoke:
         args.nodes, sets = 162, ["mesh.nodes=162", "time.t_end=0.3"]
-    where = _smoke.folder() if args.smoke or args.keep is None else args.keep
+    where = _bench.folder() if args.smoke or args.keep is None else args.keep
     where.mkdir(parents=True, exist_ok=True)
     from cortex_ti.studies import self_organisation as so
 

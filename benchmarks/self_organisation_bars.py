@@ -28,7 +28,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 RING_TIMES = (0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 36.0)
@@ -294,8 +294,8 @@ def _smoke_store(where: Path):
         {"scene": "myosin_ring", "model": "axisymmetric", "degree": 2, "nodes": 162, "tol": 1e-6, **base},
     ]
     paths = [
-        _smoke.tiny_run("myosin_decay", 0.4, where=where, overrides=["time.tol=1e-6", "time.save_every=0.1"]),
-        _smoke.tiny_run("myosin_ring", 0.4, where=where, overrides=["time.save_every=0.1"]),
+        _bench.tiny_run("myosin_decay", 0.4, where=where, overrides=["time.tol=1e-6", "time.save_every=0.1"]),
+        _bench.tiny_run("myosin_ring", 0.4, where=where, overrides=["time.save_every=0.1"]),
     ]
     import cortex_ti
 
@@ -315,14 +315,14 @@ def main(argv=None) -> int:
         "--compare", nargs="*", default=[], metavar="LABEL=PATH", help="further ring runs to set against the twin"
     )
     ap.add_argument("--ring-times", type=float, nargs="+", default=None, help="the times of the ring's tables")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     global RING_TIMES
     if args.ring_times:
         RING_TIMES = tuple(args.ring_times)
     where = None
     if args.smoke:
-        where = _smoke.folder()
+        where = _bench.folder()
         args.store, args.ring_trajectories = _smoke_store(where)
         args.compare = [f"again={args.ring_trajectories[0]}"]
         RING_TIMES = (0.0, 0.2, 0.4)

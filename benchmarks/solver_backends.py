@@ -32,6 +32,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ["CORTEX_TI_THREADS"] = "1"
 
+import _bench  # noqa: E402  (benchmarks/_bench.py)
 import numpy as np  # noqa: E402
 
 
@@ -172,15 +173,7 @@ def main(argv=None) -> int:
     from cortex_ti import runtime
 
     runtime.init(threads=1)
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    from accuracy_cost import machine
-    from furrow_cost import commit
-
-    print(
-        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}, "
-        f"one thread; load average {os.getloadavg()[0]:.1f} (`python benchmarks/solver_backends.py"
-        f"{' --smoke' if args.smoke else ''}`).\n"
-    )
+    print(_bench.header(note=f"one thread; load average {os.getloadavg()[0]:.1f}"))
     print("\n".join(backends(args.nodes, args.repeats)))
     print()
     print("\n".join(policies(args.nodes, args.steps)))

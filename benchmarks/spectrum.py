@@ -29,7 +29,7 @@ import json
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 NO_BENDING = ["viscosity.bending=0", "viscosity.bending_bulk=0"]
@@ -88,7 +88,7 @@ def main(argv=None) -> int:
     p.add_argument("--k", type=int, default=12, help="eigenvalues ARPACK computes above 3000 nodes")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="append one JSON record per case to this file")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # the uniformly tense 162-node sphere of the furrow scene
         args.scene, args.uniform, args.nodes, args.trajectory = args.scene or "furrow_p4_a1", True, [162], None

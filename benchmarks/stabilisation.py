@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 from cortex_ti import runtime
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--dt", type=float, default=1e-3, help="step of the semi-implicit solve timed")
     p.add_argument("--threads", type=int, default=None)
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
         args.nodes, args.fits, args.repeat = [162], ["quadratic"], 1

@@ -21,65 +21,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
-import numpy as np
-
-
-def t0_error(scene_name: str, nodes: int, fit: str, formulation: str, bending: bool, overrides=()) -> dict:
-    from cortex_ti.physics.patterns import evaluate_active_stress
-    from cortex_ti.scene import load_scene
-    from cortex_ti.simulation import Simulation
-    from cortex_ti.truth.analytic import error_measures
-    from cortex_ti.truth.sphere_exact import sphere_flow
-
-    ov = [
-        f"mesh.nodes={nodes}",
-        f"numerics.fit={fit}",
-        f"numerics.formulation={formulation}",
-        "solver.reuse=false",
-        *overrides,
-    ]
-    base = load_scene(scene_name, ov)
-    drop = ("shape_evolution",) if bending else ("bending_viscosity", "shape_evolution")
-    extra = [] if bending else ["viscosity.bending=0", "viscosity.bending_bulk=0"]
-    effects = "effects=[" + ",".join(sorted(e for e in base.effects if e not in drop)) + "]"
-    scene = load_scene(scene_name, ov + extra + [effects])
-    sim = Simulation(scene)
-    t0 = time.perf_counter()
-    sol = sim.solve()
-    wall = time.perf_counter() - t0
-    s = scene.settings
-    v = s.viscosity
-    pats = list(s.patterns)
-    x = sim.mesh.points
-    exact, p_exact, info = sphere_flow(
-        lambda p: evaluate_active_stress(p, pats),
-        x,
-        eta_s=v.shear,
-        eta_b=v.bulk,
-        eta_bar=v.bending if bending else 0.0,
-        eta_bar_b=v.bending_bulk if bending else 0.0,
-        lmax="auto",
-        tol=1e-6,
-    )
-    n = x / np.linalg.norm(x, axis=1)[:, None]
-    pole = int(np.argmax(x @ np.asarray(s.pattern_axis)))
-    return dict(
-        scene=scene_name,
-        nodes=nodes,
-        fit=fit,
-        formulation=formulation,
-        bending=bending,
-        eps_rel=error_measures(sol.velocity, exact)[1],
-        pole_vn=float(sol.velocity[pole] @ n[pole]),
-        pole_exact=float(exact[pole] @ n[pole]),
-        pressure=sol.pressure,
-        pressure_exact=float(p_exact),
-        truncation=float(info["truncation_error_rel"]),
-        seconds=wall,
-    )
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
+from _bench import t0_error
 
 
 def main(argv=None) -> int:
@@ -92,7 +36,7 @@ def main(argv=None) -> int:
     p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--json", default=None, help="append one JSON record per solve to this file")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:
         args.scenes, args.nodes = ["furrow_p8_a1"], [162]

@@ -46,12 +46,9 @@ import tempfile
 import time
 from pathlib import Path
 
+import _bench  # benchmarks/_bench.py
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _smoke  # noqa: E402  (a sibling script)
-from accuracy_cost import machine  # noqa: E402
-from furrow_cost import commit, reference_seconds, write_block  # noqa: E402
+from _bench import header, reference_seconds, write_block
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = (
@@ -151,8 +148,7 @@ def end_differences(rows: list[dict]) -> None:
 def table(rows: list[dict], ref: float, t_end: float | None, command: str) -> str:
     load = os.getloadavg()
     head = (
-        f"Measured {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, commit {commit()}, {machine()}; "
-        f"one thread; t_end = {t_end if t_end is not None else 'the scene'}; reference SciPy workload "
+        f"{header()}\nOne thread; t_end = {t_end if t_end is not None else 'the scene'}; reference SciPy workload "
         f"{ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} (`{command}`).\n\n"
     )
     lines = [
@@ -176,7 +172,7 @@ def main(argv=None) -> int:
     p.add_argument("--scenes", nargs="+", default=list(SCENES), choices=SCENES)
     p.add_argument("--configs", nargs="+", default=["euler", "euler_half", "bdf2"], choices=list(CONFIGS))
     p.add_argument("--t-end", type=float, default=None, help="end time (default: the scene's)")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose time_schemes block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
     p.add_argument("--block", default="time_schemes", help="name of the page's block to replace (default time_schemes)")

@@ -14,12 +14,10 @@ a machine that may be shared: compare the columns of one table, not tables of tw
 from __future__ import annotations
 
 import argparse
-import datetime
-import platform
-import subprocess
 import tempfile
 from pathlib import Path
 
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 import xarray as xr
 
@@ -38,19 +36,6 @@ VARIANTS = {
     "myosin field, normal motion": ["tension_transport=material", MYOSIN],
     "myosin field, ale": ["tension_transport=material", "mesh.motion=ale", MYOSIN],
 }
-
-
-def _commit() -> str:
-    try:
-        return subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).parent,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int = 1) -> list[dict]:
@@ -102,10 +87,8 @@ def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int =
 
 def table(rows: list[dict], nodes: int, t_end: float, repeat: int = 1) -> str:
     head = (
-        f"furrow_p4_a1, {nodes} nodes, to t = {t_end:g} (Euler, dt 5e-3, semi-implicit tension); "
-        f"the fastest of {repeat} run(s) per variant, wall and CPU time of this process per step; "
-        f"measured {datetime.date.today()} at commit {_commit()} on {platform.node()} "
-        f"({platform.processor() or platform.machine()}, {platform.system()})\n\n"
+        f"{_bench.header()}\nfurrow_p4_a1, {nodes} nodes, to t = {t_end:g} (Euler, dt 5e-3, semi-implicit tension); "
+        f"the fastest of {repeat} run(s) per variant, wall and CPU time of this process per step\n\n"
     )
     cols = [
         "variant",

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import _smoke  # noqa: E402
+import _bench  # noqa: E402  (benchmarks/_bench.py)
 
 FORCES = ("gradient", "balanced")
 MOTIONS = ("normal", "lagrangian", "ale")
@@ -220,13 +220,13 @@ def main(argv=None) -> None:
     ap.add_argument("--schemes", nargs="+", default=["euler"], help="time.scheme of the runs (bdf2: dt its first step)")
     ap.add_argument("--motions", nargs="+", default=list(MOTIONS), choices=MOTIONS)
     ap.add_argument("--forces", nargs="+", default=list(FORCES), choices=FORCES)
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     where = None
     if args.smoke:
         args.what, args.nodes, args.run_nodes, args.t_end, args.dt = "all", [162], [162], 0.05, 0.01
         args.axisym_nodes, args.axisym_t_end = [162], 0.12
-        where = _smoke.folder()
+        where = _bench.folder()
     if args.what in ("t0", "all"):
         rows = t0_rows(args.nodes or [162, 642, 2562], args.forces)
         print("## The flow of a uniform tension at t = 0\n")

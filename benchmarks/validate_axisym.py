@@ -15,7 +15,7 @@ Expected cost: a few seconds (the run itself is the expensive part).
 import argparse
 import sys
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
 from cortex_ti.analysis.reference import (
@@ -30,10 +30,10 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("trajectory", nargs="?")
     p.add_argument("--reference", default=None, help="folder of the axisymmetric reference CSV files")
-    p.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
     if args.smoke:  # the reference's problem, 162 nodes, past its first profile time
-        args.trajectory = str(_smoke.tiny_run("furrow_p8_a1", t_end=0.12))
+        args.trajectory = str(_bench.tiny_run("furrow_p8_a1", t_end=0.12))
     if args.trajectory is None:
         p.error("give a furrow_p8_a1 trajectory")
     with Trajectory(args.trajectory, lazy=True) as tr:

@@ -1,4 +1,4 @@
-"""Command line: ``cortex-ti run | check | export | plot | movie | view | scenes | schema``.
+"""Command line: ``cortex-ti run | check | export | plot | movie | view | modes | twin | angles | scenes | schema``.
 
 Every problem with the input (scene, mesh, values) and every operating-system or file error
 (a folder that cannot be written, a full disk, a file that is not a trajectory) is reported as
@@ -123,6 +123,38 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("--dpi", type=float, default=150.0, help="resolution of a .png (default 150)")
     add_renderer_option(plot)
     add_commands(sub)  # movie, view (cortex_ti.viz.commands)
+
+    modes = sub.add_parser(
+        "modes",
+        help="the growing and the stiffest modes of a stored frame (eigenvalues of the linearised normal "
+        "dynamics on the frame's own mesh): where they live, whether they are mesh-scale, the BDF2 step limit",
+    )
+    modes.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
+    modes.add_argument(
+        "--time", type=float, nargs="+", default=None, help="the frames nearest these times (default: the last)"
+    )
+    modes.add_argument(
+        "--dt", type=float, nargs="+", default=None, help="the steps to linearise at (default: the frame's own)"
+    )
+    modes.add_argument("--growing", type=int, default=4, help="growing modes shown (largest real part; default 4)")
+    modes.add_argument("--stiffest", type=int, default=0, help="stiff modes shown (most negative real part)")
+
+    twin = sub.add_parser(
+        "twin",
+        help="3D runs against the axisymmetric solution of their own scene (solved here at the files' frame "
+        "times): radii over the frames and velocity profiles",
+    )
+    twin.add_argument("trajectories", type=Path, nargs="+", help="3D trajectory files of axisymmetric scenes")
+    twin.add_argument(
+        "--convergence", action="store_true", help="error ratios between the files (one scene at several N)"
+    )
+
+    angles = sub.add_parser(
+        "angles", help="where and when a stored run's smallest triangle angle falls: per frame, and the worst triangles"
+    )
+    angles.add_argument("trajectory", type=Path, help="trajectory file (.h5, or .h5.partial of a run in progress)")
+    angles.add_argument("--below", type=float, default=30.0, help="count the triangles below this angle (deg, 30)")
+    angles.add_argument("--worst", type=int, default=4, help="the worst triangles listed (default 4)")
 
     sub.add_parser("scenes", help="list the built-in scenes")
     sub.add_parser(
@@ -345,6 +377,27 @@ def _plot(args) -> int:
     return 0
 
 
+def _modes(args) -> int:
+    from .simulation.modes import frame_modes
+
+    print(frame_modes(args.trajectory, args.time, args.dt, args.growing, args.stiffest))
+    return 0
+
+
+def _twin(args) -> int:
+    from .axisymmetric.compare import twin_report
+
+    print(twin_report(args.trajectories, args.convergence))
+    return 0
+
+
+def _angles(args) -> int:
+    from .io.angles import angle_report
+
+    print(angle_report(args.trajectory, args.below, args.worst))
+    return 0
+
+
 def _scenes(_args) -> int:
     from .scene import builtin_scene_names, load_scene
 
@@ -395,6 +448,9 @@ def _main(argv: list[str] | None) -> int:
             "check": _check,
             "export": _export,
             "plot": _plot,
+            "modes": _modes,
+            "twin": _twin,
+            "angles": _angles,
             "scenes": _scenes,
             "schema": _schema,
         }

@@ -4,18 +4,22 @@ For a 3D trajectory of an axisymmetric scene, :func:`compare` solves the scene a
 axisymmetric model at the file's frame times (~1 s) and measures the radii and the velocity
 profiles at the same points (the label theta0 = a node's polar angle on the initial sphere: both
 codes move their points with the normal velocity, whatever carries the tension).
+:func:`twin_report` is ``cortex-ti twin``: those measurements of one or more files as Markdown tables.
 """
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
+from ..errors import CortexError
 from ..io.trajectory import Trajectory
 from ..scene import scene_from_dict
 from .evolve import simulate
 from .run import AxisymmetricRun, evolution_options, viscosities
 
-__all__ = ["PROFILE_TIMES", "twin_of", "compare"]
+__all__ = ["PROFILE_TIMES", "twin_of", "compare", "twin_report"]
 
 PROFILE_TIMES = (0.1, 1.5, 3.0)
 
@@ -76,3 +80,73 @@ def compare(path: str, times=PROFILE_TIMES) -> dict:
     )
     tr.close()
     return out
+
+
+def _checked(path) -> str:
+    """The scene's name of a file ``compare`` can measure; one line for one it cannot: missing, not a
+    3D run, or remeshed."""
+    if not os.path.exists(path):
+        raise CortexError(f"trajectory file '{path}' does not exist")
+    tr = Trajectory(path, lazy=True)
+    try:
+        if tr.settings.model == "axisymmetric" or "node" not in tr.ds.sizes or "velocity" not in tr.ds:
+            raise CortexError(f"'{path}' is not a 3D run (its twin is what the axisymmetric model computes)")
+        if "mesh_id" in tr.ds:
+            raise CortexError(
+                f"'{path}' was remeshed: its nodes do not keep their labels, so it has no twin to compare"
+            )
+    finally:
+        tr.close()
+
+
+def twin_report(paths, convergence: bool = False) -> str:
+    """``cortex-ti twin``: Markdown tables of :func:`compare` for the 3D trajectories ``paths``
+    (radii over the frames, velocity profiles at :data:`PROFILE_TIMES`), and with ``convergence``
+    the error ratios between them (one scene at several node counts). Bad input raises
+    :class:`~cortex_ti.errors.CortexError` before any solve."""
+    paths = [str(p) for p in paths]
+    for path in paths:
+        _checked(path)
+    rows = [compare(path) for path in paths]
+    if convergence and len({r["scene"] for r in rows}) > 1:
+        raise CortexError(
+            "--convergence compares runs of one scene at several node counts; these are of several scenes"
+        )
+    out = [
+        "| scene | N | t_end | max dev. pole (t) | max dev. furrow (t) | dev. at t_end: pole, furrow | "
+        "3D at t_end: pole, furrow | axisymmetric: pole, furrow |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        (pm, pt, pe), (fm, ft, fe) = r["pole_radius"], r["furrow_radius"]
+        out.append(
+            f"| {r['scene']} | {r['nodes']} | {r['t_end']:g} | {pm:.2e} ({pt:.2f}) | {fm:.2e} ({ft:.2f}) | "
+            f"{pe:.2e}, {fe:.2e} | {r['final'][0]:.6f}, {r['final'][1]:.6f} | {r['final'][2]:.6f}, "
+            f"{r['final'][3]:.6f} |"
+        )
+    out += ["", "| scene | N | t | max / rms dev. v_n | max / rms dev. abs v_t | scale v_n, abs v_t |"]
+    out.append("|---|---|---|---|---|---|")
+    for r in rows:
+        for t in PROFILE_TIMES:
+            if f"profile_{t:g}" in r:
+                a, b, c, d, sn, st = r[f"profile_{t:g}"]
+                out.append(
+                    f"| {r['scene']} | {r['nodes']} | {t:g} | {a:.1e} / {b:.1e} | {c:.1e} / {d:.1e} | "
+                    f"{sn:.3f}, {st:.3f} |"
+                )
+    if convergence and len(rows) > 1:
+        rows.sort(key=lambda r: r["nodes"])
+        out += [
+            "",
+            "| N | max radius error | ratio to the next coarser | error at t_end | ratio |",
+            "|---|---|---|---|---|",
+        ]
+        prev = None
+        for r in rows:
+            e = max(r["pole_radius"][0], r["furrow_radius"][0])
+            ee = max(r["pole_radius"][2], r["furrow_radius"][2])
+            ratio = "" if prev is None else f"{prev[0] / e:.2f}"
+            ratio_e = "" if prev is None else f"{prev[1] / ee:.2f}"
+            out.append(f"| {r['nodes']} | {e:.2e} | {ratio} | {ee:.2e} | {ratio_e} |")
+            prev = (e, ee)
+    return "\n".join(out)

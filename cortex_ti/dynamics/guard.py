@@ -193,7 +193,7 @@ class StabilityGuard:
             return (
                 f"the adaptive step has already fallen from {self._largest_dt:.3g} to {dt:.3g}, so a shorter "
                 f"one will not help: {self.compression(ev) or 'a mode of this shape or mesh grows at any step'} "
-                "(benchmarks/remesh_mode.py lists the growing modes of a frame)"
+                "(`cortex-ti modes RUN.h5.partial --time T` lists the growing modes of a frame)"
             )
         return None
 

@@ -10,6 +10,7 @@ import logging
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from cortex_ti.analysis.diagnostics import surface_stress
 from cortex_ti.axisymmetric.evolve import revolve, simulate
@@ -29,6 +30,7 @@ def revolved_min(res, i, n_u, eta_s, eta_b):
     return float(surface_stress(pts, tri, vel, e["zeta"][j], eta_s, eta_b)[:, 0].min())
 
 
+@pytest.mark.slow
 def test_the_smallest_stress_is_the_revolved_surfaces():
     """A ring of amplitude 6 on the sphere and after 0.5 t_a: the first-order extrapolation of the
     revolved P1 minimum (201 and 401 meridian samples) lands on ``min_stress`` far closer than

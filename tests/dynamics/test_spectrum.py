@@ -71,7 +71,7 @@ def test_the_spectrum_is_deterministic():
     "nodes, paper_largest, paper_count, p1_largest",
     [
         (162, 269.0, 113, 0.0085),
-        (642, 2.73e4, 462, 0.0021),
+        pytest.param(642, 2.73e4, 462, 0.0021, marks=pytest.mark.slow),
     ],
 )
 def test_uniform_sphere_without_bending_viscosity(nodes, paper_largest, paper_count, p1_largest):

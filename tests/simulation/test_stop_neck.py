@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from cortex_ti.analysis.diagnostics import neck_radius
 from cortex_ti.cli import main
@@ -44,6 +45,7 @@ def test_3d_run_stops_at_the_first_frame_past_the_neck(tmp_path):
     assert info["t_reached"] == float(ds["time"].values[-1]) < 5.0
 
 
+@pytest.mark.slow
 def test_axisymmetric_run_stops_at_time_stop_neck(tmp_path):
     """The meridian run stops at the crossing itself: its last furrow radius (the neck of a
     symmetric ring) is the stop to the event's tolerance."""

@@ -1,10 +1,18 @@
-"""Independent check, with the axisymmetric spectral solver on the FULL meridian (no up-down
+"""Question: Is the one growing mode the 3D code finds on the furrow_p4_a1 shapes (t = 1, 3) a defect of
+the 3D discretisation?
+
+Answer: No: the axisymmetric solver linearised on the full meridian with the same zero-mean-velocity
+constraint has the same eigenvalue (+0.3207 / +0.3612 at t = 1 / 3; a perturbed nonlinear run grows at
+0.367) and nothing else above 0.031; with the centroid held no mode grows (largest +0.046 / +0.0011). It
+is the model's free rigid translation. docs/validation/formulations.md (25 s).
+
+Independent check, with the axisymmetric spectral solver on the FULL meridian (no up-down
 symmetry reduction), of the growing odd mode the 3D code finds on furrow_p4_a1 at t = 1, 3.
 
-    python benchmarks/axisym_translation_mode.py            # everything (~30 s, one core)
-    python benchmarks/axisym_translation_mode.py --quick    # n = 96 only (~15 s)
-    python benchmarks/axisym_translation_mode.py --n=64,128 # the resolution check only
-    python benchmarks/axisym_translation_mode.py --smoke    # smoke test: n = 32, seconds; numbers mean nothing
+    python benchmarks/investigations/axisym_translation_mode.py            # everything (~30 s, one core)
+    python benchmarks/investigations/axisym_translation_mode.py --quick    # n = 96 only (~15 s)
+    python benchmarks/investigations/axisym_translation_mode.py --n=64,128 # the resolution check only
+    python benchmarks/investigations/axisym_translation_mode.py --smoke    # smoke test: n = 32, seconds
 
 For bending viscosity on (scene values) and off (eta_bar = eta_bar_b = 0):
   1. simulate(..., symmetric=False, parametrization='lagrangian') to t = 1, 3 (full meridian,
