@@ -125,6 +125,11 @@ def assemble_p2(
     zeta = check_inputs(physics, zeta, implicit_dt)
     faces = np.asarray(faces)
     surf = curved_surface(geometry, faces)
+    rigid = rigid_projection(surf) if physics.normal_balance else None
+    if rigid is not None and implicit_rate is not None:
+        # the semi-implicit tension is centred on the rate's non-rigid part (in either gauge)
+        r = np.asarray(implicit_rate, dtype=float).ravel()
+        implicit_rate = (r - rigid[0] @ (rigid[1] @ r)).reshape(-1, 3)
     ctx = P2Context(
         geometry,
         physics,
@@ -148,8 +153,29 @@ def assemble_p2(
         nrm = surf.normal
         tangential = rate - np.einsum("nc,nc->n", rate, nrm)[:, None] * nrm
         f = f + (ctx.balanced_tension[:, None] * tangential).ravel()
+    if ctx.energy_tension is not None:
+        f = f - surf.energy_gradient(ctx.energy_tension).ravel()
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
     # Cartesian unknowns, or the tangent frames of the fitted normals (the curved cells' nodes are the
     # geometry's, and so are their normals) when v_n is held at 0
-    return energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    system = energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    if rigid is not None and physics.centroid_gauge:
+        # the dissipation of the non-rigid part v - R Pi v (module docstring): K + U V^T, U = -K R, V = Pi^T
+        system.low_rank = (-(kmat @ rigid[0]), rigid[1].T.copy())
+    return system
+
+
+def rigid_projection(surf) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, Pi)``: the six rigid motions at the nodes (3M, 6), translations ``e_k`` and rotations
+    ``e_k x (x - x_c)`` about the area centroid, and the projection ``Pi = (G R)^-1 G`` (6, 3M) with
+    ``G`` the rows of zero total velocity and angular momentum on the curved cells: ``Pi R = I``,
+    ``Pi v = 0`` for every velocity of the mean-velocity gauge."""
+    rows = surf.rigid_motion_rows(False).reshape(6, -1)
+    mass = surf.node_integral()
+    centre = surf.node_integral(surf.qpoint).sum(0) / mass.sum()
+    x = surf.nodes - centre
+    eye = np.eye(3)
+    rmodes = np.stack([np.tile(eye[k], (len(x), 1)) for k in range(3)] + [np.cross(eye[k], x) for k in range(3)])
+    rmat = rmodes.reshape(6, -1).T
+    return rmat, np.linalg.solve(rows @ rmat, rows)

@@ -59,6 +59,10 @@ class ActiveStress(Term):
             )
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
+        if ctx.active_force == "gradient":
+            # minus the exact gradient of E_h = int zeta dA over the curved cells
+            ctx.add_energy_tension(ctx.zeta)
+            return
         # the power int zeta tr u dA on the curved cells, zeta interpolated from all six nodes
         ctx.add_tension(ctx.zeta)
         if ctx.active_force == "balanced":
