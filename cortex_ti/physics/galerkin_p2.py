@@ -41,6 +41,22 @@ as ``int [2 eta_s u:u + (eta_b - eta_s) (tr u)^2] / 2 dA``, the tension's power 
 ``1/2 int [B : grad v_n grad v_n + beta_0 v_n^2] dA`` (bending viscosity, the semi-implicit
 tension; ``B`` clipped to its positive semidefinite part at each quadrature point), and the
 constraint rows. The solution is the velocity at every node of the mesh.
+
+**The active force** (``numerics.active_force``): ``balanced``, the power ``int zeta tr u dA`` less each
+node's own tangential part (:mod:`cortex_ti.physics.terms.active`), or ``gradient``, minus the exact
+gradient of ``int zeta dA`` over the curved cells through the nodes
+(:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`, added here to the force).
+
+**The rigid motions.** A rigid motion is not strain-free in this space (the normal speed goes along
+the fitted normals, which a translation does not follow: a strain of O(h^3)). Under the mean-velocity
+gauge that does not matter (the gauge's rows fix the rigid part), but under the centroid gauge the
+flow would differ from that gauge's by more than a rigid motion. So the matrix becomes ``K (I - R Pi)``
+there, ``R`` (3M, 6) the rigid motions at the nodes and ``Pi = (G R)^-1 G`` with ``G`` the mean-velocity
+gauge's rows (:func:`rigid_projection`): ``K (I - R Pi) R = 0`` exactly, and since its difference from
+the symmetric ``(I - R Pi)^T K (I - R Pi)`` (the dissipation of the non-rigid part) lies along the rows
+``G`` along which the multipliers push, both give the same velocity: the mean-velocity gauge's plus
+a rigid motion. The rank-6 part goes to the solver as ``EnergySystem.low_rank``; the semi-implicit
+tension's centre is the non-rigid part of the last rate, in both gauges.
 """
 
 from __future__ import annotations

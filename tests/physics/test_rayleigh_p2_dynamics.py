@@ -143,3 +143,27 @@ def test_the_two_gauges_give_the_same_shapes_over_a_short_run(tmp_path):
     shift = (b - a).mean(axis=1, keepdims=True)
     assert np.abs(shift).max() > 1e-4 * moved  # the gauges do differ (by a translation)
     assert np.abs(b - a - shift).max() < 1e-13, np.abs(b - a - shift).max()
+
+
+@pytest.mark.slow
+def test_the_uniform_sphere_has_no_growing_mode_with_the_gradient_force():
+    """The exact sphere under a uniform tension: the translations neutral, every other normal mode
+    decays. With ``active_force: gradient`` at 162 nodes (no bending viscosity): nothing above
+    0.01 / t_a (measured largest +4.4e-3; with the paper's bending viscosity +2.7e-3 at 162 and
+    +9.2e-5 at 642 nodes: the translations, neutral to O(h^4) on curved cells), against modes
+    decaying at -1 / t_a and faster."""
+    from cortex_ti.dynamics.spectrum import normal_spectrum
+
+    over = [
+        "mesh.nodes=162",
+        *P2,
+        "numerics.active_force=gradient",
+        "viscosity.bending=0",
+        "viscosity.bending_bulk=0",
+        "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,incompressibility,shape_evolution]",
+    ]
+    sim = Simulation(load_scene("furrow_p4_a1", over))
+    sim.zeta = np.ones(sim.mesh.n_nodes)
+    spec = normal_spectrum(sim)
+    assert spec.count_above(0.01) == 0, spec.largest_real
+    assert spec.eigenvalues.real.min() < -1.0
