@@ -169,7 +169,9 @@ def main(argv=None) -> int:
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = ap.parse_args(argv)
     if args.formulation:
-        NUMERICS.update(formulation=args.formulation, **({"fit": "quartic"} if args.formulation == "rayleigh_p2" else {}))
+        NUMERICS["formulation"] = args.formulation
+        if args.formulation == "rayleigh_p2":
+            NUMERICS["fit"] = "quartic"
     if args.smoke:
         args.nodes, args.gammas, args.degrees, args.check, args.full, args.split = [162], [1.0], [2], False, False, True
     from cortex_ti.analysis import myosin_stability as ms

@@ -71,7 +71,7 @@ from .model import Physics
 from .terms import P2Context, terms_for
 from .terms.base import check_inputs, velocity_basis
 
-__all__ = ["assemble_p2", "cell_blocks"]
+__all__ = ["assemble_p2", "cell_blocks", "rigid_projection"]
 
 
 def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
