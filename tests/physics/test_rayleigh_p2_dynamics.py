@@ -111,6 +111,7 @@ def test_the_two_gauges_differ_by_a_rigid_motion_in_one_solve(force, centred):
     assert _non_rigid(x, vc - vm) < 1e-11 * np.abs(vm).max()
 
 
+@pytest.mark.slow
 def test_the_two_gauges_give_the_same_shapes_over_a_short_run(tmp_path):
     """Issue 32's gauge check on curved cells, short: the tension carried by the material, lagrangian
     nodes, ring + 0.3 Y_10 (no up-down symmetry), 25 Euler steps of fixed length (an adaptive scheme
