@@ -26,6 +26,7 @@ error ratio, h halving) and Richardson's second-order extrapolation of the two f
 Usage::
 
     python benchmarks/myosin_rates.py --nodes 162 642 2562 10242 --gammas 1 0.5 0.25 [--full] [--check] [--split]
+    python benchmarks/myosin_rates.py --nodes 642 2562 --formulation rayleigh_p2
 
 Cost (one core): 4 (2l + 1) solves per degree, 60 for l = 1..3: 10242 nodes about a minute.
 """
@@ -50,6 +51,10 @@ EFFECTS = [
 ]
 
 
+#: extra ``numerics`` of the scene (``--formulation``)
+NUMERICS: dict = {}
+
+
 def myosin_sphere(nodes: int, gamma: float = 1.0):
     from cortex_ti.scene import scene_from_dict
     from cortex_ti.simulation import Simulation
@@ -68,6 +73,8 @@ def myosin_sphere(nodes: int, gamma: float = 1.0):
         "active_stress": [],
         "effects": EFFECTS,
     }
+    if NUMERICS:
+        data["numerics"] = dict(NUMERICS)
     return Simulation(scene_from_dict(data))
 
 
@@ -158,8 +165,13 @@ def main(argv=None) -> int:
     ap.add_argument("--check", action="store_true", help="check the affine gamma law with derivatives at 0.5")
     ap.add_argument("--full", action="store_true", help="also the whole dense Jacobian's eigenvalues (<= 642 nodes)")
     ap.add_argument("--split", action="store_true", help="where the error sits: the dilution of the flow (exact flow)")
+    ap.add_argument("--formulation", default=None, help="numerics.formulation (rayleigh_p2: with the quartic fit)")
     ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
+    if args.formulation:
+        NUMERICS["formulation"] = args.formulation
+        if args.formulation == "rayleigh_p2":
+            NUMERICS["fit"] = "quartic"
     if args.smoke:
         args.nodes, args.gammas, args.degrees, args.check, args.full, args.split = [162], [1.0], [2], False, False, True
     from cortex_ti.analysis import myosin_stability as ms

@@ -16,7 +16,8 @@ its geometry needs the fit residuals.
   so no spurious mode can grow; second order.
 * ``rayleigh_p2``: the same Rayleighian on curved six-node cells with quadratic velocities whose
   normal part goes along the fitted surface's normal (:mod:`cortex_ti.physics.galerkin_p2`):
-  symmetric positive semidefinite as well; third order.
+  symmetric positive semidefinite as well; third order at t = 0 with its default active force
+  (``balanced``), whose dynamics is not a gradient flow; ``gradient`` makes it one.
 
 Every term of :mod:`cortex_ti.physics.terms` says what it adds to each formulation in a method
 named after it (``paper``, ``rayleigh_p1``); a new formulation names its method there.
@@ -134,10 +135,11 @@ FORMULATIONS: dict[str, Formulation] = {
         keys=("active_force",),
         centred_implicit=True,
         curved=True,
-        dynamic_caveat="its shape dynamics is not yet stable by construction: on shear_075's sheared start the "
-        "spectrum tool finds 238 normal modes growing faster than 1/t_a at 642 nodes (rayleigh_p1: 33) and the "
-        "mesh collapses by t = 0.2; on the paper's furrows its radii are not better than rayleigh_p1's "
-        "(docs/validation/curved.md)",
+        dynamic_caveat="with numerics.active_force balanced (the default) its shape dynamics is not stable by "
+        "construction: on shear_075's sheared start the spectrum tool finds 238 normal modes growing faster than "
+        "1/t_a at 642 nodes (rayleigh_p1: 33) and the mesh collapses by t = 0.2-0.3; 'gradient' (a gradient flow) "
+        "runs it, but its t = 0 flows are less accurate than rayleigh_p1's; on the paper's furrows its radii are "
+        "not better than rayleigh_p1's (docs/validation/curved.md)",
     ),
 }
 

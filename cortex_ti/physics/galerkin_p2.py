@@ -41,6 +41,22 @@ as ``int [2 eta_s u:u + (eta_b - eta_s) (tr u)^2] / 2 dA``, the tension's power 
 ``1/2 int [B : grad v_n grad v_n + beta_0 v_n^2] dA`` (bending viscosity, the semi-implicit
 tension; ``B`` clipped to its positive semidefinite part at each quadrature point), and the
 constraint rows. The solution is the velocity at every node of the mesh.
+
+**The active force** (``numerics.active_force``): ``balanced``, the power ``int zeta tr u dA`` less each
+node's own tangential part (:mod:`cortex_ti.physics.terms.active`), or ``gradient``, minus the exact
+gradient of ``int zeta dA`` over the curved cells through the nodes
+(:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`, added here to the force).
+
+**The rigid motions.** A rigid motion is not strain-free in this space (the normal speed goes along
+the fitted normals, which a translation does not follow: a strain of O(h^3)). Under the mean-velocity
+gauge that does not matter (the gauge's rows fix the rigid part), but under the centroid gauge the
+flow would differ from that gauge's by more than a rigid motion. So the matrix becomes ``K (I - R Pi)``
+there, ``R`` (3M, 6) the rigid motions at the nodes and ``Pi = (G R)^-1 G`` with ``G`` the mean-velocity
+gauge's rows (:func:`rigid_projection`): ``K (I - R Pi) R = 0`` exactly, and since its difference from
+the symmetric ``(I - R Pi)^T K (I - R Pi)`` (the dissipation of the non-rigid part) lies along the rows
+``G`` along which the multipliers push, both give the same velocity: the mean-velocity gauge's plus
+a rigid motion. The rank-6 part goes to the solver as ``EnergySystem.low_rank``; the semi-implicit
+tension's centre is the non-rigid part of the last rate, in both gauges.
 """
 
 from __future__ import annotations
@@ -55,7 +71,7 @@ from .model import Physics
 from .terms import P2Context, terms_for
 from .terms.base import check_inputs, velocity_basis
 
-__all__ = ["assemble_p2", "cell_blocks"]
+__all__ = ["assemble_p2", "cell_blocks", "rigid_projection"]
 
 
 def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -125,6 +141,11 @@ def assemble_p2(
     zeta = check_inputs(physics, zeta, implicit_dt)
     faces = np.asarray(faces)
     surf = curved_surface(geometry, faces)
+    rigid = rigid_projection(surf) if physics.normal_balance else None
+    if rigid is not None and implicit_rate is not None:
+        # the semi-implicit tension is centred on the rate's non-rigid part (in either gauge)
+        r = np.asarray(implicit_rate, dtype=float).ravel()
+        implicit_rate = (r - rigid[0] @ (rigid[1] @ r)).reshape(-1, 3)
     ctx = P2Context(
         geometry,
         physics,
@@ -148,8 +169,29 @@ def assemble_p2(
         nrm = surf.normal
         tangential = rate - np.einsum("nc,nc->n", rate, nrm)[:, None] * nrm
         f = f + (ctx.balanced_tension[:, None] * tangential).ravel()
+    if ctx.energy_tension is not None:
+        f = f - surf.energy_gradient(ctx.energy_tension).ravel()
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
     # Cartesian unknowns, or the tangent frames of the fitted normals (the curved cells' nodes are the
     # geometry's, and so are their normals) when v_n is held at 0
-    return energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    system = energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    if rigid is not None and physics.centroid_gauge:
+        # the dissipation of the non-rigid part v - R Pi v (module docstring): K + U V^T, U = -K R, V = Pi^T
+        system.low_rank = (-(kmat @ rigid[0]), rigid[1].T.copy())
+    return system
+
+
+def rigid_projection(surf) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, Pi)``: the six rigid motions at the nodes (3M, 6), translations ``e_k`` and rotations
+    ``e_k x (x - x_c)`` about the area centroid, and the projection ``Pi = (G R)^-1 G`` (6, 3M) with
+    ``G`` the rows of zero total velocity and angular momentum on the curved cells: ``Pi R = I``,
+    ``Pi v = 0`` for every velocity of the mean-velocity gauge."""
+    rows = surf.rigid_motion_rows(False).reshape(6, -1)
+    mass = surf.node_integral()
+    centre = surf.node_integral(surf.qpoint).sum(0) / mass.sum()
+    x = surf.nodes - centre
+    eye = np.eye(3)
+    rmodes = np.stack([np.tile(eye[k], (len(x), 1)) for k in range(3)] + [np.cross(eye[k], x) for k in range(3)])
+    rmat = rmodes.reshape(6, -1).T
+    return rmat, np.linalg.solve(rows @ rmat, rows)

@@ -374,13 +374,26 @@ class ConstrainedSolver:
         else:
             fscale = _row_norms(frows)
             border = np.hstack(cols + [(frows / fscale[:, None] * np.sqrt(scale)).T, pin_cols])
+        low = getattr(system, "low_rank", None)
+        nlow = 0
+        if low is not None:  # K + U V^T: unknowns y = V^T x (scaled), bordered before the pins
+            ucols, vcols = low
+            nlow = ucols.shape[1]
+            alpha = np.sqrt(scale) / _row_norms(ucols.T)
+            beta = np.sqrt(scale) / _row_norms(vcols.T)
+            cut = border.shape[1] - pin_cols.shape[1]
+            border = np.hstack([border[:, :cut], ucols * alpha, pin_cols])
+            rows = np.hstack([rows[:, :cut], vcols * beta, pin_cols])
         q = border.shape[1]
         dblock = np.zeros((q, q))
         if has_p:
             dblock[0, 0] = ne.pressure_diagonal
         npin = pin.shape[0]
         dblock[q - npin :, q - npin :] = np.eye(npin)
-        rhs = np.concatenate([ne.rhs, [ne.pressure_rhs] if has_p else [], np.zeros(gmat.shape[0] + npin)])
+        if nlow:
+            at = q - npin - nlow
+            dblock[at : at + nlow, at : at + nlow] = -np.diag(alpha * beta)
+        rhs = np.concatenate([ne.rhs, [ne.pressure_rhs] if has_p else [], np.zeros(gmat.shape[0] + nlow + npin)])
         # the last block row is Q x + w = 0, so K_s x + Q^T w = K x
         return _BorderedSystem(
             stiffness=kmat.tocsr(),
@@ -456,7 +469,7 @@ class ConstrainedSolver:
         out = [first - b.border[:, mid] @ y[mid] - pin @ qxw]
         if b.has_pressure:
             out.append([prow])
-        out += [-(b.rows[:, mid].T @ x), -qxw]
+        out += [-(b.rows[:, mid].T @ x) - b.dblock[mid, mid] @ y[mid], -qxw]
         return np.concatenate(out)
 
     def kkt_solve(self, b_x: np.ndarray, b_scalar: np.ndarray) -> np.ndarray:
@@ -474,7 +487,8 @@ class ConstrainedSolver:
         bs = np.asarray(b_scalar, dtype=float).reshape(-1, bx.shape[1])
         k = 1 if b.has_pressure else 0
         cscale = np.sqrt(b.scale) / b.gscale
-        parts = [bx] + ([bs[:1]] if k else []) + [cscale[:, None] * bs[k:], np.zeros((b.npin, bx.shape[1]))]
+        nlow = b.border.shape[1] - k - b.gscale.size - b.npin
+        parts = [bx] + ([bs[:1]] if k else []) + [cscale[:, None] * bs[k:], np.zeros((nlow + b.npin, bx.shape[1]))]
         out = self._pre.solve(np.concatenate(parts, axis=0))[: b.n]
         return out if two else out[:, 0]
 

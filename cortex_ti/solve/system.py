@@ -137,6 +137,9 @@ class EnergySystem(_Unknowns):
     pressure_sign: float = -1.0
     terms: list[str] = field(default_factory=list)
     force_rows: np.ndarray | None = None  # F, if not G (Petrov-Galerkin)
+    #: ``(U, V)`` (unknowns, k), a low-rank part of the matrix: ``K + U V^T`` (dense columns the
+    #: solver borders with k extra unknowns ``y = V^T x``, so ``K`` stays sparse)
+    low_rank: tuple[np.ndarray, np.ndarray] | None = None
     pressure_column = None  # the pressure is a multiplier, not a separate unknown
 
     @property
@@ -155,7 +158,10 @@ class EnergySystem(_Unknowns):
     def residual(self, x: np.ndarray, multipliers: np.ndarray) -> np.ndarray:
         """``K x + F^T lambda - f``."""
         rows = self.constraints if self.force_rows is None else self.force_rows
-        return self.stiffness @ x + rows.T @ multipliers - self.rhs
+        out = self.stiffness @ x + rows.T @ multipliers - self.rhs
+        if self.low_rank is not None:
+            out = out + self.low_rank[0] @ (self.low_rank[1].T @ x)
+        return out
 
     def unsquared_residual(self, x: np.ndarray, pressure: float) -> tuple[np.ndarray, float]:
         return self.rhs - self.stiffness @ x, 0.0

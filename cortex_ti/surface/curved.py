@@ -217,6 +217,33 @@ class CurvedSurface:
             rows[3 + k] = np.cross(eye[k], arm)
         return rows
 
+    def cell_grads(self) -> np.ndarray:
+        """(T, Q, 6, 3): the shape functions' gradients along the cell itself (in its own tangent
+        plane, the isoparametric surface gradient), recovered from :attr:`grads` (their projection on
+        the smooth tangent plane) by restoring the component along the smooth normal that makes them
+        tangent to the cell: ``g + alpha n`` with ``alpha = -(g . n_c) / (n . n_c)`` (``n . n_c > 0``
+        wherever the cell is valid)."""
+        nc = self.cell_normal[:, :, None, :]
+        n = self.qnormal[:, :, None, :]
+        alpha = -np.einsum("tqic,tqic->tqi", self.grads, np.broadcast_to(nc, self.grads.shape))
+        alpha = alpha / np.einsum("tqc,tqc->tq", self.qnormal, self.cell_normal)[:, :, None]
+        return self.grads + alpha[..., None] * n
+
+    def energy_gradient(self, zeta: np.ndarray) -> np.ndarray:
+        r"""(M, 3): the exact gradient ``dE_h/dx_i`` of the discrete energy ``E_h = int zeta dA`` over
+        the curved cells (``zeta`` (M,) carried by the nodes, interpolated with the shape functions;
+        the integral with the cells' quadrature), ``int zeta grad_h N_i dA``: the derivative of the
+        area element along a node's motion is the isoparametric surface divergence of ``N_i e_c``.
+        Its sum over the nodes is zero and so is ``sum_i x_i x dE_h/dx_i`` (the energy does not
+        change under a rigid motion): exactly, since ``sum_i grad_h N_i = 0`` and ``sum_i x_i (x)
+        grad_h N_i`` is the cell's symmetric tangential projector."""
+        zeta = np.asarray(zeta, dtype=float)
+        w = self.weight * self.at_quadrature(zeta)
+        part = np.einsum("tq,tqic->tic", w, self.cell_grads())
+        out = np.zeros((self.n_nodes, 3))
+        np.add.at(out, self.cells.ravel(), part.reshape(-1, 3))
+        return out
+
     def volume_rows(self) -> np.ndarray:
         """(M, 3): ``int N_i n dA`` with the cells' own normal, the exact rate of the volume the curved
         cells enclose when their nodes move with ``v``."""

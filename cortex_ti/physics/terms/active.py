@@ -10,10 +10,14 @@ Formulation ``rayleigh_p1``: the power ``-sum_T A_T zeta_T tr U_T`` (``zeta_T`` 
 corner values), exactly the rate of the discrete energy ``E(X) = sum_T zeta_T A_T(X)``, so the
 active force is the exact gradient ``-dE/dX`` and the shape dynamics a gradient flow.
 
-Formulation ``rayleigh_p2``: the power ``-int zeta tr u dA`` on the curved cells, the tension
-interpolated quadratically from the cells' six nodes (:mod:`cortex_ti.physics.galerkin_p2`); with
-``balanced`` each node's force loses ``zeta_i P_i int tr u_i dA``, the tangential part its own
-tension would push with if it were uniform (as ``tangential_area_force`` for ``rayleigh_p1``).
+Formulation ``rayleigh_p2``: with ``balanced`` the power ``-int zeta tr u dA`` on the curved cells
+(the rate of strain of the formulation's velocity, the normal speed through the fitted curvature), the
+tension interpolated quadratically from the cells' six nodes (:mod:`cortex_ti.physics.galerkin_p2`),
+each node's force less ``zeta_i P_i int tr u_i dA``, the tangential part its own tension would push
+with if it were uniform (as ``tangential_area_force`` for ``rayleigh_p1``); with ``gradient`` minus the
+exact gradient of ``E_h = int zeta dA`` over the curved cells through the nodes
+(:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`), so again a gradient flow, at the
+price of the t = 0 flows' third order (docs/validation/curved.md).
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 
 from .base import ROW_NORMAL, P1Context, P2Context, PaperContext, Term, register
 
-#: The choices of ``numerics.active_force`` (formulation ``rayleigh_p1``, module docstring).
+#: The choices of ``numerics.active_force`` (formulations ``rayleigh_p1`` and ``rayleigh_p2``, module docstring).
 ACTIVE_FORCES = {
     "balanced": "the gradient of the discrete energy without the tangential part of zeta_k dA/dx_k at each node: "
     "a uniform tension pushes only normally",
@@ -59,6 +63,10 @@ class ActiveStress(Term):
             )
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
+        if ctx.active_force == "gradient":
+            # minus the exact gradient of E_h = int zeta dA over the curved cells
+            ctx.add_energy_tension(ctx.zeta)
+            return
         # the power int zeta tr u dA on the curved cells, zeta interpolated from all six nodes
         ctx.add_tension(ctx.zeta)
         if ctx.active_force == "balanced":

@@ -214,6 +214,10 @@ class P2Context(Context):
     #: ``zeta_i P_i int tr u_i dA`` of its node's own value
     balanced_tension: np.ndarray | None = None
     active_force: str = "balanced"
+    #: (M,): a tension whose force is the exact gradient ``-dE_h/dx`` of ``E_h = int zeta dA`` over the
+    #: curved cells (:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`), numerics.active_force
+    #: gradient
+    energy_tension: np.ndarray | None = None
     normal_forms: list = field(default_factory=list)  # (B (T, Q, 3, 3), beta0 (T, Q) or None, centre (M, 3) or None)
     node_force: np.ndarray | None = None  # (M, 3)
 
@@ -221,6 +225,9 @@ class P2Context(Context):
 
     def add_tension(self, zeta_nodes: np.ndarray) -> None:
         self.tension = _plus(self.tension, zeta_nodes)
+
+    def add_energy_tension(self, zeta_nodes: np.ndarray) -> None:
+        self.energy_tension = _plus(self.energy_tension, zeta_nodes)
 
     def add_normal_form(self, bform: np.ndarray, beta0: np.ndarray | None = None, centre: np.ndarray | None = None):
         """``1/2 int [B : grad (v_n - r_n) grad (v_n - r_n) + beta0 (v_n - r_n)^2] dA`` with ``B`` an
