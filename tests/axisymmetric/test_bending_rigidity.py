@@ -113,8 +113,9 @@ CASES = [
 def test_shape_mode_rates_match_the_closed_form(l, case):
     """Rate of a small mode over one e-folding, averaged over the amplitudes +-eps (which cancels
     the O(eps) nonlinear error; alone it is 2e-5 at eps = 1e-5). The mode is exact in the spectral
-    basis at any n > l, so n = 8 and 16 agree to the time stepping's tolerance: measured relative
-    error < 1e-8 at both."""
+    basis at any n > l, so n = 8 and 16 agree to the time stepping's tolerance. Bound: rtol = 1e-12
+    on positions of size 1 against the amplitude eps/e at t = T, ~3e-7 relative; measured 1.5e-10 to
+    1.2e-9 (docs/validation/bending_rigidity.md)."""
     kw = CASES[case]
     exact = rate(
         l, kappa=kw["kappa"], eta_s=1.0, eta_b=kw.get("eta_b", 1.0), c0=kw.get("c0", 0.0), zeta0=kw.get("zeta0", 0.0)
@@ -122,7 +123,7 @@ def test_shape_mode_rates_match_the_closed_form(l, case):
     for n in (8, 16):
         eps = 1e-5
         lam = 0.5 * (_mode_rate(l, n, eps, 1 / abs(exact), **kw) + _mode_rate(l, n, -eps, 1 / abs(exact), **kw))
-        assert lam == pytest.approx(exact, rel=1e-7)
+        assert lam == pytest.approx(exact, rel=3e-7)
 
 
 @pytest.mark.slow
