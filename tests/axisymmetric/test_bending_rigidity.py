@@ -17,7 +17,7 @@ from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
 from cortex_ti.axisymmetric.evolve import simulate
 from cortex_ti.axisymmetric.rigidity import area_weights, dissipation, helfrich_energy, helfrich_force
 from cortex_ti.axisymmetric.spectral import Spectral, geometry
-from cortex_ti.truth.helfrich_sphere import rate
+from cortex_ti.truth.helfrich_sphere import base_pressure, rate
 
 
 def _P(l, x):
@@ -234,7 +234,12 @@ def test_the_linearised_dynamics_has_the_closed_form_rates(symmetric, n):
     sp = Spectral(n, symmetric)
     ph = _check_visc(1.0, 2.0, 0.0, 0.0, 1.0, kappa=kw["kappa"], c0=kw["c0"])
     dyn = _Dynamics(sp, ForceBalance(sp, ph), lambda t: kw["zeta0"] + 0.0 * t, "lagrangian")
-    ev = np.linalg.eigvals(dyn.jac(0.0, np.concatenate([np.sin(sp.u), np.cos(sp.u)])))
+    sphere = np.concatenate([np.sin(sp.u), np.cos(sp.u)])
+    # the sphere is an equilibrium, held by the closed-form pressure
+    _, x, _ = dyn.solve(sphere)
+    assert np.abs(dyn.rhs(0.0, sphere)).max() <= 1e-10
+    assert x[2 * n] == pytest.approx(base_pressure(kappa=kw["kappa"], c0=kw["c0"], zeta0=kw["zeta0"]), rel=1e-10)
+    ev = np.linalg.eigvals(dyn.jac(0.0, sphere))
     ev = np.sort(ev.real[np.abs(ev) > 1e-6])[::-1]  # the tangential (zero) modes dropped; all real, < 0
     degrees = range(2, 2 * n - 1, 2) if symmetric else range(2, n - 6)
     exact = np.array([rate(l, eta_s=1.0, eta_b=2.0, **kw) for l in degrees])
