@@ -329,6 +329,8 @@ def static_flow(
     symmetric: bool | None = None,
     fixed_normal: bool = False,
     gauge: str = "velocity",
+    kappa: float = 0.0,
+    spontaneous_curvature: float = 0.0,
 ) -> StaticResult:
     """Solve the force balance on a static sphere for the tension ``zeta(theta)``.
 
@@ -351,13 +353,16 @@ def static_flow(
     gauge : {'velocity', 'centroid'}
         Full meridian only: fixes the rigid axial translation by ``oint v_z dA = 0`` (the 3D
         code's convention) or by ``oint z v_n dA = 0`` (the enclosed volume's centroid is fixed).
+    kappa, spontaneous_curvature : float
+        Helfrich rigidity and spontaneous curvature (:mod:`cortex_ti.axisymmetric.rigidity`): on the
+        sphere they change only the pressure, by ``-kappa c0 (2/R - c0)/R``.
 
     Raises
     ------
     ValueError
         For bad input or a singular system.
     """
-    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal)
+    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal, kappa=kappa, c0=spontaneous_curvature)
     n = _check_n(n)
     if symmetric is None:
         symmetric = _is_symmetric(zeta)

@@ -234,6 +234,7 @@ class AxisymmetricRun:
                 n=2 * s.axisymmetric.n,
                 fixed_normal=s.has("fixed_normal_velocity"),
                 gauge=GAUGES[s.translation],
+                **rigidity(s),
             )
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None

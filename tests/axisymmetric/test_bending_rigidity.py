@@ -245,3 +245,15 @@ def test_the_linearised_dynamics_has_the_closed_form_rates(symmetric, n):
     exact = np.array([rate(l, eta_s=1.0, eta_b=2.0, **kw) for l in degrees])
     assert len(ev) >= len(exact)
     np.testing.assert_allclose(ev[: len(exact)], exact, rtol=1e-9)
+
+
+def test_static_flow_on_the_sphere_with_spontaneous_curvature():
+    """The static solve (a scene's ``solve``) holds the sphere with the closed-form pressure and no flow."""
+    from cortex_ti.axisymmetric.balance import static_flow
+
+    res = static_flow(
+        lambda t: 1.0 + 0.0 * t, eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0, n=16,
+        kappa=0.3, spontaneous_curvature=0.8,
+    )  # fmt: skip
+    assert res.P == pytest.approx(base_pressure(kappa=0.3, c0=0.8, zeta0=1.0), rel=1e-12)
+    assert np.abs(res.v_n).max() <= 1e-10 and np.abs(res.v_s).max() <= 1e-10
