@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 
+from .rigidity import helfrich_force
 from .spectral import Spectral, geometry
 
 __all__ = ["ForceBalance", "StaticResult", "static_flow", "ZetaFn"]
@@ -39,6 +40,10 @@ class _Physics:
     #: ``nabla_c (beta^cd nabla_d v_n) + beta_0 v_n`` (:mod:`cortex_ti.physics.terms.bending`), which adds
     #: ``(nabla_c beta^cs) d_s v_n = (d_s beta^ss + (r_s / r)(beta^ss - beta^pp)) d_s v_n``
     bending_form: str = "paper"
+    #: Helfrich bending rigidity kappa (eta_s R0^2 / t_a) and spontaneous curvature c0 (1/R0, the
+    #: convention's C = k1 + k2): the normal force of :mod:`cortex_ti.axisymmetric.rigidity`
+    kappa: float = 0.0
+    c0: float = 0.0
 
     @property
     def bending(self) -> bool:
@@ -102,6 +107,8 @@ class ForceBalance:
         r, h, rs, zs = g["r"], g["h"], g["rs"], g["zs"]
         tan, nor = self.balance(vs, vn, g)
         nor = nor - P[..., None]
+        if ph.kappa:
+            nor = nor - helfrich_force(sp, g, ph.kappa, ph.c0)
         if lam is not None:
             tan = tan + lam[..., None] * zs
             nor = nor - lam[..., None] * rs
@@ -186,6 +193,8 @@ class ForceBalance:
             if self.has_lam:
                 A[n : 2 * n, 2 * n + 1] = -rs
             b[n : 2 * n] = -(k1 + k2) * zeta
+            if ph.kappa:
+                b[n : 2 * n] += helfrich_force(sp, g, ph.kappa, ph.c0)
             A[2 * n, n : 2 * n] = sp.wR * r * h
         if self.has_lam:
             if self.gauge == "velocity":
@@ -202,8 +211,10 @@ class ForceBalance:
         return out
 
 
-def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False, bending_form="paper") -> _Physics:
-    vals = dict(eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, radius=radius)
+def _check_visc(
+    eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False, bending_form="paper", kappa=0.0, c0=0.0
+) -> _Physics:
+    vals = dict(eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, radius=radius, kappa=kappa)
     for k, v in vals.items():
         try:
             fv = float(v)
@@ -223,7 +234,15 @@ def _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False, be
         )
     if bending_form not in ("paper", "dissipation"):
         raise ValueError(f"bending_form must be 'paper' or 'dissipation', got {bending_form!r}")
-    return _Physics(float(eta_s), float(eta_b), float(eta_bar), float(eta_bar_b), bool(fixed_normal), bending_form)
+    try:
+        c0 = float(c0)
+    except (TypeError, ValueError):
+        raise ValueError(f"spontaneous curvature c0 must be a real number, got {c0!r}") from None
+    if not math.isfinite(c0):
+        raise ValueError(f"spontaneous curvature c0 must be finite, got {c0!r}")
+    return _Physics(
+        float(eta_s), float(eta_b), float(eta_bar), float(eta_bar_b), bool(fixed_normal), bending_form, float(kappa), c0
+    )
 
 
 def _check_gauge(gauge: str) -> str:
@@ -310,6 +329,8 @@ def static_flow(
     symmetric: bool | None = None,
     fixed_normal: bool = False,
     gauge: str = "velocity",
+    kappa: float = 0.0,
+    spontaneous_curvature: float = 0.0,
 ) -> StaticResult:
     """Solve the force balance on a static sphere for the tension ``zeta(theta)``.
 
@@ -332,13 +353,16 @@ def static_flow(
     gauge : {'velocity', 'centroid'}
         Full meridian only: fixes the rigid axial translation by ``oint v_z dA = 0`` (the 3D
         code's convention) or by ``oint z v_n dA = 0`` (the enclosed volume's centroid is fixed).
+    kappa, spontaneous_curvature : float
+        Helfrich rigidity and spontaneous curvature (:mod:`cortex_ti.axisymmetric.rigidity`): on the
+        sphere they change only the pressure, by ``-kappa c0 (2/R - c0)/R``.
 
     Raises
     ------
     ValueError
         For bad input or a singular system.
     """
-    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal)
+    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal, kappa=kappa, c0=spontaneous_curvature)
     n = _check_n(n)
     if symmetric is None:
         symmetric = _is_symmetric(zeta)

@@ -616,6 +616,8 @@ def simulate(
     stop_ill_posed: bool = True,
     myosin: Myosin | None = None,
     bending_form: str = "paper",
+    kappa: float = 0.0,
+    spontaneous_curvature: float = 0.0,
     on_save=None,
     start: tuple[float, ArrayF] | None = None,
 ) -> SimulationResult:
@@ -687,6 +689,9 @@ def simulate(
         force as the 3D formulations ``rayleigh_p1`` and ``rayleigh_p2`` integrate it, the force of
         ``1/2 int B^cd d_c v_n d_d v_n dA``; the two differ by ``(nabla_c beta^cd) d_d v_n``, zero on
         a sphere (:class:`~cortex_ti.axisymmetric.balance._Physics`).
+    kappa, spontaneous_curvature : float
+        Helfrich bending rigidity (>= 0, eta_s R0^2 / t_a) and spontaneous curvature c0 (1/R0, ``C = 2/R``
+        on a sphere): the normal force of ``kappa/2 oint (C - c0)^2 dA`` (:mod:`cortex_ti.axisymmetric.rigidity`).
     on_save : callable or None
         ``on_save(frame, y)`` as each save time is reached (before the next step): ``frame`` the
         :class:`SimulationResult` of that one frame (its statistics zero), ``y`` the integrator's
@@ -706,7 +711,9 @@ def simulate(
     ValueError
         Bad input, singular force balance, or integrator failure (one-line message).
     """
-    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, bending_form=bending_form)
+    phys = _check_visc(
+        eta_s, eta_b, eta_bar, eta_bar_b, radius, bending_form=bending_form, kappa=kappa, c0=spontaneous_curvature
+    )
     n = _check_n(n)
     R = float(radius)
     st, atol = _check_times(t_end, save_times, rtol, atol, R)
@@ -779,6 +786,8 @@ def simulate(
         stop_ill_posed=stop_ill_posed,
         myosin=None if myosin is None else {k: v for k, v in vars(myosin).items() if k != "initial"},
     )
+    if phys.kappa:
+        params.update(kappa=phys.kappa, spontaneous_curvature=phys.c0)
 
     def hook(t, y):
         if on_save is not None:

@@ -40,6 +40,7 @@ from .evolve import (
     simulate,
 )
 from .myosin import Myosin
+from .rigidity import rigidity
 
 log = logging.getLogger(__name__)
 
@@ -233,6 +234,7 @@ class AxisymmetricRun:
                 n=2 * s.axisymmetric.n,
                 fixed_normal=s.has("fixed_normal_velocity"),
                 gauge=GAUGES[s.translation],
+                **rigidity(s),
             )
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
@@ -260,6 +262,7 @@ class AxisymmetricRun:
                 on_save=on_save,
                 start=start,
                 **evolution_options(s),
+                **rigidity(s),
             )
         except StepFailed as exc:
             self.result = exc.result  # its frames are written, then the run fails (run)
@@ -304,7 +307,7 @@ class AxisymmetricRun:
         then grow the faster the shorter, so the frames after it stop converging in n
         (docs/validation/constriction.md, "Where the model ends")."""
         bad = np.flatnonzero(np.asarray(res.min_stress) < 0.0)
-        if bad.size and not self.settings.has("bending_viscosity"):
+        if bad.size and not (self.settings.has("bending_viscosity") or self.settings.has("bending_rigidity")):
             k = int(bad[0])
             log.warning(
                 "%s (axisymmetric): from t = %.4g (neck %.4g R0) the cortex is compressed (smallest principal "

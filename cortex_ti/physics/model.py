@@ -18,6 +18,8 @@ EFFECTS: dict[str, str] = {
     "bulk_viscosity": "in-plane bulk (area-change) viscous stress, coefficient viscosity.bulk (eta_b)",
     "bending_viscosity": "viscous bending moments, coefficients viscosity.bending and "
     "viscosity.bending_bulk (paper Eq. 45)",
+    "bending_rigidity": "Helfrich bending rigidity: the normal force of kappa/2 oint (C - c0)^2 dA, coefficients "
+    "rigidity.bending and rigidity.spontaneous_curvature (model: axisymmetric only)",
     "normal_balance": "solve the normal force balance for the normal velocity",
     "fixed_normal_velocity": "impose zero normal velocity: tangential flow only, the shape stays fixed",
     "incompressibility": "conserve the enclosed volume with a pressure P = p_inside - p_outside",

@@ -18,7 +18,7 @@ __all__ = ["check_rules", "VALID_NODE_COUNTS"]
 VALID_NODE_COUNTS: tuple[int, ...] = tuple(icosphere_sizes(7))
 
 #: Effects that need the normal force balance.
-_NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "shape_evolution")
+_NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution")
 
 
 def check_rules(data: dict) -> None:
@@ -28,6 +28,7 @@ def check_rules(data: dict) -> None:
     effects = _check_effect_names(data["effects"])
     _check_effect_combinations(effects)
     _check_coefficients(data["viscosity"], effects)
+    _check_rigidity(data, effects)
     _check_time(data.get("time") or {})
     _check_step_count(data)
     _check_stop_neck(data)
@@ -40,6 +41,34 @@ def check_rules(data: dict) -> None:
     _check_curved(data)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
+
+
+def _check_rigidity(data: dict, seen: set[str]) -> None:
+    """The effect ``bending_rigidity`` is on exactly when ``rigidity.bending > 0``, and only the
+    axisymmetric model carries it (no 3D formulation has a bending force measured to converge)."""
+    rig = data.get("rigidity") or {}
+    kappa, c0 = rig.get("bending", 0.0), rig.get("spontaneous_curvature", 0.0)
+    on = "bending_rigidity" in seen
+    if kappa > 0 and not on:
+        raise SceneError(
+            f"rigidity.bending = {fmt_value(kappa)} but the effect 'bending_rigidity' is off: add it to effects "
+            "or set rigidity.bending: 0"
+        )
+    if c0 != 0 and not on:
+        raise SceneError(
+            f"rigidity.spontaneous_curvature = {fmt_value(c0)} needs the effect 'bending_rigidity' "
+            "(and rigidity.bending > 0): add it or remove the key"
+        )
+    if on and kappa == 0:
+        raise SceneError(
+            "the effect 'bending_rigidity' is on but rigidity.bending = 0: set it > 0 or remove "
+            "'bending_rigidity' from effects"
+        )
+    if on and data["model"] != "axisymmetric":
+        raise SceneError(
+            "the effect 'bending_rigidity' is carried by model: axisymmetric only; no 3D formulation has a "
+            "bending force measured to converge (docs/validation/bending_rigidity.md)"
+        )
 
 
 def _check_formulation_keys(numerics: dict) -> None:

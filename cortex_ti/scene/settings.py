@@ -34,6 +34,7 @@ __all__ = [
     "SolverSettings",
     "TimeSettings",
     "AxisymmetricSettings",
+    "RigiditySettings",
 ]
 
 
@@ -85,6 +86,15 @@ class ViscositySettings:
     bulk: float
     bending: float
     bending_bulk: float
+
+
+@dataclass(frozen=True)
+class RigiditySettings:
+    """Helfrich bending rigidity kappa (eta_s R0^2 / t_a) and spontaneous curvature c0 (1/R0); kappa is
+    0 without the effect ``bending_rigidity``."""
+
+    bending: float = 0.0
+    spontaneous_curvature: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -179,6 +189,7 @@ class RunSettings:
     solver: SolverSettings
     time: TimeSettings
     axisymmetric: AxisymmetricSettings
+    rigidity: RigiditySettings = RigiditySettings()
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -254,6 +265,10 @@ class RunSettings:
                 neck_resolution=float(ax["neck_resolution"]),
                 stop_neck=float(ax["stop_neck"]),
                 points=ax["points"],
+            ),
+            rigidity=RigiditySettings(
+                float(data["rigidity"]["bending"]) if "bending_rigidity" in effects else 0.0,
+                float(data["rigidity"]["spontaneous_curvature"]),
             ),
         )
 

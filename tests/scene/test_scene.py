@@ -180,6 +180,7 @@ def test_effects_vocabulary():
         "shear_viscosity",
         "bulk_viscosity",
         "bending_viscosity",
+        "bending_rigidity",
         "normal_balance",
         "fixed_normal_velocity",
         "incompressibility",
@@ -239,6 +240,7 @@ def test_defaults_and_canonical_numbers():
         "tension_transport",
         "mesh",
         "viscosity",
+        "rigidity",
         "active_stress",
         "fields",
         "effects",
@@ -322,7 +324,7 @@ def test_error_names_the_scene_file(tmp_path):
         (
             "foo=1",
             "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
-            "viscosity, "
+            "viscosity, rigidity, "
             "active_stress, fields, effects, numerics, solver, time, axisymmetric)",
         ),
         # wrong types
