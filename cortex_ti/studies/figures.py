@@ -1,7 +1,7 @@
 """The workflow's figures, drawn from the aggregate stores (matplotlib, no pyplot state).
 
 Each function returns a :class:`matplotlib.figure.Figure`; the workflow saves it with
-:func:`cortex_ti.plotting.save_figure` (atomic, format from the suffix). The caption of
+:func:`cortex_ti.viz.plotting.save_figure` (atomic, format from the suffix). The caption of
 each figure (what it shows, which paper figure it matches) is in ``workflow/report/``.
 """
 
@@ -503,8 +503,8 @@ def sphere_flows_figure(paths: Sequence[str], view=(20.0, -60.0)) -> Figure:
     ``|v|`` with arrows, and the velocity against the polar angle theta at the nodes (the normal
     part for the full system, the tangential speed for the tangential one; for a non-axisymmetric
     pattern the nodes near the meridian phi = 0) with the analytic solution as a line."""
-    from ..plotting import colorbar_below, plot_frame
     from ..truth.analytic import scene_solution
+    from ..viz.plotting import colorbar_below, plot_frame
 
     fig = Figure(figsize=(7.2, 2.8 * len(paths)), layout="constrained")
     for r, path in enumerate(paths):
