@@ -4,7 +4,10 @@ imports (:data:`ROOT_MODULES`, each with its reason); everything else lives in i
 (CONTRIBUTING.md, ``tests/repository/test_layers.py``).
 """
 
+import warnings
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGE = ROOT / "cortex_ti"
@@ -73,3 +76,17 @@ def test_the_package_root_holds_only_the_allowed_modules():
     generated = {"_version.py"}
     missing = sorted(set(ROOT_MODULES) - present - generated)
     assert not missing, f"ROOT_MODULES names modules that are gone (remove them): {missing}"
+
+
+def test_the_old_plotting_path_forwards_with_a_warning():
+    """``cortex_ti.plotting`` (now :mod:`cortex_ti.viz.plotting`) keeps working for one release."""
+    import cortex_ti.plotting as old
+    from cortex_ti.viz import plotting as new
+
+    with pytest.warns(DeprecationWarning, match="cortex_ti.viz.plotting"):
+        assert old.plot_frame is new.plot_frame
+    with pytest.warns(DeprecationWarning):
+        exec("from cortex_ti.plotting import COLORS", {})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a probe for a name it never had warns of nothing
+        assert not hasattr(old, "pytest_plugins")
