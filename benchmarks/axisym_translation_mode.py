@@ -34,7 +34,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from scipy.integrate import Radau
 
-from cortex_ti.axisymmetric.evolve import Dynamics, _integrate, full_meridian_dynamics, normal_embedding, simulate
+from cortex_ti.axisymmetric.dynamics import Dynamics, full_meridian_dynamics, normal_embedding
+from cortex_ti.axisymmetric.evolve import _integrate, simulate
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities
 from cortex_ti.axisymmetric.spectral import Spectral
 from cortex_ti.scene.loader import load_scene

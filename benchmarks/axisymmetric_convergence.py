@@ -23,7 +23,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 from cortex_ti.analysis.reference import DEFAULT_DIR  # noqa: E402
-from cortex_ti.axisymmetric import balance, evolve  # noqa: E402
+from cortex_ti.axisymmetric import balance, dynamics, evolve  # noqa: E402
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities  # noqa: E402
 from cortex_ti.scene import load_scene  # noqa: E402
 
@@ -31,7 +31,7 @@ from cortex_ti.scene import load_scene  # noqa: E402
 class ax:  # the solver's names, as this script uses them
     SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
     simulate = staticmethod(evolve.simulate)
-    Dynamics = evolve.Dynamics
+    Dynamics = dynamics.Dynamics
     _Physics = balance._Physics
     _System = balance.ForceBalance
 
