@@ -24,7 +24,7 @@ import _bench  # noqa: E402  (benchmarks/_bench.py)
 import numpy as np  # noqa: E402
 
 from cortex_ti.analysis.reference import DEFAULT_DIR  # noqa: E402
-from cortex_ti.axisymmetric import balance, evolve  # noqa: E402
+from cortex_ti.axisymmetric import balance, dynamics, evolve  # noqa: E402
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities  # noqa: E402
 from cortex_ti.scene import load_scene  # noqa: E402
 
@@ -32,7 +32,7 @@ from cortex_ti.scene import load_scene  # noqa: E402
 class ax:  # the solver's names, as this script uses them
     SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
     simulate = staticmethod(evolve.simulate)
-    _Dynamics = evolve._Dynamics
+    Dynamics = dynamics.Dynamics
     _Physics = balance._Physics
     _System = balance.ForceBalance
 
@@ -252,7 +252,7 @@ def stiffness():
             for n in (24, 48, 96):
                 r = ax.simulate(z, **v, t_end=3.0, n=n, rtol=1e-9, save_times=[0.0, 3.0])
                 sp = r._spectral
-                dyn = ax._Dynamics(
+                dyn = ax.Dynamics(
                     sp, ax._System(sp, ax._Physics(1.0, 1.0, v["eta_bar"], v["eta_bar_b"])), z, "lagrangian"
                 )
                 row = []

@@ -26,8 +26,9 @@ import numpy as np
 from numpy.polynomial import legendre as npl
 from scipy.integrate import simpson
 
-from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
-from cortex_ti.axisymmetric.evolve import _Dynamics, simulate
+from cortex_ti.axisymmetric.balance import ForceBalance, check_visc
+from cortex_ti.axisymmetric.dynamics import Dynamics
+from cortex_ti.axisymmetric.evolve import simulate
 from cortex_ti.axisymmetric.rigidity import area_weights, dissipation, helfrich_energy, helfrich_force
 from cortex_ti.axisymmetric.spectral import Spectral, geometry
 from cortex_ti.truth.helfrich_sphere import rate
@@ -38,8 +39,8 @@ def stiffness(kappas, ns) -> None:
     for kappa in kappas:
         for n in ns:
             sp = Spectral(n, True)
-            dyn = _Dynamics(
-                sp, ForceBalance(sp, _check_visc(1.0, 1.0, 0, 0, 1.0, kappa=kappa)), lambda t: 1.0 + 0 * t, "lagrangian"
+            dyn = Dynamics(
+                sp, ForceBalance(sp, check_visc(1.0, 1.0, 0, 0, 1.0, kappa=kappa)), lambda t: 1.0 + 0 * t, "lagrangian"
             )
             ev = np.linalg.eigvals(dyn.jac(0.0, np.concatenate([np.sin(sp.u), np.cos(sp.u)])))
             top = abs(rate(2 * n - 2, kappa=kappa, eta_s=1.0, eta_b=1.0, zeta0=1.0))
@@ -51,7 +52,7 @@ def power(n: int, counts, T: float = 0.2, kappa: float = 1.0, c0: float = 0.5) -
     sp = Spectral(n, True)
     leg = npl.legval(np.cos(sp.u), [0, 0, 0.15, 0, 0.08])
     y0 = np.concatenate([np.sin(sp.u) * (1 + leg), np.cos(sp.u) * (1 + leg)])
-    fb = ForceBalance(sp, _check_visc(1.0, 1.0, 0.0, 0.0, 1.0, kappa=kappa, c0=c0))
+    fb = ForceBalance(sp, check_visc(1.0, 1.0, 0.0, 0.0, 1.0, kappa=kappa, c0=c0))
     print(f"power balance: n = {n}, kappa = {kappa:g}, c0 = {c0:g}, to t = {T:g}")
     for count in counts:
         ts = T * np.linspace(0.0, 1.0, count) ** 4

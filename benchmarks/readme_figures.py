@@ -21,10 +21,10 @@ from pathlib import Path
 import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
 
-from cortex_ti.plotting import save_figure
 from cortex_ti.studies.figures import fold_figure, orientation_figure, snapshots_figure
 from cortex_ti.studies.stores import study_dataset
 from cortex_ti.studies.sweeps import expand_runs
+from cortex_ti.viz.plotting import save_figure
 
 FOLD = ("fold_narrow", "fold_broad")
 SHEAR = ("shear_035", "shear_035_tilted", "shear_075")

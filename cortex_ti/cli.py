@@ -340,9 +340,9 @@ def _export(args) -> int:
 def _plot(args) -> int:
     from .io import load_trajectory
     from .io.files import refuse_file_parent
-    from .plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
     from .viz.commands import announce, parse_view
     from .viz.figure import frame_figure
+    from .viz.plotting import COLORS, DEFAULT_SERIES, figure_format, frame_index, save_figure, series_names
     from .viz.render import Renderer, choose_renderer
 
     # the arguments first, so that a typo costs no reading

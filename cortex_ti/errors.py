@@ -6,11 +6,16 @@ line prints its message (no traceback) and exits non-zero.
 :class:`Interrupted` is how SIGINT and SIGTERM end a command (:func:`interruptible`); it lives
 here, at the bottom of the package, so that the command line installs its handlers before any
 heavy import.
+
+:func:`moved_to` is the ``__getattr__`` of a module that moved: the old path keeps working for one
+release with a :class:`DeprecationWarning` a user can act on (change the import).
 """
 
 import contextlib
+import importlib
 import signal
 import threading
+import warnings
 
 
 class CortexError(Exception):
@@ -138,3 +143,21 @@ def thread_count(value=None, what: str = "threads") -> "int | None":
         shown = f"'{value}'" if isinstance(value, str) else repr(value)
         raise CortexError(f"{what} must be a whole number >= 1{unset}, got {shown}")
     return number
+
+
+def moved_to(old: str, new: str):
+    """The module ``__getattr__`` of the deprecated module ``old``, which forwards every name of the
+    module ``new`` (imported when first used) with a :class:`DeprecationWarning`; a probe for a name
+    ``new`` lacks, or a dunder (doctest, pytest, pickle), is an :class:`AttributeError` and no warning.
+
+    Usage, the whole body of the old module: ``__getattr__ = moved_to(__name__, "cortex_ti.x.y")``.
+    """
+
+    def __getattr__(name: str):
+        moved = importlib.import_module(new)
+        if name.startswith("__") or not hasattr(moved, name):
+            raise AttributeError(f"module {old!r} has no attribute {name!r}")
+        warnings.warn(f"{old} moved to {new}; the old path goes in the next release", DeprecationWarning, stacklevel=2)
+        return getattr(moved, name)
+
+    return __getattr__

@@ -111,5 +111,30 @@ class _DocstringMarkup(logging.Filter):
         return True
 
 
+_DOCUMENTING = {"module": ""}
+
+
+def _note_module(app, what, name, obj, options, lines):
+    """Which module autodoc is documenting (its docstring comes before its members)."""
+    if what == "module":
+        _DOCUMENTING["module"] = name
+
+
+def _skip_reexport(app, what, name, obj, skip, options):
+    """A module that is not a package documents only what it defines: a name it imports from
+    another module of the package (a public face like ``io.trajectory``, kept for the import paths
+    users have) is documented where it is defined, once; the package's ``__init__`` pages list their
+    exports as before."""
+    module = sys.modules.get(_DOCUMENTING["module"])
+    if what != "module" or module is None or hasattr(module, "__path__"):
+        return None
+    home = getattr(obj, "__module__", None)
+    if isinstance(home, str) and home.startswith("cortex_ti.") and home != module.__name__:
+        return True
+    return None
+
+
 def setup(app):
     logging.getLogger("sphinx.sphinx.util.docutils").addFilter(_DocstringMarkup())
+    app.connect("autodoc-process-docstring", _note_module)
+    app.connect("autodoc-skip-member", _skip_reexport)

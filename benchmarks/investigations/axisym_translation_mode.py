@@ -17,7 +17,7 @@ symmetry reduction), of the growing odd mode the 3D code finds on furrow_p4_a1 a
 For bending viscosity on (scene values) and off (eta_bar = eta_bar_b = 0):
   1. simulate(..., symmetric=False, parametrization='lagrangian') to t = 1, 3 (full meridian,
      gauge 'velocity' = oint v_z dA = 0, the 3D code's convention; n = 2 x the scene's 48),
-  2. J = _Dynamics.jac(t, y) (exact complex-step Jacobian of the (r, z) node dynamics), eigenvalues:
+  2. J = Dynamics.jac(t, y) (exact complex-step Jacobian of the (r, z) node dynamics), eigenvalues:
      - full J, and its mirror-even / mirror-odd blocks (z -> -z),
      - the normal-normal operator J_nn = N^T J N (the 3D code's J s = d v_n/dX [s n]),
      each eigenvector's normal fraction and parity of its normal component s,
@@ -42,7 +42,8 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np
 from scipy.integrate import Radau
 
-from cortex_ti.axisymmetric.evolve import _Dynamics, _integrate, full_meridian_dynamics, normal_embedding, simulate
+from cortex_ti.axisymmetric.dynamics import Dynamics, full_meridian_dynamics, normal_embedding
+from cortex_ti.axisymmetric.evolve import _integrate, simulate
 from cortex_ti.axisymmetric.run import axisymmetric_tension, viscosities
 from cortex_ti.axisymmetric.spectral import Spectral
 from cortex_ti.scene.loader import load_scene
@@ -61,7 +62,7 @@ def visc(bending: bool) -> dict:
     return v
 
 
-class FullAdvection(_Dynamics):
+class FullAdvection(Dynamics):
     """Exploratory variant: material points (and the tension on them) move with v_n n + v_s t."""
 
     def velocity(self, g, x):
@@ -72,7 +73,7 @@ class FullAdvection(_Dynamics):
         return np.concatenate([dr @ self.sp.FR.T, dz], axis=-1)
 
 
-def dynamics(n: int, v: dict, gauge: str = "velocity", cls=_Dynamics) -> _Dynamics:
+def dynamics(n: int, v: dict, gauge: str = "velocity", cls=Dynamics) -> Dynamics:
     """The full-meridian lagrangian dynamics exactly as simulate builds it."""
     return full_meridian_dynamics(ZETA, n, **v, gauge=gauge, cls=cls)
 
@@ -111,7 +112,7 @@ def parity_basis(n: int, sgn: int) -> np.ndarray:
     return Q
 
 
-def frames(dyn: _Dynamics, y: np.ndarray):
+def frames(dyn: Dynamics, y: np.ndarray):
     """Per-node outward normal N and tangent T (north -> south) as (2n x n) embeddings, and g."""
     g = dyn.geometry(y)
     n = dyn.n
@@ -144,7 +145,7 @@ def describe(dyn, y, w, V, k) -> str:
     )
 
 
-def analyse(dyn: _Dynamics, y: np.ndarray, t: float, verbose: bool = True) -> dict:
+def analyse(dyn: Dynamics, y: np.ndarray, t: float, verbose: bool = True) -> dict:
     n = dyn.n
     J = dyn.jac(t, y)
     M = mirror(n)
@@ -244,7 +245,7 @@ def main():
             if n != analysed:
                 continue
             for gauge, cls, name in (
-                ("centroid", _Dynamics, "gauge 'centroid' (oint z v_n dA = 0)"),
+                ("centroid", Dynamics, "gauge 'centroid' (oint z v_n dA = 0)"),
                 ("velocity", FullAdvection, "full advection v_n n + v_s t, gauge 'velocity'"),
                 ("centroid", FullAdvection, "full advection v_n n + v_s t, gauge 'centroid'"),
             ):

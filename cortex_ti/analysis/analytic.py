@@ -6,17 +6,6 @@
 
 from __future__ import annotations
 
-import warnings
+from ..errors import moved_to
 
-
-def __getattr__(name: str):
-    from ..truth import analytic as _moved
-
-    if name.startswith("__") or not hasattr(_moved, name):  # probes (doctest, pytest, pickle): not a use
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    warnings.warn(
-        "cortex_ti.analysis.analytic moved to cortex_ti.truth.analytic; the old path goes in the next release",
-        DeprecationWarning,
-        stacklevel=2,
-    )
-    return getattr(_moved, name)
+__getattr__ = moved_to(__name__, "cortex_ti.truth.analytic")

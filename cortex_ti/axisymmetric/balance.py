@@ -211,9 +211,15 @@ class ForceBalance:
         return out
 
 
-def _check_visc(
+# The checks and helpers the shape evolution (evolve.py, dynamics.py) shares with the static
+# balance: an internal API of the axisymmetric package, not in __all__.
+
+
+def check_visc(
     eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal=False, bending_form="paper", kappa=0.0, c0=0.0
 ) -> _Physics:
+    """The viscosities, rigidity and radius checked (finite, >= 0, eta_s and radius > 0, v_n
+    determined) as a :class:`_Physics`; ``ValueError`` naming the bad one."""
     vals = dict(eta_s=eta_s, eta_b=eta_b, eta_bar=eta_bar, eta_bar_b=eta_bar_b, radius=radius, kappa=kappa)
     for k, v in vals.items():
         try:
@@ -245,13 +251,15 @@ def _check_visc(
     )
 
 
-def _check_gauge(gauge: str) -> str:
+def check_gauge(gauge: str) -> str:
+    """``gauge`` if it is ``velocity`` or ``centroid``, else ``ValueError``."""
     if gauge not in ("velocity", "centroid"):
         raise ValueError(f"gauge must be 'velocity' or 'centroid', got {gauge!r}")
     return gauge
 
 
-def _eval_zeta(zeta: ZetaFn, theta: ArrayF) -> ArrayF:
+def eval_zeta(zeta: ZetaFn, theta: ArrayF) -> ArrayF:
+    """``zeta(theta)`` as finite floats of ``theta``'s shape (a scalar function is mapped point by point)."""
     if not callable(zeta):
         raise ValueError("zeta must be a callable zeta(theta0) -> tension")
     try:
@@ -265,13 +273,15 @@ def _eval_zeta(zeta: ZetaFn, theta: ArrayF) -> ArrayF:
     return val
 
 
-def _is_symmetric(zeta: ZetaFn) -> bool:
+def is_symmetric(zeta: ZetaFn) -> bool:
+    """Whether ``zeta`` is mirror-symmetric about the equator, ``zeta(pi - t) = zeta(t)`` (to 1e-13)."""
     t = np.linspace(0.0, np.pi / 2, 401)
-    a, b = _eval_zeta(zeta, t), _eval_zeta(zeta, np.pi - t)
+    a, b = eval_zeta(zeta, t), eval_zeta(zeta, np.pi - t)
     return bool(np.max(np.abs(a - b)) <= 1e-13 * max(1.0, np.max(np.abs(a))))
 
 
-def _check_n(n) -> int:
+def check_n(n) -> int:
+    """``n`` as an int if it is an integer >= 4, else ``ValueError``."""
     try:
         ni = int(n)
     except (TypeError, ValueError):
@@ -281,7 +291,9 @@ def _check_n(n) -> int:
     return ni
 
 
-def _lu(A: ArrayF):
+def lu_checked(A: ArrayF):
+    """The LU factors of the force-balance matrix ``A`` (:func:`scipy.linalg.lu_factor`), ``ValueError``
+    for non-finite entries or a singular system."""
     if not np.all(np.isfinite(A)):
         raise ValueError("non-finite entries in the force-balance matrix (degenerate shape?)")
     lu = sla.lu_factor(A, check_finite=False)
@@ -362,17 +374,17 @@ def static_flow(
     ValueError
         For bad input or a singular system.
     """
-    phys = _check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal, kappa=kappa, c0=spontaneous_curvature)
-    n = _check_n(n)
+    phys = check_visc(eta_s, eta_b, eta_bar, eta_bar_b, radius, fixed_normal, kappa=kappa, c0=spontaneous_curvature)
+    n = check_n(n)
     if symmetric is None:
-        symmetric = _is_symmetric(zeta)
+        symmetric = is_symmetric(zeta)
     sp = Spectral(n, symmetric)
     R = float(radius)
-    zt = _eval_zeta(zeta, sp.u)
-    system = ForceBalance(sp, phys, _check_gauge(gauge))
+    zt = eval_zeta(zeta, sp.u)
+    system = ForceBalance(sp, phys, check_gauge(gauge))
     g = geometry(sp, R * np.sin(sp.u), R * np.cos(sp.u))
     g["zeta"] = zt
     A, b = system.assemble(g)
-    x = sla.lu_solve(_lu(A), b, check_finite=False)
+    x = sla.lu_solve(lu_checked(A), b, check_finite=False)
     f = system.unpack(x)
     return StaticResult(sp.u.copy(), f["v_s"], f["v_n"], float(f["P"]), float(f["lam"]), zt, R, sp)

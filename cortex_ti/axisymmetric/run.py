@@ -30,16 +30,10 @@ from ..physics.patterns import evaluate_active_stress
 from ..scene.loader import Scene
 from ..scene.settings import RunSettings
 from .balance import static_flow
-from .evolve import (
-    STRETCH_LIMIT,
-    STRETCH_LIMITS,
-    StepFailed,
-    first_unresolved,
-    label_matters,
-    revolve,
-    simulate,
-)
+from .dynamics import STRETCH_LIMIT, STRETCH_LIMITS, first_unresolved, label_matters
+from .evolve import StepFailed, simulate
 from .myosin import Myosin
+from .result import revolve
 from .rigidity import rigidity
 
 log = logging.getLogger(__name__)

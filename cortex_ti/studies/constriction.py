@@ -20,7 +20,7 @@ import pandas as pd
 import xarray as xr
 from matplotlib.figure import Figure
 
-from ..axisymmetric.evolve import first_unresolved
+from ..axisymmetric.dynamics import first_unresolved
 
 __all__ = [
     "ARREST_RATE",

@@ -109,10 +109,10 @@ def _furrow_pictures(runs) -> pd.DataFrame:
 
 
 def _furrow_radii(stores) -> pd.DataFrame:
-    from .figures import _twin_index
+    from .figures_shapes import twin_index
 
     ds, axisym = stores
-    twins = _twin_index(axisym)
+    twins = twin_index(axisym)
     rows = []
     for i in range(ds.sizes["run"]):
         key = (str(ds["scene"].values[i]), float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
@@ -189,7 +189,7 @@ def _reference_check(stores) -> pd.DataFrame:
     from ..analysis import reference
     from ..axisymmetric.run import AxisymmetricRun
     from ..scene import load_scene
-    from .figures import REFERENCE_PROBLEM, _twin_index
+    from .figures_shapes import REFERENCE_PROBLEM, twin_index
 
     ref = reference.load_radii()
     res = AxisymmetricRun(load_scene("furrow_p8_a1", REFERENCE_PROBLEM)).simulate()
@@ -201,7 +201,7 @@ def _reference_check(stores) -> pd.DataFrame:
         }
     ]
     axisym = stores[0]
-    j = _twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
+    j = twin_index(axisym).get(("furrow_p8_a1", 1.0, 8.0))
     if j is not None:
         d = reference.radii_deviation(
             axisym["time"].values, axisym["pole_radius"].values[j], axisym["furrow_radius"].values[j]

@@ -15,6 +15,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import MeshError
+from .measures import enclosed_volume, face_areas
 from .mesh import Mesh
 
 __all__ = ["validate_mesh", "MERGE_TOLERANCE", "DEGENERATE_AREA", "FLAT_VOLUME"]
@@ -116,16 +117,9 @@ def _used_nodes(faces: np.ndarray, n: int) -> np.ndarray:
     return np.flatnonzero(np.bincount(faces.ravel(), minlength=n))
 
 
-def _face_areas(pts: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
-    return 0.5 * np.linalg.norm(np.cross(p1 - p0, p2 - p0), axis=1)
-
-
 def _signed_volume(pts: np.ndarray, faces: np.ndarray) -> float:
-    used = _used_nodes(faces, pts.shape[0])
-    c = pts[used].mean(axis=0)
-    p0, p1, p2 = pts[faces[:, 0]] - c, pts[faces[:, 1]] - c, pts[faces[:, 2]] - c
-    return float(np.einsum("ij,ij->", p0, np.cross(p1, p2)) / 6.0)
+    """The enclosed volume (:func:`~cortex_ti.surface.measures.enclosed_volume`) about the mean of the used nodes."""
+    return enclosed_volume(pts, faces, origin=pts[_used_nodes(faces, pts.shape[0])].mean(axis=0))
 
 
 def validate_mesh(points, faces, name: str = "mesh") -> Mesh:
@@ -211,7 +205,7 @@ def _check_degenerate(pts: np.ndarray, fc: np.ndarray, fc0: np.ndarray, label: s
             f"{label} has {idx.size} degenerate triangle(s): face {f} = {fc[f].tolist()} "
             f"uses the same node twice{merged}"
         )
-    areas = _face_areas(pts, fc)
+    areas = face_areas(pts, fc)
     mean_area = float(areas.mean())
     small = areas < DEGENERATE_AREA * mean_area
     if mean_area <= 0 or small.any():

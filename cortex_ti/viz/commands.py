@@ -19,9 +19,9 @@ __all__ = ["add_commands", "add_renderer_option", "announce", "parse_view"]
 
 
 def parse_view(text: str | None):
-    """``"ELEV,AZIM"`` in degrees (default :data:`cortex_ti.plotting.DEFAULT_VIEW`)."""
+    """``"ELEV,AZIM"`` in degrees (default :data:`cortex_ti.viz.plotting.DEFAULT_VIEW`)."""
     if text is None:
-        from ..plotting import DEFAULT_VIEW
+        from .plotting import DEFAULT_VIEW
 
         return DEFAULT_VIEW
     try:
@@ -47,7 +47,7 @@ def announce(renderer) -> None:
 
 
 def _colour(name: str) -> str:
-    from ..plotting import COLORS
+    from .plotting import COLORS
 
     if name not in COLORS:
         raise CortexError(f"unknown --color '{name}'; choose one of: {', '.join(COLORS)}")
@@ -56,7 +56,7 @@ def _colour(name: str) -> str:
 
 def add_commands(sub) -> None:
     """Add ``movie`` and ``view`` to the subcommands ``sub`` of the ``cortex-ti`` parser."""
-    colours = "speed, active_stress, normal_velocity"  # cortex_ti.plotting.COLORS, checked when run
+    colours = "speed, active_stress, normal_velocity"  # cortex_ti.viz.plotting.COLORS, checked when run
     movie = sub.add_parser(
         "movie",
         help="write a movie of a trajectory (.mp4 or .gif), coloured by a quantity, "

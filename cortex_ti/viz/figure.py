@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import (
+from .plotting import (
     COLORS,
     DEFAULT_SERIES,
     DEFAULT_VIEW,
@@ -53,7 +53,7 @@ def frame_panel(
     ``spec``: where, as ``fig.add_subplot`` takes it (a ``SubplotSpec``, or ``(nrows, ncols,
     index)``). With PyVista (``renderer``, default :func:`choose_renderer`) the panel is a
     ``pixels``-square picture cut to the shape; with matplotlib a 3D axes
-    (:func:`cortex_ti.plotting.plot_frame` with ``axes=False``). ``label``: of the colour bar
+    (:func:`cortex_ti.viz.plotting.plot_frame` with ``axes=False``). ``label``: of the colour bar
     (default the quantity's). Returns ``(ax, colorbar)``.
     """
     from matplotlib.cm import ScalarMappable
@@ -109,7 +109,7 @@ def frame_figure(
     renderer: Renderer | None = None,
     max_arrows: int = MAX_ARROWS,
 ):
-    """:func:`cortex_ti.plotting.figure_frame_and_series` with the 3D panel drawn by PyVista
+    """:func:`cortex_ti.viz.plotting.figure_frame_and_series` with the 3D panel drawn by PyVista
     when it is the renderer (a picture twice the panel's pixel size, its colour bar drawn by
     matplotlib with the same limits), by matplotlib otherwise."""
     renderer = renderer or choose_renderer()

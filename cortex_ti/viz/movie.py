@@ -22,8 +22,8 @@ from pathlib import Path
 
 from ..errors import CortexError
 from ..io.files import OutputError, check_destination, describe_os_error, write_synced
-from ..plotting import COLORS, DEFAULT_VIEW, MAX_ARROWS
 from .extra import require
+from .plotting import COLORS, DEFAULT_VIEW, MAX_ARROWS
 from .render import Renderer, frame_renderer
 
 __all__ = ["MOVIE_FORMATS", "movie_format", "parse_size", "write_movie"]

@@ -19,16 +19,16 @@ default window first. Each is tried in a child process that draws one small sphe
 the picture is not blank, so a missing or broken OpenGL cannot crash the caller; the first that
 works is set in ``VTK_DEFAULT_OPENGL_WINDOW`` for this process. A ``VTK_DEFAULT_OPENGL_WINDOW``
 set by the user is the only one tried. Without pyvista, or when no window works, matplotlib
-draws (:func:`cortex_ti.plotting.plot_frame`).
+draws (:func:`cortex_ti.viz.plotting.plot_frame`).
 
 What a PyVista picture shows
 ----------------------------
-The surface with the node values of the quantity (:func:`cortex_ti.plotting.node_values`)
+The surface with the node values of the quantity (:func:`cortex_ti.viz.plotting.node_values`)
 interpolated across each triangle and smooth shading; velocity arrows (black) at an evenly
 spread subset of the moving nodes (at most ``max_arrows``; the fastest node of all the frames
-given has an arrow 12 % of the size of the shape, as in :mod:`cortex_ti.plotting` for one
+given has an arrow 12 % of the size of the shape, as in :mod:`cortex_ti.viz.plotting` for one
 frame); the camera at the view angles ``(elev, azim)`` of
-matplotlib's convention (:func:`cortex_ti.plotting.view_direction`, z up) and a zoom that stays
+matplotlib's convention (:func:`cortex_ti.viz.plotting.view_direction`, z up) and a zoom that stays
 fixed across the frames given to :func:`frame_renderer`; optionally a horizontal colour bar and
 the time in the upper left corner.
 """
@@ -46,7 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CortexError
-from ..plotting import (
+from .extra import RENDERERS, VIZ_EXTRA, missing
+from .plotting import (
     ARROW_FRACTION,
     COLORS,
     DEFAULT_VIEW,
@@ -56,7 +57,6 @@ from ..plotting import (
     spread_nodes,
     view_direction,
 )
-from .extra import RENDERERS, VIZ_EXTRA, missing
 
 __all__ = [
     "RENDERERS",
@@ -81,7 +81,7 @@ p.close()
 """
 
 #: Colour-bar titles in plain ASCII (VTK's text drawing lacks some of the glyphs of
-#: :data:`cortex_ti.plotting.COLORS`' labels).
+#: :data:`cortex_ti.viz.plotting.COLORS`' labels).
 PLAIN_LABELS: dict[str, str] = {
     "speed": "speed [R0/t_a]",
     "active_stress": "active tension zeta [zeta_0]",
@@ -191,7 +191,7 @@ class PyVistaFrames:
     ds : xarray.Dataset
         A trajectory.
     color : str
-        A key of :data:`cortex_ti.plotting.COLORS`.
+        A key of :data:`cortex_ti.viz.plotting.COLORS`.
     frames : sequence of int
         The frames to be drawn: they fix the colour limits (unless ``clim``) and the zoom.
     size : (width, height)
@@ -199,7 +199,7 @@ class PyVistaFrames:
     view : (elev, azim)
         Camera angles in degrees (matplotlib's convention, z up).
     clim, cmap, arrows, max_arrows
-        As in :func:`cortex_ti.plotting.plot_frame`.
+        As in :func:`cortex_ti.viz.plotting.plot_frame`.
     edges : bool
         Draw the triangles' edges (faint).
     lighting : bool
@@ -359,7 +359,7 @@ class PyVistaFrames:
 
 
 class MatplotlibFrames:
-    """The same pictures drawn by matplotlib (:func:`cortex_ti.plotting.plot_frame`), for
+    """The same pictures drawn by matplotlib (:func:`cortex_ti.viz.plotting.plot_frame`), for
     machines without OpenGL: a colour bar below, the time in the title."""
 
     def __init__(
@@ -390,7 +390,7 @@ class MatplotlibFrames:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        from ..plotting import plot_frame
+        from .plotting import plot_frame
 
         dpi = 100.0
         fig = Figure(figsize=(self.size[0] / dpi, self.size[1] / dpi), dpi=dpi)

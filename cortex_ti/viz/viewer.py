@@ -14,7 +14,7 @@ import logging
 import numpy as np
 
 from ..errors import CortexError
-from ..plotting import COLORS, DEFAULT_VIEW
+from .plotting import COLORS, DEFAULT_VIEW
 from .render import PyVistaFrames, choose_renderer
 
 __all__ = ["build_viewer", "serve"]
@@ -26,7 +26,7 @@ def build_viewer(ds, name: str = "trajectory", color: str = "speed", server=None
     """The trame server of the viewer of ``ds`` (not started) and its :class:`PyVistaFrames`.
 
     State variables: ``frame`` (index), ``last`` (the last frame index), ``color`` (a key of
-    :data:`cortex_ti.plotting.COLORS`), ``time_text``. ``reload``: a function returning the
+    :data:`cortex_ti.viz.plotting.COLORS`), ``time_text``. ``reload``: a function returning the
     trajectory read again (e.g. the ``.partial`` file of a run still going); with it, a
     "reload" button shows the frames written since, the colour limits taken over all of them.
     """

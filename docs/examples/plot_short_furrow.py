@@ -15,9 +15,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 
 from cortex_ti.io import Trajectory
-from cortex_ti.plotting import plot_frame, plot_timeseries
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation.core import Simulation
+from cortex_ti.viz.plotting import plot_frame, plot_timeseries
 
 scene = load_scene("furrow_p8_a1", ["mesh.nodes=642", "time.t_end=0.3"])
 sim = Simulation(scene)

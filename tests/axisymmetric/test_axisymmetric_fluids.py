@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.polynomial import legendre as leg
 
-from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
+from cortex_ti.axisymmetric.balance import ForceBalance, check_visc
 from cortex_ti.axisymmetric.spectral import Spectral, geometry
 from cortex_ti.axisymmetric.stokes import layers, single_layer, with_fluids
 from cortex_ti.truth import fluid_sphere as fs
@@ -24,7 +24,7 @@ def _solve(sp, r, z, zeta, mu, body_force=0.0, visc=(1.0, 1.0, 5e-4, 2.5e-3), fa
     mu_in, mu_out = (mu, mu) if np.isscalar(mu) else mu
     g = geometry(sp, r, z)
     g["zeta"] = zeta
-    A, b = ForceBalance(sp, _check_visc(*visc, 1.0)).assemble(g)
+    A, b = ForceBalance(sp, check_visc(*visc, 1.0)).assemble(g)
     A2, b2 = with_fluids(A, b, sp, g, mu_in=mu_in, mu_out=mu_out, body_force=body_force, far_field=far_field)
     x = np.linalg.solve(A2, b2)
     return x[: sp.n], x[sp.n : 2 * sp.n], g

@@ -11,7 +11,7 @@ n = 48, smooth speeds): relative asymmetry 1.5e-14 (dissipation) against 0.91 (p
 import numpy as np
 import pytest
 
-from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
+from cortex_ti.axisymmetric.balance import ForceBalance, check_visc
 from cortex_ti.axisymmetric.spectral import Spectral, geometry
 
 
@@ -21,8 +21,8 @@ def _bending_operator(form: str, a: float, c: float, n: int = 48):
     sp = Spectral(n, symmetric=False)
     g = geometry(sp, a * np.sin(sp.u), c * np.cos(sp.u))
     g["zeta"] = np.zeros(n)
-    with_b = ForceBalance(sp, _check_visc(1.0, 1.0, 5e-4, 2.5e-3, 1.0, bending_form=form))
-    without = ForceBalance(sp, _check_visc(1.0, 1.0, 0.0, 0.0, 1.0))
+    with_b = ForceBalance(sp, check_visc(1.0, 1.0, 5e-4, 2.5e-3, 1.0, bending_form=form))
+    without = ForceBalance(sp, check_visc(1.0, 1.0, 0.0, 0.0, 1.0))
     unit = np.eye(n)
     op = with_b.balance(np.zeros((n, n)), unit, g)[1] - without.balance(np.zeros((n, n)), unit, g)[1]
     return op.T, sp.wR * g["r"] * g["h"]  # [i, j]: force at node i of v_n = e_j
@@ -55,4 +55,4 @@ def test_the_dissipation_form_is_self_adjoint_and_eq45_is_not():
 
 def test_an_unknown_bending_form_is_refused():
     with pytest.raises(ValueError, match="bending_form"):
-        _check_visc(1.0, 1.0, 5e-4, 2.5e-3, 1.0, bending_form="strong")
+        check_visc(1.0, 1.0, 5e-4, 2.5e-3, 1.0, bending_form="strong")

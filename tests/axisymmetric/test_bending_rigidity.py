@@ -13,7 +13,7 @@ import pytest
 from numpy.polynomial import legendre as npl
 from scipy.integrate import simpson
 
-from cortex_ti.axisymmetric.balance import ForceBalance, _check_visc
+from cortex_ti.axisymmetric.balance import ForceBalance, check_visc
 from cortex_ti.axisymmetric.evolve import simulate
 from cortex_ti.axisymmetric.rigidity import area_weights, dissipation, helfrich_energy, helfrich_force
 from cortex_ti.axisymmetric.spectral import Spectral, geometry
@@ -65,7 +65,7 @@ def test_rigidity_power_equals_dissipation_at_an_instant(symmetric):
     y = _shape(sp, DEFORMED[symmetric])
     g = geometry(sp, y[:n], y[n:])
     g["zeta"] = np.zeros(n)
-    fb = ForceBalance(sp, _check_visc(1.0, 0.5, 0.0, 0.0, 1.0, kappa=0.7, c0=0.4))
+    fb = ForceBalance(sp, check_visc(1.0, 0.5, 0.0, 0.0, 1.0, kappa=0.7, c0=0.4))
     A, b = fb.assemble(g)
     x = np.linalg.solve(A, b)
     D = dissipation(sp, g, x[:n], x[n : 2 * n], 1.0, 0.5)
@@ -136,7 +136,7 @@ def test_power_balance_over_a_relaxation():
     n, T, kappa, c0 = 16, 0.2, 1.0, 0.5
     sp = Spectral(n, True)
     y0 = _shape(sp, DEFORMED[True])
-    fb = ForceBalance(sp, _check_visc(1.0, 1.0, 0.0, 0.0, 1.0, kappa=kappa, c0=c0))
+    fb = ForceBalance(sp, check_visc(1.0, 1.0, 0.0, 0.0, 1.0, kappa=kappa, c0=c0))
     ts = T * np.linspace(0.0, 1.0, 161) ** 4
     E, D = [], []
 
@@ -228,12 +228,12 @@ def test_the_linearised_dynamics_has_the_closed_form_rates(symmetric, n):
     the few next to the grid's limit are off by up to 25 % (n = 16 and 32 alike), the share
     of exact modes grows with n. The largest rate is the stiffness the integrator meets:
     |lambda| = 4.0e5 at kappa = 0.01, n = 48 (docs/validation/bending_rigidity.md)."""
-    from cortex_ti.axisymmetric.evolve import _Dynamics
+    from cortex_ti.axisymmetric.dynamics import Dynamics
 
     kw = dict(kappa=0.3, c0=0.8, zeta0=0.5)
     sp = Spectral(n, symmetric)
-    ph = _check_visc(1.0, 2.0, 0.0, 0.0, 1.0, kappa=kw["kappa"], c0=kw["c0"])
-    dyn = _Dynamics(sp, ForceBalance(sp, ph), lambda t: kw["zeta0"] + 0.0 * t, "lagrangian")
+    ph = check_visc(1.0, 2.0, 0.0, 0.0, 1.0, kappa=kw["kappa"], c0=kw["c0"])
+    dyn = Dynamics(sp, ForceBalance(sp, ph), lambda t: kw["zeta0"] + 0.0 * t, "lagrangian")
     sphere = np.concatenate([np.sin(sp.u), np.cos(sp.u)])
     # the sphere is an equilibrium, held by the closed-form pressure
     _, x, _ = dyn.solve(sphere)

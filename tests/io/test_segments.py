@@ -166,7 +166,7 @@ def test_export_and_plot_give_each_frame_its_mesh(tmp_path):
     """VTKHDF (read back by VTK's own reader when installed) and PVD: every step has its frame's
     points, triangles and point data; the matplotlib picture draws the frame's triangles."""
     from cortex_ti.io.export import export_trajectory
-    from cortex_ti.plotting import plot_frame
+    from cortex_ti.viz.plotting import plot_frame
 
     path = tmp_path / "r.h5"
     _write_plan(path)

@@ -37,7 +37,7 @@ LAYERS = (
     ("analysis", "truth"),
     ("dynamics",),
     ("scene",),
-    ("io", "plotting"),
+    ("io",),
     ("viz",),
     ("simulation", "axisymmetric"),
     ("models", "studies"),
@@ -45,9 +45,13 @@ LAYERS = (
 )
 TOP = ("__main__", "__init__")
 PACKAGE_METADATA = {"__version__"}
+#: Deprecated modules at the package root that forward to their new home for one release; each
+#: takes the layer of the module it forwards to (``cortex_ti.plotting`` -> ``cortex_ti.viz.plotting``).
+FORWARDS = {"plotting": "viz"}
 
 
 def _rank(part: str) -> int:
+    part = FORWARDS.get(part, part)
     if part in TOP:
         return len(LAYERS)
     for k, names in enumerate(LAYERS):

@@ -1,4 +1,4 @@
-"""Plots of a trajectory (cortex_ti.plotting) and ``cortex-ti plot``.
+"""Plots of a trajectory (cortex_ti.viz.plotting) and ``cortex-ti plot``.
 
 The trajectory is written here with TrajectoryWriter on a 162-node icosphere with velocities
 whose per-node values are known in closed form: frames 0 and 1 are rigid rotations
@@ -31,7 +31,8 @@ from cortex_ti.io import (
     open_trajectory,
     partial_path,
 )
-from cortex_ti.plotting import (
+from cortex_ti.surface.mesh import icosphere
+from cortex_ti.viz.plotting import (
     figure_frame_and_series,
     frame_index,
     plot_frame,
@@ -39,7 +40,6 @@ from cortex_ti.plotting import (
     save_figure,
     view_direction,
 )
-from cortex_ti.surface.mesh import icosphere
 
 TIMES = (0.0, 0.5, 1.25)
 OMEGA = (np.array([0.3, -0.2, 1.0]), np.array([-1.0, 0.5, 0.25]))
@@ -324,7 +324,7 @@ def test_small_multiples_of_bare_frames_have_no_overlapping_labels(ds):
     the check can fail."""
     from matplotlib.figure import Figure
 
-    from cortex_ti.plotting import colorbar_below
+    from cortex_ti.viz.plotting import colorbar_below
 
     def grid(bare: bool):
         fig = Figure(figsize=(2.6 * 3, 2.7 * 2), layout="constrained")

@@ -31,8 +31,8 @@ from matplotlib.image import imread
 from cortex_ti.cli import main
 from cortex_ti.errors import CortexError
 from cortex_ti.io import load_trajectory
-from cortex_ti.plotting import COLORS
 from cortex_ti.viz import extra
+from cortex_ti.viz.plotting import COLORS
 from cortex_ti.viz.render import Renderer, choose_renderer
 
 HAVE_PYVISTA = not extra.missing("pyvista")

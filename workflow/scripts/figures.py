@@ -7,9 +7,9 @@ sys.stderr = open(snakemake.log[0], "w")  # noqa: F821
 import xarray as xr  # noqa: E402
 
 from cortex_ti.io.files import atomic_path  # noqa: E402
-from cortex_ti.plotting import save_figure  # noqa: E402
 from cortex_ti.studies import figures  # noqa: E402
 from cortex_ti.studies.numbers import figure_numbers, numbers_html  # noqa: E402
+from cortex_ti.viz.plotting import save_figure  # noqa: E402
 
 sm = snakemake  # noqa: F821
 if sm.rule == "table":
