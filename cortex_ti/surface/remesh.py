@@ -21,9 +21,9 @@ surface. Around it, this module does what MMG does not know about:
   so that its total ``sum_i c_i A_i`` (barycentric dual areas) equals the old total to round-off.
 
 Derivation and error estimates: ``docs/derivations/remeshing.md``. Written by hand (numpy/scipy):
-the curvature estimate, the closest-point query (a k-d tree of the old nodes picks candidate
-triangles, the point-triangle distance is the standard region test, vectorised) and the volume
-offset; MMG does the topology.
+the curvature estimate, the closest-point query (:mod:`cortex_ti.surface.closest`), the repair of
+the worst triangles after MMG (:mod:`cortex_ti.surface.quality`) and the volume offset; MMG does
+the topology.
 """
 
 from __future__ import annotations
@@ -34,7 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CortexError
+from .closest import closest_points
 from .mesh import per_connectivity, vertex_normals
+from .quality import flip_bad_edges, min_angles, repair, smooth_bad_vertices
 from .transport import DENSITY, dual_areas
 
 __all__ = [
@@ -121,25 +123,8 @@ class RemeshResult:
 
 
 # ---------------------------------------------------------------------------
-# quality and geometry
+# geometry and the size field (the smallest angles and their repair: surface/quality.py)
 # ---------------------------------------------------------------------------
-
-
-def min_angles(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The smallest interior angle (degrees) of every triangle, ``(T,)``.
-
-    >>> from cortex_ti.surface.mesh import icosphere
-    >>> m = icosphere(162)
-    >>> bool(50.0 < min_angles(m.points, m.faces).min() < 60.0)
-    True
-    """
-    x = np.asarray(points)[np.asarray(faces)]
-    e = x[:, [1, 2, 0]] - x  # edge k: corner k -> k+1
-    length = np.linalg.norm(e, axis=2)
-    # angle at corner k between edges k (k -> k+1) and k-1 reversed (k -> k-1)
-    prev = -e[:, [2, 0, 1]]
-    cos = np.einsum("tkc,tkc->tk", e, prev) / (length * length[:, [2, 0, 1]])
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).min(axis=1)
 
 
 #: the edge lists of the last few connectivities (a remeshing asks for one mesh's edges ~10 times)
@@ -337,77 +322,8 @@ def restore_volume(points: np.ndarray, faces: np.ndarray, volume: float, rtol: f
 
 
 # ---------------------------------------------------------------------------
-# closest points and the transfer of fields
+# the transfer of fields (the closest point query: surface/closest.py)
 # ---------------------------------------------------------------------------
-
-
-def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates ``(..., 3)`` of the closest point of triangle ``abc`` to ``p``
-    (all ``(..., 3)``): the point-triangle region test (Voronoi regions of vertices, edges, face)."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = np.einsum("...c,...c->...", ab, ap), np.einsum("...c,...c->...", ac, ap)
-    bp = p - b
-    d3, d4 = np.einsum("...c,...c->...", ab, bp), np.einsum("...c,...c->...", ac, bp)
-    cp = p - c
-    d5, d6 = np.einsum("...c,...c->...", ab, cp), np.einsum("...c,...c->...", ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = va + vb + vc
-        v_face, w_face = vb / denom, vc / denom
-        t_ab = d1 / (d1 - d3)
-        t_ac = d2 / (d2 - d6)
-        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-    u = 1.0 - v_face - w_face
-    v, w = v_face, w_face
-    # the order of the tests matters: the first region that holds wins
-    regions = [
-        ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), (0.0, 1.0 - t_bc, t_bc)),  # edge bc
-        ((vb <= 0) & (d2 >= 0) & (d6 <= 0), (1.0 - t_ac, 0.0, t_ac)),  # edge ac
-        ((vc <= 0) & (d1 >= 0) & (d3 <= 0), (1.0 - t_ab, t_ab, 0.0)),  # edge ab
-        ((d6 >= 0) & (d5 <= d6), (0.0, 0.0, 1.0)),  # vertex c
-        ((d3 >= 0) & (d4 <= d3), (0.0, 1.0, 0.0)),  # vertex b
-        ((d1 <= 0) & (d2 <= 0), (1.0, 0.0, 0.0)),  # vertex a
-    ]
-    for mask, (ru, rv, rw) in regions:
-        u = np.where(mask, ru, u)
-        v = np.where(mask, rv, v)
-        w = np.where(mask, rw, w)
-    return np.stack([u, v, w], axis=-1)
-
-
-def closest_points(points: np.ndarray, faces: np.ndarray, queries: np.ndarray, k: int = 4):
-    """The closest point of the triangulated surface ``(points, faces)`` to each query ``(Q, 3)``:
-    its triangle ``(Q,)`` and barycentric coordinates ``(Q, 3)``.
-
-    The candidates are the triangles around the ``k`` nearest nodes (a k-d tree): the closest point
-    of a surface to a point within about an edge length of it lies in one of them unless the surface
-    folds back closer than that. Tested against a brute-force search over every triangle.
-    """
-    n = points.shape[0]
-    k = min(k, n)
-    from scipy.spatial import cKDTree  # only a remeshing needs it (a tenth of a second to import)
-
-    _, near = cKDTree(points).query(queries, k=k)
-    near = near.reshape(len(queries), k)
-    # node -> its triangles, padded with the first one
-    order = np.argsort(faces.ravel(), kind="stable")
-    node_of = faces.ravel()[order]
-    start = np.searchsorted(node_of, np.arange(n))
-    count = np.bincount(node_of, minlength=n)
-    width = int(count.max())
-    slot = np.minimum(np.arange(width)[None, :], count[:, None] - 1)
-    incident = (order[start[:, None] + slot] // 3).astype(np.int64)  # (N, width)
-    cand = incident[near].reshape(len(queries), k * width)  # (Q, C)
-    x = points[faces[cand]]  # (Q, C, 3, 3)
-    q = queries[:, None, :]
-    bary = _closest_on_triangles(np.broadcast_to(q, x[:, :, 0].shape), x[:, :, 0], x[:, :, 1], x[:, :, 2])
-    foot = np.einsum("qck,qckd->qcd", bary, x)
-    dist = np.einsum("qcd,qcd->qc", foot - q, foot - q)
-    best = np.argmin(dist, axis=1)
-    rows = np.arange(len(queries))
-    return cand[rows, best], bary[rows, best]
 
 
 def transfer_fields(
@@ -444,107 +360,6 @@ def keep_amount(density: np.ndarray, total: float, area: np.ndarray) -> np.ndarr
     if got != 0.0 and math.isfinite(total / got) and total / got > 0.0:
         return density * (total / got)
     return density + (total - got) / float(area.sum())
-
-
-# ---------------------------------------------------------------------------
-# flips of the worst triangles
-# ---------------------------------------------------------------------------
-
-
-def _pair_quality(points: np.ndarray, tris: list) -> float:
-    return float(min_angles(points, np.asarray(tris)).min())
-
-
-def flip_bad_edges(points: np.ndarray, faces: np.ndarray, goal: float, sweeps: int = 5) -> np.ndarray:
-    """Flip the longest edge of every triangle whose smallest angle is below ``goal`` (degrees) when
-    that raises the smallest angle of the two triangles sharing it, keeps both triangles facing the
-    way the old pair faced and creates no edge that exists already. A few triangles at the
-    transitions of the size field come out of MMG obtuse (an angle near 120 deg opposite an edge
-    too long for its neighbours); the flip is the local Delaunay repair. Returns new faces."""
-    faces = np.array(faces, dtype=np.int64)
-    for _ in range(sweeps):
-        bad = np.flatnonzero(min_angles(points, faces) < goal)
-        if bad.size == 0:
-            break
-        half = {}
-        for t, (a, b, c) in enumerate(faces.tolist()):
-            half[(a, b)], half[(b, c)], half[(c, a)] = t, t, t
-        neighbours = {}
-        for a, b in half:
-            neighbours.setdefault(a, set()).add(b)
-        flipped = 0
-        for t in bad.tolist():
-            tri = faces[t].tolist()
-            x = points[tri]
-            length = np.linalg.norm(x[[1, 2, 0]] - x, axis=1)
-            k = int(np.argmax(length))  # edge k: corner k -> k+1
-            a, b, c = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
-            s = half.get((b, a))
-            if s is None or faces[t].tolist() != tri:
-                continue
-            d = next(v for v in faces[s].tolist() if v not in (a, b))
-            if d in neighbours.get(c, ()) or c == d:
-                continue
-            old = [[a, b, c], [b, a, d]]
-            new = [[c, a, d], [d, b, c]]
-            n_old = sum(np.cross(points[q[1]] - points[q[0]], points[q[2]] - points[q[0]]) for q in old)
-            if any(
-                np.dot(np.cross(points[q[1]] - points[q[0]], points[q[2]] - points[q[0]]), n_old) <= 0.0 for q in new
-            ):
-                continue
-            if _pair_quality(points, new) <= _pair_quality(points, old):
-                continue
-            faces[t], faces[s] = new
-            for q, f in ((new[0], t), (new[1], s)):
-                half[(q[0], q[1])], half[(q[1], q[2])], half[(q[2], q[0])] = f, f, f
-            half.pop((a, b), None)
-            half.pop((b, a), None)
-            neighbours[a].discard(b)
-            neighbours[b].discard(a)
-            neighbours.setdefault(c, set()).add(d)
-            neighbours.setdefault(d, set()).add(c)
-            flipped += 1
-        if flipped == 0:
-            break
-    return faces.astype(np.int32)
-
-
-def smooth_bad_vertices(points: np.ndarray, faces: np.ndarray, goal: float, sweeps: int = 5) -> np.ndarray:
-    """Move each node of a triangle with an angle below ``goal`` (degrees) to the centroid of its
-    neighbours, in its tangent plane and then back onto the surface (the closest point of the
-    triangulation before the move), when that raises the smallest angle of its triangles.
-    Returns the new points."""
-    reference = np.array(points, dtype=float)
-    points = reference.copy()
-    normals = vertex_normals(points, faces)
-    order = np.argsort(faces.ravel(), kind="stable")
-    bounds = np.searchsorted(faces.ravel()[order], np.arange(points.shape[0] + 1))
-    for _ in range(sweeps):
-        angles = min_angles(points, faces)
-        bad = np.flatnonzero(angles < goal)
-        if bad.size == 0:
-            break
-        nodes = np.unique(faces[bad])
-        trials = np.empty((nodes.size, 3))
-        for j, i in enumerate(nodes.tolist()):
-            ring = np.setdiff1d(faces[order[bounds[i] : bounds[i + 1]] // 3], [i])
-            step = points[ring].mean(axis=0) - points[i]
-            trials[j] = points[i] + step - np.dot(step, normals[i]) * normals[i]
-        tri, bary = closest_points(reference, faces, trials)
-        trials = np.einsum("qk,qkc->qc", bary, reference[faces[tri]])
-        moved = 0
-        for j, i in enumerate(nodes.tolist()):
-            star = order[bounds[i] : bounds[i + 1]] // 3
-            before = min_angles(points, faces[star]).min()
-            saved = points[i].copy()
-            points[i] = trials[j]
-            if min_angles(points, faces[star]).min() <= before:
-                points[i] = saved
-            else:
-                moved += 1
-        if moved == 0:
-            break
-    return points
 
 
 # ---------------------------------------------------------------------------
@@ -608,9 +423,7 @@ def remesh(
             new_points, new_faces, predicted = trial
     if enclosed_volume(new_points, new_faces) < 0:
         new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
-    new_faces = flip_bad_edges(new_points, new_faces, options.quality)
-    new_points = smooth_bad_vertices(new_points, new_faces, options.quality)
-    new_faces = flip_bad_edges(new_points, new_faces, options.quality)
+    new_points, new_faces = repair(new_points, new_faces, options.quality)
     new_points, delta = restore_volume(new_points, new_faces, target)
     new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new_faces)
     return RemeshResult(

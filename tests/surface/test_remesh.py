@@ -63,7 +63,7 @@ def test_closest_points_match_brute_force():
     foot = np.einsum("qk,qkc->qc", bary, p[f[tri]])
     assert np.all(bary >= -1e-12) and np.allclose(bary.sum(axis=1), 1.0, atol=1e-14)
     # brute force: the region test (checked against sampling below) on every triangle
-    from cortex_ti.surface.remesh import _closest_on_triangles
+    from cortex_ti.surface.closest import _closest_on_triangles
 
     x = p[f]
     best = np.empty(len(q))
@@ -77,7 +77,7 @@ def test_closest_points_match_brute_force():
 def test_point_triangle_region_test_against_sampling():
     """The region test's foot point is no farther than any of 20000 sample points of the triangle
     (and the best sample is within the sampling resolution of it)."""
-    from cortex_ti.surface.remesh import _closest_on_triangles
+    from cortex_ti.surface.closest import _closest_on_triangles
 
     rng = np.random.default_rng(1)
     a, b, c = np.array([0.0, 0, 0]), np.array([1.0, 0.1, 0]), np.array([0.3, 0.8, 0.1])
