@@ -28,6 +28,7 @@ the topology.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -52,6 +53,7 @@ __all__ = [
     "sizes",
     "node_coarseness",
     "BUDGET_RTOL",
+    "RETRIES",
     "mean_edge_length",
     "enclosed_volume",
     "restore_volume",
@@ -62,6 +64,8 @@ __all__ = [
     "keep_amount",
     "REMESH_EXTRA_HINT",
 ]
+
+log = logging.getLogger(__name__)
 
 #: what to install when mmgpy is missing
 REMESH_EXTRA_HINT = "remeshing needs mmgpy: python -m pip install 'cortex-ti[remesh]'"
@@ -96,7 +100,10 @@ class RemeshOptions:
     new nodes from the old surface (None: ``max(0.05, 0.15 s) h_max``, looser than the sagitta
     ``h^2 kappa / 8 <= s h_max / 8`` of the size field, so that the size field decides); ``hgrad``:
     the largest ratio of neighbouring edge lengths; ``quality``: the smallest angle (deg) the repair
-    after MMG (edge flips and tangential smoothing of the worst triangles' nodes) aims at.
+    after MMG (edge flips and tangential smoothing of the worst triangles' nodes) aims at;
+    ``min_angle``: the smallest angle (deg) the new mesh must have (a run's trigger
+    ``mesh.remesh.min_angle``): below it MMG remeshes its own output again, at most :data:`RETRIES`
+    times (:func:`_meet_angle`); None: one pass.
     """
 
     edge_angle: float = 0.25
@@ -106,6 +113,12 @@ class RemeshOptions:
     hgrad: float = 1.3
     quality: float = 30.0
     nodes: int | None = None
+    min_angle: float | None = None
+
+
+#: how many more MMG passes (each from the last one's output) a new mesh below
+#: ``RemeshOptions.min_angle`` gets
+RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -120,6 +133,7 @@ class RemeshResult:
     n_after: int
     scale: float = float("nan")  # the scale s of the size field h = clip(s / kappa, h_min, h_max)
     predicted: float = float("nan")  # the node count the (graded) size field predicted
+    passes: int = 1  # MMG's passes: more than one when the first left an angle below options.min_angle
 
 
 # ---------------------------------------------------------------------------
@@ -380,10 +394,8 @@ def remesh(
     ``volume``: the enclosed volume to restore (None: the volume of the input); ``kinds``: field
     name -> ``density`` or ``property`` (an intensive field; the default).
     """
-    try:
-        from mmgpy._mmgpy import MmgMeshS
-    except ImportError:
-        raise CortexError(REMESH_EXTRA_HINT) from None
+    if not remesh_available():
+        raise CortexError(REMESH_EXTRA_HINT)
     options = options or RemeshOptions()
     points = np.ascontiguousarray(points, dtype=np.float64)
     faces = np.ascontiguousarray(faces, dtype=np.int32)
@@ -397,16 +409,15 @@ def remesh(
     if options.nodes is not None:
         scale = budget_scale(points, faces, options.nodes, h_min, h_max, options.hgrad, kappa)
 
+    def field(scale):
+        return grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
+
+    def hausd(scale):
+        return options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
+
     def mmg(scale):
-        h = grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
-        hausd = options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
-        mesh = MmgMeshS(points, faces)
-        mesh.set_field("metric", h[:, None])
-        info = mesh.remesh(hausd=hausd, hgrad=options.hgrad, angle=0, verbose=-1)
-        if info.get("return_code", 0) != 0:
-            raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
-        got = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
-        return got, np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32), float(predicted_nodes(area, h))
+        h = field(scale)
+        return *_mmg(points, faces, h, hausd(scale), options.hgrad), float(predicted_nodes(area, h))
 
     new_points, new_faces, predicted = mmg(scale)
     if options.nodes is not None:
@@ -421,11 +432,56 @@ def remesh(
                 break
             scale *= math.sqrt(miss)
             new_points, new_faces, predicted = trial
-    if enclosed_volume(new_points, new_faces) < 0:
-        new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
     new_points, new_faces = repair(new_points, new_faces, options.quality)
+    new_points, new_faces, passes = _meet_angle(
+        points, faces, field(scale), hausd(scale), options, new_points, new_faces
+    )
     new_points, delta = restore_volume(new_points, new_faces, target)
     new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new_faces)
     return RemeshResult(
-        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted
+        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted, passes
     )
+
+
+def _mmg(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hausd: float, hgrad: float):
+    """MMG's surface remeshing of ``(points, faces)`` to the nodal sizes ``h``: the new ``(points,
+    faces)``, the triangles facing out (ridge detection off: the cortex is smooth)."""
+    from mmgpy._mmgpy import MmgMeshS
+
+    mesh = MmgMeshS(points, faces)
+    mesh.set_field("metric", np.ascontiguousarray(h, dtype=np.float64)[:, None])
+    info = mesh.remesh(hausd=hausd, hgrad=hgrad, angle=0, verbose=-1)
+    if info.get("return_code", 0) != 0:
+        raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
+    new_points = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
+    new_faces = np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32)
+    if enclosed_volume(new_points, new_faces) < 0:
+        new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
+    return new_points, new_faces
+
+
+def _meet_angle(points, faces, h, hausd, options: RemeshOptions, new_points, new_faces):
+    """The accept rule: while the new mesh's smallest angle is below ``options.min_angle``, MMG
+    remeshes its own (repaired) output again, to the size field ``h`` of the old nodes taken at the
+    new nodes' closest points of the old surface, and the repair follows; at most :data:`RETRIES`
+    more passes, the mesh with the largest smallest angle kept (one warning if none meets it).
+    Returns ``(points, faces, passes)``.
+
+    A single pass from a surface whose triangles the flow has sheared leaves a few needles where the
+    size field is finest (a deep neck's short edges next to long ones); a pass from MMG's own output,
+    already near the size field, does not (docs/validation/remesh_constriction.md)."""
+    best = (float(min_angles(new_points, new_faces).min()), new_points, new_faces)
+    passes = 1
+    while options.min_angle is not None and best[0] < options.min_angle and passes <= RETRIES:
+        tri, bary = closest_points(points, faces, best[1])
+        at = np.einsum("qk,qk->q", bary, h[faces[tri]])
+        trial = repair(*_mmg(best[1], best[2], at, hausd, options.hgrad), options.quality)
+        passes += 1
+        angle = float(min_angles(*trial).min())
+        if angle > best[0]:
+            best = (angle, *trial)
+    if options.min_angle is not None and best[0] < options.min_angle:
+        log.warning(
+            "remeshing: the smallest angle %.2f deg is below %g after %d MMG passes", best[0], options.min_angle, passes
+        )
+    return best[1], best[2], passes
