@@ -343,6 +343,7 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
         hgrad=float(data["hgrad"]),
         quality=float(data["quality"]),
         nodes=None if data.get("nodes") is None else int(data["nodes"]),
+        min_angle=float(data["min_angle"]),
     )
     return RemeshSettings(
         min_angle=float(data["min_angle"]),

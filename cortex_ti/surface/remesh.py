@@ -21,20 +21,23 @@ surface. Around it, this module does what MMG does not know about:
   so that its total ``sum_i c_i A_i`` (barycentric dual areas) equals the old total to round-off.
 
 Derivation and error estimates: ``docs/derivations/remeshing.md``. Written by hand (numpy/scipy):
-the curvature estimate, the closest-point query (a k-d tree of the old nodes picks candidate
-triangles, the point-triangle distance is the standard region test, vectorised) and the volume
-offset; MMG does the topology.
+the curvature estimate, the closest-point query (:mod:`cortex_ti.surface.closest`), the repair of
+the worst triangles after MMG (:mod:`cortex_ti.surface.quality`) and the volume offset; MMG does
+the topology.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import CortexError
+from .closest import closest_points
 from .mesh import per_connectivity, vertex_normals
+from .quality import flip_bad_edges, min_angles, repair, smooth_bad_vertices
 from .transport import DENSITY, dual_areas
 
 __all__ = [
@@ -50,6 +53,7 @@ __all__ = [
     "sizes",
     "node_coarseness",
     "BUDGET_RTOL",
+    "RETRIES",
     "mean_edge_length",
     "enclosed_volume",
     "restore_volume",
@@ -60,6 +64,8 @@ __all__ = [
     "keep_amount",
     "REMESH_EXTRA_HINT",
 ]
+
+log = logging.getLogger(__name__)
 
 #: what to install when mmgpy is missing
 REMESH_EXTRA_HINT = "remeshing needs mmgpy: python -m pip install 'cortex-ti[remesh]'"
@@ -94,7 +100,10 @@ class RemeshOptions:
     new nodes from the old surface (None: ``max(0.05, 0.15 s) h_max``, looser than the sagitta
     ``h^2 kappa / 8 <= s h_max / 8`` of the size field, so that the size field decides); ``hgrad``:
     the largest ratio of neighbouring edge lengths; ``quality``: the smallest angle (deg) the repair
-    after MMG (edge flips and tangential smoothing of the worst triangles' nodes) aims at.
+    after MMG (edge flips and tangential smoothing of the worst triangles' nodes) aims at;
+    ``min_angle``: the smallest angle (deg) the new mesh must have (a run's trigger
+    ``mesh.remesh.min_angle``): below it MMG remeshes its own output again, at most :data:`RETRIES`
+    times (:func:`_meet_angle`); None: one pass.
     """
 
     edge_angle: float = 0.25
@@ -104,6 +113,12 @@ class RemeshOptions:
     hgrad: float = 1.3
     quality: float = 30.0
     nodes: int | None = None
+    min_angle: float | None = None
+
+
+#: how many more MMG passes (each from the last one's output) a new mesh below
+#: ``RemeshOptions.min_angle`` gets
+RETRIES = 2
 
 
 @dataclass(frozen=True)
@@ -118,28 +133,12 @@ class RemeshResult:
     n_after: int
     scale: float = float("nan")  # the scale s of the size field h = clip(s / kappa, h_min, h_max)
     predicted: float = float("nan")  # the node count the (graded) size field predicted
+    passes: int = 1  # MMG's passes: more than one when the first left an angle below options.min_angle
 
 
 # ---------------------------------------------------------------------------
-# quality and geometry
+# geometry and the size field (the smallest angles and their repair: surface/quality.py)
 # ---------------------------------------------------------------------------
-
-
-def min_angles(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The smallest interior angle (degrees) of every triangle, ``(T,)``.
-
-    >>> from cortex_ti.surface.mesh import icosphere
-    >>> m = icosphere(162)
-    >>> bool(50.0 < min_angles(m.points, m.faces).min() < 60.0)
-    True
-    """
-    x = np.asarray(points)[np.asarray(faces)]
-    e = x[:, [1, 2, 0]] - x  # edge k: corner k -> k+1
-    length = np.linalg.norm(e, axis=2)
-    # angle at corner k between edges k (k -> k+1) and k-1 reversed (k -> k-1)
-    prev = -e[:, [2, 0, 1]]
-    cos = np.einsum("tkc,tkc->tk", e, prev) / (length * length[:, [2, 0, 1]])
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).min(axis=1)
 
 
 #: the edge lists of the last few connectivities (a remeshing asks for one mesh's edges ~10 times)
@@ -337,77 +336,8 @@ def restore_volume(points: np.ndarray, faces: np.ndarray, volume: float, rtol: f
 
 
 # ---------------------------------------------------------------------------
-# closest points and the transfer of fields
+# the transfer of fields (the closest point query: surface/closest.py)
 # ---------------------------------------------------------------------------
-
-
-def _closest_on_triangles(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates ``(..., 3)`` of the closest point of triangle ``abc`` to ``p``
-    (all ``(..., 3)``): the point-triangle region test (Voronoi regions of vertices, edges, face)."""
-    ab, ac, ap = b - a, c - a, p - a
-    d1, d2 = np.einsum("...c,...c->...", ab, ap), np.einsum("...c,...c->...", ac, ap)
-    bp = p - b
-    d3, d4 = np.einsum("...c,...c->...", ab, bp), np.einsum("...c,...c->...", ac, bp)
-    cp = p - c
-    d5, d6 = np.einsum("...c,...c->...", ab, cp), np.einsum("...c,...c->...", ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        denom = va + vb + vc
-        v_face, w_face = vb / denom, vc / denom
-        t_ab = d1 / (d1 - d3)
-        t_ac = d2 / (d2 - d6)
-        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-    u = 1.0 - v_face - w_face
-    v, w = v_face, w_face
-    # the order of the tests matters: the first region that holds wins
-    regions = [
-        ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), (0.0, 1.0 - t_bc, t_bc)),  # edge bc
-        ((vb <= 0) & (d2 >= 0) & (d6 <= 0), (1.0 - t_ac, 0.0, t_ac)),  # edge ac
-        ((vc <= 0) & (d1 >= 0) & (d3 <= 0), (1.0 - t_ab, t_ab, 0.0)),  # edge ab
-        ((d6 >= 0) & (d5 <= d6), (0.0, 0.0, 1.0)),  # vertex c
-        ((d3 >= 0) & (d4 <= d3), (0.0, 1.0, 0.0)),  # vertex b
-        ((d1 <= 0) & (d2 <= 0), (1.0, 0.0, 0.0)),  # vertex a
-    ]
-    for mask, (ru, rv, rw) in regions:
-        u = np.where(mask, ru, u)
-        v = np.where(mask, rv, v)
-        w = np.where(mask, rw, w)
-    return np.stack([u, v, w], axis=-1)
-
-
-def closest_points(points: np.ndarray, faces: np.ndarray, queries: np.ndarray, k: int = 4):
-    """The closest point of the triangulated surface ``(points, faces)`` to each query ``(Q, 3)``:
-    its triangle ``(Q,)`` and barycentric coordinates ``(Q, 3)``.
-
-    The candidates are the triangles around the ``k`` nearest nodes (a k-d tree): the closest point
-    of a surface to a point within about an edge length of it lies in one of them unless the surface
-    folds back closer than that. Tested against a brute-force search over every triangle.
-    """
-    n = points.shape[0]
-    k = min(k, n)
-    from scipy.spatial import cKDTree  # only a remeshing needs it (a tenth of a second to import)
-
-    _, near = cKDTree(points).query(queries, k=k)
-    near = near.reshape(len(queries), k)
-    # node -> its triangles, padded with the first one
-    order = np.argsort(faces.ravel(), kind="stable")
-    node_of = faces.ravel()[order]
-    start = np.searchsorted(node_of, np.arange(n))
-    count = np.bincount(node_of, minlength=n)
-    width = int(count.max())
-    slot = np.minimum(np.arange(width)[None, :], count[:, None] - 1)
-    incident = (order[start[:, None] + slot] // 3).astype(np.int64)  # (N, width)
-    cand = incident[near].reshape(len(queries), k * width)  # (Q, C)
-    x = points[faces[cand]]  # (Q, C, 3, 3)
-    q = queries[:, None, :]
-    bary = _closest_on_triangles(np.broadcast_to(q, x[:, :, 0].shape), x[:, :, 0], x[:, :, 1], x[:, :, 2])
-    foot = np.einsum("qck,qckd->qcd", bary, x)
-    dist = np.einsum("qcd,qcd->qc", foot - q, foot - q)
-    best = np.argmin(dist, axis=1)
-    rows = np.arange(len(queries))
-    return cand[rows, best], bary[rows, best]
 
 
 def transfer_fields(
@@ -447,107 +377,6 @@ def keep_amount(density: np.ndarray, total: float, area: np.ndarray) -> np.ndarr
 
 
 # ---------------------------------------------------------------------------
-# flips of the worst triangles
-# ---------------------------------------------------------------------------
-
-
-def _pair_quality(points: np.ndarray, tris: list) -> float:
-    return float(min_angles(points, np.asarray(tris)).min())
-
-
-def flip_bad_edges(points: np.ndarray, faces: np.ndarray, goal: float, sweeps: int = 5) -> np.ndarray:
-    """Flip the longest edge of every triangle whose smallest angle is below ``goal`` (degrees) when
-    that raises the smallest angle of the two triangles sharing it, keeps both triangles facing the
-    way the old pair faced and creates no edge that exists already. A few triangles at the
-    transitions of the size field come out of MMG obtuse (an angle near 120 deg opposite an edge
-    too long for its neighbours); the flip is the local Delaunay repair. Returns new faces."""
-    faces = np.array(faces, dtype=np.int64)
-    for _ in range(sweeps):
-        bad = np.flatnonzero(min_angles(points, faces) < goal)
-        if bad.size == 0:
-            break
-        half = {}
-        for t, (a, b, c) in enumerate(faces.tolist()):
-            half[(a, b)], half[(b, c)], half[(c, a)] = t, t, t
-        neighbours = {}
-        for a, b in half:
-            neighbours.setdefault(a, set()).add(b)
-        flipped = 0
-        for t in bad.tolist():
-            tri = faces[t].tolist()
-            x = points[tri]
-            length = np.linalg.norm(x[[1, 2, 0]] - x, axis=1)
-            k = int(np.argmax(length))  # edge k: corner k -> k+1
-            a, b, c = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]
-            s = half.get((b, a))
-            if s is None or faces[t].tolist() != tri:
-                continue
-            d = next(v for v in faces[s].tolist() if v not in (a, b))
-            if d in neighbours.get(c, ()) or c == d:
-                continue
-            old = [[a, b, c], [b, a, d]]
-            new = [[c, a, d], [d, b, c]]
-            n_old = sum(np.cross(points[q[1]] - points[q[0]], points[q[2]] - points[q[0]]) for q in old)
-            if any(
-                np.dot(np.cross(points[q[1]] - points[q[0]], points[q[2]] - points[q[0]]), n_old) <= 0.0 for q in new
-            ):
-                continue
-            if _pair_quality(points, new) <= _pair_quality(points, old):
-                continue
-            faces[t], faces[s] = new
-            for q, f in ((new[0], t), (new[1], s)):
-                half[(q[0], q[1])], half[(q[1], q[2])], half[(q[2], q[0])] = f, f, f
-            half.pop((a, b), None)
-            half.pop((b, a), None)
-            neighbours[a].discard(b)
-            neighbours[b].discard(a)
-            neighbours.setdefault(c, set()).add(d)
-            neighbours.setdefault(d, set()).add(c)
-            flipped += 1
-        if flipped == 0:
-            break
-    return faces.astype(np.int32)
-
-
-def smooth_bad_vertices(points: np.ndarray, faces: np.ndarray, goal: float, sweeps: int = 5) -> np.ndarray:
-    """Move each node of a triangle with an angle below ``goal`` (degrees) to the centroid of its
-    neighbours, in its tangent plane and then back onto the surface (the closest point of the
-    triangulation before the move), when that raises the smallest angle of its triangles.
-    Returns the new points."""
-    reference = np.array(points, dtype=float)
-    points = reference.copy()
-    normals = vertex_normals(points, faces)
-    order = np.argsort(faces.ravel(), kind="stable")
-    bounds = np.searchsorted(faces.ravel()[order], np.arange(points.shape[0] + 1))
-    for _ in range(sweeps):
-        angles = min_angles(points, faces)
-        bad = np.flatnonzero(angles < goal)
-        if bad.size == 0:
-            break
-        nodes = np.unique(faces[bad])
-        trials = np.empty((nodes.size, 3))
-        for j, i in enumerate(nodes.tolist()):
-            ring = np.setdiff1d(faces[order[bounds[i] : bounds[i + 1]] // 3], [i])
-            step = points[ring].mean(axis=0) - points[i]
-            trials[j] = points[i] + step - np.dot(step, normals[i]) * normals[i]
-        tri, bary = closest_points(reference, faces, trials)
-        trials = np.einsum("qk,qkc->qc", bary, reference[faces[tri]])
-        moved = 0
-        for j, i in enumerate(nodes.tolist()):
-            star = order[bounds[i] : bounds[i + 1]] // 3
-            before = min_angles(points, faces[star]).min()
-            saved = points[i].copy()
-            points[i] = trials[j]
-            if min_angles(points, faces[star]).min() <= before:
-                points[i] = saved
-            else:
-                moved += 1
-        if moved == 0:
-            break
-    return points
-
-
-# ---------------------------------------------------------------------------
 # remeshing
 # ---------------------------------------------------------------------------
 
@@ -565,10 +394,8 @@ def remesh(
     ``volume``: the enclosed volume to restore (None: the volume of the input); ``kinds``: field
     name -> ``density`` or ``property`` (an intensive field; the default).
     """
-    try:
-        from mmgpy._mmgpy import MmgMeshS
-    except ImportError:
-        raise CortexError(REMESH_EXTRA_HINT) from None
+    if not remesh_available():
+        raise CortexError(REMESH_EXTRA_HINT)
     options = options or RemeshOptions()
     points = np.ascontiguousarray(points, dtype=np.float64)
     faces = np.ascontiguousarray(faces, dtype=np.int32)
@@ -582,16 +409,15 @@ def remesh(
     if options.nodes is not None:
         scale = budget_scale(points, faces, options.nodes, h_min, h_max, options.hgrad, kappa)
 
+    def field(scale):
+        return grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
+
+    def hausd(scale):
+        return options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
+
     def mmg(scale):
-        h = grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
-        hausd = options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
-        mesh = MmgMeshS(points, faces)
-        mesh.set_field("metric", h[:, None])
-        info = mesh.remesh(hausd=hausd, hgrad=options.hgrad, angle=0, verbose=-1)
-        if info.get("return_code", 0) != 0:
-            raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
-        got = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
-        return got, np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32), float(predicted_nodes(area, h))
+        h = field(scale)
+        return *_mmg(points, faces, h, hausd(scale), options.hgrad), float(predicted_nodes(area, h))
 
     new_points, new_faces, predicted = mmg(scale)
     if options.nodes is not None:
@@ -606,13 +432,56 @@ def remesh(
                 break
             scale *= math.sqrt(miss)
             new_points, new_faces, predicted = trial
-    if enclosed_volume(new_points, new_faces) < 0:
-        new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
-    new_faces = flip_bad_edges(new_points, new_faces, options.quality)
-    new_points = smooth_bad_vertices(new_points, new_faces, options.quality)
-    new_faces = flip_bad_edges(new_points, new_faces, options.quality)
+    new_points, new_faces = repair(new_points, new_faces, options.quality)
+    new_points, new_faces, passes = _meet_angle(
+        points, faces, field(scale), hausd(scale), options, new_points, new_faces
+    )
     new_points, delta = restore_volume(new_points, new_faces, target)
     new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new_faces)
     return RemeshResult(
-        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted
+        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted, passes
     )
+
+
+def _mmg(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hausd: float, hgrad: float):
+    """MMG's surface remeshing of ``(points, faces)`` to the nodal sizes ``h``: the new ``(points,
+    faces)``, the triangles facing out (ridge detection off: the cortex is smooth)."""
+    from mmgpy._mmgpy import MmgMeshS
+
+    mesh = MmgMeshS(points, faces)
+    mesh.set_field("metric", np.ascontiguousarray(h, dtype=np.float64)[:, None])
+    info = mesh.remesh(hausd=hausd, hgrad=hgrad, angle=0, verbose=-1)
+    if info.get("return_code", 0) != 0:
+        raise CortexError(f"remeshing failed (MMG return code {info.get('return_code')})")
+    new_points = np.ascontiguousarray(mesh.get_vertices(), dtype=np.float64)
+    new_faces = np.ascontiguousarray(mesh.get_triangles(), dtype=np.int32)
+    if enclosed_volume(new_points, new_faces) < 0:
+        new_faces = np.ascontiguousarray(new_faces[:, [0, 2, 1]])
+    return new_points, new_faces
+
+
+def _meet_angle(points, faces, h, hausd, options: RemeshOptions, new_points, new_faces):
+    """The accept rule: while the new mesh's smallest angle is below ``options.min_angle``, MMG
+    remeshes its own (repaired) output again, to the size field ``h`` of the old nodes taken at the
+    new nodes' closest points of the old surface, and the repair follows; at most :data:`RETRIES`
+    more passes, the mesh with the largest smallest angle kept (one warning if none meets it).
+    Returns ``(points, faces, passes)``.
+
+    A single pass from a surface whose triangles the flow has sheared leaves a few needles where the
+    size field is finest (a deep neck's short edges next to long ones); a pass from MMG's own output,
+    already near the size field, does not (docs/validation/remesh_constriction.md)."""
+    best = (float(min_angles(new_points, new_faces).min()), new_points, new_faces)
+    passes = 1
+    while options.min_angle is not None and best[0] < options.min_angle and passes <= RETRIES:
+        tri, bary = closest_points(points, faces, best[1])
+        at = np.einsum("qk,qk->q", bary, h[faces[tri]])
+        trial = repair(*_mmg(best[1], best[2], at, hausd, options.hgrad), options.quality)
+        passes += 1
+        angle = float(min_angles(*trial).min())
+        if angle > best[0]:
+            best = (angle, *trial)
+    if options.min_angle is not None and best[0] < options.min_angle:
+        log.warning(
+            "remeshing: the smallest angle %.2f deg is below %g after %d MMG passes", best[0], options.min_angle, passes
+        )
+    return best[1], best[2], passes
