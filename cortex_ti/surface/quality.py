@@ -12,26 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from .closest import closest_points
+from .measures import min_angles
 from .mesh import vertex_normals
 
 __all__ = ["min_angles", "flip_bad_edges", "smooth_bad_vertices", "repair"]
-
-
-def min_angles(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """The smallest interior angle (degrees) of every triangle, ``(T,)``.
-
-    >>> from cortex_ti.surface.mesh import icosphere
-    >>> m = icosphere(162)
-    >>> bool(50.0 < min_angles(m.points, m.faces).min() < 60.0)
-    True
-    """
-    x = np.asarray(points)[np.asarray(faces)]
-    e = x[:, [1, 2, 0]] - x  # edge k: corner k -> k+1
-    length = np.linalg.norm(e, axis=2)
-    # angle at corner k between edges k (k -> k+1) and k-1 reversed (k -> k-1)
-    prev = -e[:, [2, 0, 1]]
-    cos = np.einsum("tkc,tkc->tk", e, prev) / (length * length[:, [2, 0, 1]])
-    return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).min(axis=1)
 
 
 def _pair_quality(points: np.ndarray, tris: list) -> float:

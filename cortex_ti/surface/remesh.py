@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import CortexError
 from .closest import closest_points
+from .measures import enclosed_volume as enclosed_volume_about
 from .mesh import per_connectivity, vertex_normals
 from .quality import flip_bad_edges, min_angles, repair, smooth_bad_vertices
 from .transport import DENSITY, dual_areas
@@ -301,9 +302,9 @@ def node_coarseness(points: np.ndarray, faces: np.ndarray, h: np.ndarray) -> flo
 
 
 def enclosed_volume(points: np.ndarray, faces: np.ndarray) -> float:
-    """The signed volume enclosed by outward-oriented triangles."""
-    x = points[faces]
-    return float(np.einsum("tc,tc->", x[:, 0], np.cross(x[:, 1], x[:, 2])) / 6.0)
+    """The signed volume enclosed by outward-oriented triangles (:func:`.measures.enclosed_volume`
+    about the origin, the reference the volume restoration's cubic is written in)."""
+    return enclosed_volume_about(points, faces, origin=np.zeros(3))
 
 
 def restore_volume(points: np.ndarray, faces: np.ndarray, volume: float, rtol: float = 1e-14, max_iter: int = 20):

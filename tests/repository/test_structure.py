@@ -18,7 +18,6 @@ MAX_LINES = 600
 #: Modules over the limit that another branch of the same change brings under it: name -> who.
 #: Each must still be over the limit (a stale entry fails), so the list only shrinks.
 NOT_YET = {
-    "cortex_ti/surface/remesh.py": "the remesh-angle work splits it",
     "cortex_ti/simulation/run.py": "the run-loop work splits it",
 }
 
