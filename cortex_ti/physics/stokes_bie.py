@@ -123,8 +123,10 @@ def single_layer_matrix(
     nq = len(w)
     y = np.einsum("qk,fkc->fqc", bary, tri).reshape(-1, 3)
     pw = sp.csr_matrix(
-        ((area[:, None, None] * w[None, :, None] * bary[None]).ravel(),
-         (np.repeat(np.arange(nf * nq), 3), np.repeat(faces[:, None, :], nq, axis=1).ravel())),
+        (
+            (area[:, None, None] * w[None, :, None] * bary[None]).ravel(),
+            (np.repeat(np.arange(nf * nq), 3), np.repeat(faces[:, None, :], nq, axis=1).ravel()),
+        ),
         shape=(nf * nq, n),
     )
     pwt = pw.T.tocsr()

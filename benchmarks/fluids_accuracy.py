@@ -1,0 +1,220 @@
+"""The cortex between two Stokes fluids of equal viscosity (issue 36, first step) against the exact
+truths of :mod:`cortex_ti.truth.fluid_sphere` (Lamb's solution with surface viscosities), on the
+icosphere at several node counts; formulation ``rayleigh_p1`` plus the fluids' dissipation
+(:mod:`cortex_ti.physics.fluids`, single layer of :mod:`cortex_ti.physics.stokes_bie`).
+
+Cases (cortex eta_s = eta_b = 1, no bending viscosity; ``mu = mu_in = mu_out``):
+
+* ``Y10``, ``Y20``: the t = 0 flow of the active tension ``zeta = P_l(z)`` on the unit sphere,
+  against ``zeta (alpha_l grad_s P_l + beta_l P_l n)`` (``flow_coefficients``): max error / max |v|;
+* ``furrow``: the same for furrow_p8_a1's ring, expanded in Legendre polynomials (degree 80);
+* ``sediment``: the centroid velocity under a body force ``e_z`` on the cytoplasm, relative error
+  against ``sedimentation_velocity`` (Boussinesq-Scriven);
+* ``relax2``: the normal speed of the shape ``r = 1 + eps P_2(z)`` (eps = 1e-3) under the uniform
+  tension 1, its ``P_2`` coefficient / eps against ``relaxation_rate(2)``: relative error;
+* ``faxen``: mean surface velocity and surface rotation in the shear ``u = G y e_x`` (G = 1)
+  against ``faxen``: the larger absolute error.
+
+Usage::
+
+    python benchmarks/fluids_accuracy.py --nodes 162 642 2562 --mu 0.1 1 10
+    python benchmarks/fluids_accuracy.py --smoke
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import numpy as np
+
+NO_BENDING = [
+    "viscosity.bending=0",
+    "viscosity.bending_bulk=0",
+    "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,incompressibility]",
+]
+
+
+def cortex(nodes: int):
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    return Simulation(
+        load_scene("furrow_p8_a1", [f"mesh.nodes={nodes}", "numerics.formulation=rayleigh_p1", *NO_BENDING])
+    )
+
+
+def legendre_flow(coeffs, x, alpha_beta):
+    """``sum_l c_l (alpha_l grad_s P_l + beta_l P_l n)`` on the unit sphere at the points x."""
+    from numpy.polynomial import legendre as L
+
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    z = n[:, 2]
+    v = np.zeros_like(n)
+    tang = np.array([0.0, 0.0, 1.0])[None] - z[:, None] * n  # grad_s z
+    for l, c in enumerate(coeffs):
+        if l == 0 or c == 0.0:
+            continue
+        e = np.zeros(l + 1)
+        e[l] = 1.0
+        p, dp = L.legval(z, e), L.legval(z, L.legder(e))
+        al, be = alpha_beta(l)
+        v += c * (al * dp[:, None] * tang + be * p[:, None] * n)
+    return v
+
+
+def legendre_coefficients(func, lmax: int):
+    """Legendre coefficients of an axisymmetric field ``func(z)`` by Gauss quadrature."""
+    from numpy.polynomial import legendre as L
+
+    z, w = L.leggauss(2 * lmax + 2)
+    f = func(z)
+    out = []
+    for l in range(lmax + 1):
+        e = np.zeros(l + 1)
+        e[l] = 1.0
+        out.append((2 * l + 1) / 2.0 * float(np.sum(w * f * L.legval(z, e))))
+    return np.array(out)
+
+
+def measure(nodes: int, mus, cases) -> list[dict]:
+    from cortex_ti.physics.fluids import body_force_nodes, fluid_operator, shear_flow, solve_with_fluids
+    from cortex_ti.physics.patterns import evaluate_active_stress
+    from cortex_ti.truth import fluid_sphere as fs
+
+    sim = cortex(nodes)
+    x0 = sim.mesh.points
+    faces = sim.mesh.faces
+    shell = dict(eta_s=1.0, eta_b=1.0)
+    rows = []
+    geo0 = sim.shape_geometry(x0)
+    pats = list(sim.settings.patterns)
+    z_ring = legendre_coefficients(
+        lambda z: evaluate_active_stress(np.stack([np.sqrt(1 - z**2), 0 * z, z], 1), pats), 80
+    )
+    for mu in mus:
+        t0 = time.perf_counter()
+        fl = fluid_operator(x0, faces, mu, geo0.normal)
+        build = time.perf_counter() - t0
+
+        def ab(l, mu=mu):
+            return fs.flow_coefficients(l, mu_in=mu, mu_out=mu, **shell)
+
+        def flow(zeta, exact, name, mu=mu, fl=fl, build=build):
+            t1 = time.perf_counter()
+            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=zeta), fl)
+            err = float(np.abs(v - exact).max() / np.abs(exact).max())
+            rows.append(dict(case=name, nodes=nodes, mu=mu, error=err, build_s=build, solve_s=time.perf_counter() - t1))
+
+        z = x0[:, 2] / np.linalg.norm(x0, axis=1)
+        if "Y10" in cases:
+            flow(z.copy(), legendre_flow([0.0, 1.0], x0, ab), "Y10")
+        if "Y20" in cases:
+            flow(1.5 * z**2 - 0.5, legendre_flow([0.0, 0.0, 1.0], x0, ab), "Y20")
+        if "furrow" in cases:
+            flow(evaluate_active_stress(x0, pats), legendre_flow(z_ring, x0, ab), "furrow")
+        if "sediment" in cases:
+            t1 = time.perf_counter()
+            force = body_force_nodes(x0, faces, [0.0, 0.0, 1.0])
+            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, node_force=force)
+            vn = np.einsum("nc,nc->n", v, geo0.normal)
+            c = (geo0.area[:, None] * x0).sum(0) / geo0.area.sum()
+            vol = float((geo0.area * np.einsum("nc,nc->n", x0 - c, geo0.normal)).sum() / 3.0)
+            u = (geo0.area * (x0[:, 2] - c[2]) * vn).sum() / vol
+            exact = fs.sedimentation_velocity(1.0, mu_in=mu, mu_out=mu, **shell)
+            rows.append(
+                dict(
+                    case="sediment",
+                    nodes=nodes,
+                    mu=mu,
+                    error=float(abs(u / exact - 1.0)),
+                    build_s=build,
+                    solve_s=time.perf_counter() - t1,
+                    value=float(u),
+                    exact=exact,
+                )
+            )
+        if "faxen" in cases:
+            t1 = time.perf_counter()
+            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, far=shear_flow(x0, 1.0))
+            a = geo0.area
+            mean = (a[:, None] * v).sum(0) / a.sum()
+            rad = np.sqrt(a.sum() / (4 * np.pi))
+            rot = 3.0 / (8.0 * np.pi * rad**4) * (a[:, None] * np.cross(x0, v)).sum(0)
+            u_c, w_c = fs.faxen([[0, 1.0, 0], [0, 0, 0], [0, 0, 0]])
+            err = max(np.abs(mean - u_c).max(), np.abs(rot - w_c).max())
+            rows.append(
+                dict(
+                    case="faxen",
+                    nodes=nodes,
+                    mu=mu,
+                    error=float(err),
+                    build_s=build,
+                    solve_s=time.perf_counter() - t1,
+                    rotation_z=float(rot[2]),
+                )
+            )
+        if "relax2" in cases:
+            t1 = time.perf_counter()
+            eps = 1e-3
+            n0 = x0 / np.linalg.norm(x0, axis=1)[:, None]
+            p2 = 1.5 * n0[:, 2] ** 2 - 0.5
+            x = n0 * (1.0 + eps * p2)[:, None]
+            geo = sim.shape_geometry(x)
+            fl2 = fluid_operator(x, faces, mu, geo.normal)
+            v, _, _ = solve_with_fluids(sim.system(geo, zeta=np.ones(len(x))), fl2)
+            vn = np.einsum("nc,nc->n", v, geo.normal)
+            a = geo.area
+            rate = float((a * vn * p2).sum() / (a * p2 * p2).sum() / eps)
+            exact = fs.relaxation_rate(2, tension=1.0, mu_in=mu, mu_out=mu, **shell)
+            rows.append(
+                dict(
+                    case="relax2",
+                    nodes=nodes,
+                    mu=mu,
+                    error=float(abs(rate / exact - 1.0)),
+                    build_s=build,
+                    solve_s=time.perf_counter() - t1,
+                    value=rate,
+                    exact=exact,
+                )
+            )
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
+    ap.add_argument("--mu", type=float, nargs="+", default=[0.1, 1.0, 10.0])
+    ap.add_argument("--cases", nargs="+", default=["Y10", "Y20", "furrow", "sediment", "relax2", "faxen"])
+    ap.add_argument("--json", help="write the rows to this file")
+    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    args = ap.parse_args(argv)
+    if args.smoke:
+        args.nodes, args.mu, args.json = [42], [1.0], None
+    rows = []
+    for nodes in args.nodes:
+        rows += measure(nodes, args.mu, args.cases)
+    print(f"{'case':9s} {'mu':>6s} " + " ".join(f"{n:>17d}" for n in args.nodes))
+    for case in args.cases:
+        for mu in args.mu:
+            errs = [
+                r["error"] for n in args.nodes for r in rows if r["case"] == case and r["mu"] == mu and r["nodes"] == n
+            ]
+            cells = [
+                f"{e:9.2e}" + (f" ({errs[k - 1] / e:4.1f}x)" if k and e > 0 else " " * 8) for k, e in enumerate(errs)
+            ]
+            print(f"{case:9s} {mu:6.3g} " + " ".join(cells))
+    builds = {r["nodes"]: r["build_s"] for r in rows}
+    print("operator build [s]: " + ", ".join(f"{n}: {b:.1f}" for n, b in builds.items()))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump(rows, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
