@@ -80,7 +80,7 @@ def legendre_coefficients(func, lmax: int):
     return np.array(out)
 
 
-def measure(nodes: int, mus, cases) -> list[dict]:
+def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
     from cortex_ti.physics.fluids import body_force_nodes, fluid_operator, shear_flow, solve_with_fluids
     from cortex_ti.physics.patterns import evaluate_active_stress
     from cortex_ti.truth import fluid_sphere as fs
@@ -95,19 +95,22 @@ def measure(nodes: int, mus, cases) -> list[dict]:
     z_ring = legendre_coefficients(
         lambda z: evaluate_active_stress(np.stack([np.sqrt(1 - z**2), 0 * z, z], 1), pats), 80
     )
-    for mu in mus:
+    for mu, lam in [(m, q) for q in lams for m in mus]:
+        mi = lam * mu
         t0 = time.perf_counter()
-        fl = fluid_operator(x0, faces, mu, geo0.normal)
+        fl = fluid_operator(x0, faces, geo0.normal, mu_in=mi, mu_out=mu)
         build = time.perf_counter() - t0
 
-        def ab(l, mu=mu):
-            return fs.flow_coefficients(l, mu_in=mu, mu_out=mu, **shell)
+        def ab(l, mu=mu, mi=mi):
+            return fs.flow_coefficients(l, mu_in=mi, mu_out=mu, **shell)
 
-        def flow(zeta, exact, name, mu=mu, fl=fl, build=build):
+        def flow(zeta, exact, name, mu=mu, lam=lam, fl=fl, build=build):
             t1 = time.perf_counter()
             v, _, _ = solve_with_fluids(sim.system(geo0, zeta=zeta), fl)
             err = float(np.abs(v - exact).max() / np.abs(exact).max())
-            rows.append(dict(case=name, nodes=nodes, mu=mu, error=err, build_s=build, solve_s=time.perf_counter() - t1))
+            rows.append(
+                dict(case=name, nodes=nodes, mu=mu, lam=lam, error=err, build_s=build, solve_s=time.perf_counter() - t1)
+            )
 
         z = x0[:, 2] / np.linalg.norm(x0, axis=1)
         if "Y10" in cases:
@@ -124,12 +127,13 @@ def measure(nodes: int, mus, cases) -> list[dict]:
             c = (geo0.area[:, None] * x0).sum(0) / geo0.area.sum()
             vol = float((geo0.area * np.einsum("nc,nc->n", x0 - c, geo0.normal)).sum() / 3.0)
             u = (geo0.area * (x0[:, 2] - c[2]) * vn).sum() / vol
-            exact = fs.sedimentation_velocity(1.0, mu_in=mu, mu_out=mu, **shell)
+            exact = fs.sedimentation_velocity(1.0, mu_in=mi, mu_out=mu, **shell)
             rows.append(
                 dict(
                     case="sediment",
                     nodes=nodes,
                     mu=mu,
+                    lam=lam,
                     error=float(abs(u / exact - 1.0)),
                     build_s=build,
                     solve_s=time.perf_counter() - t1,
@@ -151,6 +155,7 @@ def measure(nodes: int, mus, cases) -> list[dict]:
                     case="faxen",
                     nodes=nodes,
                     mu=mu,
+                    lam=lam,
                     error=float(err),
                     build_s=build,
                     solve_s=time.perf_counter() - t1,
@@ -164,17 +169,18 @@ def measure(nodes: int, mus, cases) -> list[dict]:
             p2 = 1.5 * n0[:, 2] ** 2 - 0.5
             x = n0 * (1.0 + eps * p2)[:, None]
             geo = sim.shape_geometry(x)
-            fl2 = fluid_operator(x, faces, mu, geo.normal)
+            fl2 = fluid_operator(x, faces, geo.normal, mu_in=mi, mu_out=mu)
             v, _, _ = solve_with_fluids(sim.system(geo, zeta=np.ones(len(x))), fl2)
             vn = np.einsum("nc,nc->n", v, geo.normal)
             a = geo.area
             rate = float((a * vn * p2).sum() / (a * p2 * p2).sum() / eps)
-            exact = fs.relaxation_rate(2, tension=1.0, mu_in=mu, mu_out=mu, **shell)
+            exact = fs.relaxation_rate(2, tension=1.0, mu_in=mi, mu_out=mu, **shell)
             rows.append(
                 dict(
                     case="relax2",
                     nodes=nodes,
                     mu=mu,
+                    lam=lam,
                     error=float(abs(rate / exact - 1.0)),
                     build_s=build,
                     solve_s=time.perf_counter() - t1,
@@ -189,6 +195,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
     ap.add_argument("--mu", type=float, nargs="+", default=[0.1, 1.0, 10.0])
+    ap.add_argument("--lam", type=float, nargs="+", default=[1.0], help="viscosity ratios mu_in / mu_out")
     ap.add_argument("--cases", nargs="+", default=["Y10", "Y20", "furrow", "sediment", "relax2", "faxen"])
     ap.add_argument("--json", help="write the rows to this file")
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
@@ -197,17 +204,20 @@ def main(argv=None) -> int:
         args.nodes, args.mu, args.json = [42], [1.0], None
     rows = []
     for nodes in args.nodes:
-        rows += measure(nodes, args.mu, args.cases)
-    print(f"{'case':9s} {'mu':>6s} " + " ".join(f"{n:>17d}" for n in args.nodes))
-    for case in args.cases:
-        for mu in args.mu:
+        rows += measure(nodes, args.mu, args.cases, args.lam)
+    print(f"{'case':9s} {'mu':>6s} {'lam':>6s} " + " ".join(f"{n:>17d}" for n in args.nodes))
+    for case, mu, lam in [(c, m, q) for c in args.cases for q in args.lam for m in args.mu]:
+        if True:
             errs = [
-                r["error"] for n in args.nodes for r in rows if r["case"] == case and r["mu"] == mu and r["nodes"] == n
+                r["error"]
+                for n in args.nodes
+                for r in rows
+                if r["case"] == case and r["mu"] == mu and r["lam"] == lam and r["nodes"] == n
             ]
             cells = [
                 f"{e:9.2e}" + (f" ({errs[k - 1] / e:4.1f}x)" if k and e > 0 else " " * 8) for k, e in enumerate(errs)
             ]
-            print(f"{case:9s} {mu:6.3g} " + " ".join(cells))
+            print(f"{case:9s} {mu:6.3g} {lam:6.3g} " + " ".join(cells))
     builds = {r["nodes"]: r["build_s"] for r in rows}
     print("operator build [s]: " + ", ".join(f"{n}: {b:.1f}" for n, b in builds.items()))
     if args.json:

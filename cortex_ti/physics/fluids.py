@@ -34,7 +34,7 @@ import scipy.linalg as sla
 
 from ..errors import SolverError
 from ..solve.system import EnergySystem
-from .stokes_bie import node_areas, single_layer_matrix
+from .stokes_bie import double_layer_matrix, node_areas, single_layer_matrix
 
 __all__ = ["FluidOperator", "fluid_operator", "body_force_nodes", "shear_flow", "solve_with_fluids"]
 
@@ -45,8 +45,10 @@ class FluidOperator:
 
     dissipation: np.ndarray  # D, symmetric positive definite
     asymmetry: float  # |V - V^T| / |V| (max norms) before symmetrising: a measure of the quadrature
-    mu: float
+    mu_in: float
+    mu_out: float
     seconds: float
+    min_eigenvalue: float | None = None  # with a viscosity contrast (the symmetrised D is then not PSD by construction)
 
     def force(self, velocity: np.ndarray, far: np.ndarray | None = None) -> np.ndarray:
         """The nodal forces ``-D (v - u_inf)`` the fluids put on the cortex (N, 3)."""
@@ -57,39 +59,58 @@ class FluidOperator:
 def fluid_operator(
     points: np.ndarray,
     faces: np.ndarray,
-    mu: float,
     normals: np.ndarray,
     *,
+    mu_in: float,
+    mu_out: float,
     completion: float = 1.0,
     **quadrature,
 ) -> FluidOperator:
     """The fluids' dissipation matrix on the shape ``points`` (module docstring); ``normals``
     (N, 3) the nodes' unit normals of the completion ``w = A n``, ``completion`` a factor of its
-    weight ``c`` (the lifted eigenvalue is ``completion * mean(A) R / mu``, R the radius of the
-    sphere of the same area), ``quadrature`` the keywords of
-    :func:`~cortex_ti.physics.stokes_bie.single_layer_matrix`."""
+    weight ``c`` (the lifted eigenvalue is ``completion * mean(A) R``, R the radius of the sphere
+    of the same area), ``quadrature`` the keywords of
+    :func:`~cortex_ti.physics.stokes_bie.single_layer_matrix`. Equal viscosities need the single
+    layer alone; a contrast adds the double layer (``D = A V^-1 A [mu_out (1/2 + Kd) + mu_in (1/2 -
+    Kd)]``, symmetrised; its smallest eigenvalue is kept in ``min_eigenvalue``)."""
     import time
 
-    if not mu > 0:
-        raise SolverError(f"the fluids' viscosity must be positive, got {mu}")
+    if not (mu_in >= 0 and mu_out > 0):
+        raise SolverError(f"the fluids' viscosities must be positive (outer) and >= 0 (inner), got {mu_in}, {mu_out}")
     t0 = time.perf_counter()
     x = np.asarray(points, float)
     area = node_areas(x, faces)
     a3 = np.repeat(area, 3)
-    v = a3[:, None] * single_layer_matrix(x, faces, mu, **quadrature)
+    v = a3[:, None] * single_layer_matrix(x, faces, 1.0, **quadrature)
     asym = float(np.abs(v - v.T).max() / np.abs(v).max())
     v = 0.5 * (v + v.T)
     w = (area[:, None] * normals).ravel()
     radius = math.sqrt(area.sum() / (4.0 * math.pi))
-    c = completion * area.mean() * radius / mu / float(w @ w)
+    c = completion * area.mean() * radius / float(w @ w)
     v += c * np.outer(w, w)
     try:
         chol = sla.cho_factor(v, lower=True, overwrite_a=True, check_finite=False)
     except np.linalg.LinAlgError as err:
         raise SolverError(f"the fluids' single-layer matrix is not positive definite ({err})") from err
     d = a3[:, None] * sla.cho_solve(chol, np.diag(a3), check_finite=False)
+    min_ev = None
+    if mu_in == mu_out:
+        d = mu_out * d
+    else:
+        kd = double_layer_matrix(x, faces, **quadrature)
+        mix = (0.5 * (mu_in + mu_out)) * np.eye(len(a3)) + (mu_out - mu_in) * kd
+        d = d @ mix
     d = 0.5 * (d + d.T)
-    return FluidOperator(dissipation=d, asymmetry=asym, mu=float(mu), seconds=time.perf_counter() - t0)
+    if mu_in != mu_out:
+        min_ev = float(sla.eigvalsh(d, subset_by_index=[0, 0])[0])
+    return FluidOperator(
+        dissipation=d,
+        asymmetry=asym,
+        mu_in=float(mu_in),
+        mu_out=float(mu_out),
+        seconds=time.perf_counter() - t0,
+        min_eigenvalue=min_ev,
+    )
 
 
 def body_force_nodes(points: np.ndarray, faces: np.ndarray, body_force) -> np.ndarray:

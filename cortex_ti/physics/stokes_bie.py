@@ -33,7 +33,16 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-__all__ = ["radon7", "duffy_rule", "split_rule", "stokeslet", "single_layer_matrix", "node_areas"]
+__all__ = [
+    "radon7",
+    "duffy_rule",
+    "split_rule",
+    "stokeslet",
+    "stresslet_flux",
+    "single_layer_matrix",
+    "double_layer_matrix",
+    "node_areas",
+]
 
 
 def radon7() -> tuple[np.ndarray, np.ndarray]:
@@ -93,27 +102,63 @@ def node_areas(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return np.bincount(faces.ravel(), weights=np.repeat(area / 3.0, 3), minlength=points.shape[0])
 
 
-def _pair_blocks(x: np.ndarray, tri: np.ndarray, area: np.ndarray, bary: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """``int_T G(x - y) phi_k(y) dA_y`` for pairs (target x (P, 3), triangle corners tri (P, 3, 3))
-    with one rule (bary (Q, 3), w (Q,)): (P, 3 corners, 3, 3)."""
+def stresslet_flux(r: np.ndarray, nrm: np.ndarray) -> np.ndarray:
+    """``r r^T (r . n) / |r|^5`` for ``r`` (..., 3), ``n`` (..., 3): (..., 3, 3), the double layer's
+    kernel up to its factor."""
+    d2 = np.einsum("...c,...c->...", r, r)
+    rn = np.einsum("...c,...c->...", r, nrm)
+    return (r[..., :, None] * r[..., None, :]) * (rn / d2**2.5)[..., None, None]
+
+
+def _pair_blocks(x, tri, area, bary, w, double=False) -> np.ndarray:
+    """``int_T k(x, y) phi_k(y) dA_y`` for pairs (target x (P, 3), triangle corners tri (P, 3, 3))
+    with one rule (bary (Q, 3), w (Q,)): (P, 3 corners, 3, 3); ``k`` the Stokeslet ``G(x - y)``
+    or, ``double``, ``stresslet_flux(y - x, n_T)``."""
     y = np.einsum("qk,pkc->pqc", bary, tri)
-    g = stokeslet(x[:, None, :] - y)  # (P, Q, 3, 3)
+    if double:
+        nt = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        nt /= np.linalg.norm(nt, axis=1)[:, None]
+        g = stresslet_flux(y - x[:, None, :], np.broadcast_to(nt[:, None, :], y.shape))
+    else:
+        g = stokeslet(x[:, None, :] - y)  # (P, Q, 3, 3)
     return np.einsum("pqab,qk,q,p->pkab", g, bary, w, area)
 
 
-def single_layer_matrix(
+def single_layer_matrix(points: np.ndarray, faces: np.ndarray, mu: float = 1.0, **quadrature) -> np.ndarray:
+    """The collocation matrix ``C`` (3N, 3N) of the single layer ``(1 / 8 pi mu) oint G f dA``:
+    ``u_i = sum_j C[3i:3i+3, 3j:3j+3] f_j`` for ``f`` linear on every flat triangle (module
+    docstring for the quadrature; ``near``, ``duffy_points``, ``near_levels`` its parameters)."""
+    return _layer(points, faces, False, **quadrature) / (8.0 * math.pi * mu)
+
+
+def double_layer_matrix(points: np.ndarray, faces: np.ndarray, **quadrature) -> np.ndarray:
+    """The collocation matrix ``Kd`` (3N, 3N) of the double layer normalised so that a rigid
+    motion gives half itself: ``Kd[u](x) = (3 / 4 pi) oint (y-x)(y-x)^T ((y-x) . n) / |y-x|^5
+    (u(y) - u(x)) dA_y + u(x) / 2``, ``n`` the outward normal, ``u`` linear on every flat
+    triangle (the singularity subtracted: the rigid motions exactly, and a node's own flat triangles
+    contribute nothing, ``(y - x) . n = 0`` on them). With it, the traction ``f = sigma . n`` of the
+    inner and outer Stokes flows that take the surface velocity ``u`` are
+    ``S[f_in] / mu_in = u / 2 - Kd u`` and ``S[f_out] / mu_out = -u / 2 - Kd u``
+    (``S`` the single layer at ``mu = 1``)."""
+    raw = _layer(points, faces, True, **quadrature) * (3.0 / (4.0 * math.pi))
+    n = raw.shape[0] // 3
+    rows = raw.reshape(n, 3, n, 3).sum(2)  # (N, 3, 3): the row sums of every block row
+    out = raw.reshape(n, 3, n, 3)
+    idx = np.arange(n)
+    out[idx, :, idx, :] += 0.5 * np.eye(3)[None] - rows
+    return out.reshape(3 * n, 3 * n)
+
+
+def _layer(
     points: np.ndarray,
     faces: np.ndarray,
-    mu: float = 1.0,
+    double: bool,
     *,
     near: float = 3.0,
     duffy_points: int = 8,
     near_levels: int = 2,
     chunk: int = 48,
 ) -> np.ndarray:
-    """The collocation matrix ``C`` (3N, 3N) of the single layer ``(1 / 8 pi mu) oint G f dA``:
-    ``u_i = sum_j C[3i:3i+3, 3j:3j+3] f_j`` for ``f`` linear on every flat triangle (module
-    docstring for the quadrature; ``near``, ``duffy_points``, ``near_levels`` its parameters)."""
     x = np.ascontiguousarray(points, float)
     faces = np.asarray(faces, np.int64)
     n, nf = x.shape[0], faces.shape[0]
@@ -131,14 +176,21 @@ def single_layer_matrix(
     )
     pwt = pw.T.tocsr()
     c = np.empty((n, 3, n, 3))
+    nt = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    nt = np.repeat(nt / np.linalg.norm(nt, axis=1)[:, None], nq, axis=0)  # (Q, 3) source normals
     for s in range(0, n, chunk):
         e = min(n, s + chunk)
-        r = [x[s:e, k, None] - y[None, :, k] for k in range(3)]  # (c, Q) each
-        inv = 1.0 / np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-        inv3 = inv**3
-        diag = (pwt @ inv.T).T
+        r = [x[s:e, k, None] - y[None, :, k] for k in range(3)]  # (c, Q) each: x - y
+        d2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+        if double:  # r r^T ((y - x) . n) / |r|^5
+            scale = -(r[0] * nt[None, :, 0] + r[1] * nt[None, :, 1] + r[2] * nt[None, :, 2]) / d2**2.5
+            diag = 0.0
+        else:
+            inv = 1.0 / np.sqrt(d2)
+            scale = inv**3
+            diag = (pwt @ inv.T).T
         for a in range(3):
-            ra = r[a] * inv3
+            ra = r[a] * scale
             for b in range(a, 3):
                 blk = (pwt @ (ra * r[b]).T).T  # (c, N)
                 c[s:e, a, :, b] = blk + diag if a == b else blk
@@ -157,16 +209,16 @@ def single_layer_matrix(
     vert = faces[pf] == pi[:, None]
     own = vert.any(1)
     corr = np.zeros((pi.size, 3, 3, 3))
-    corr -= _pair_blocks(x[pi], tri[pf], area[pf], bary, w)
+    corr -= _pair_blocks(x[pi], tri[pf], area[pf], bary, w, double)
     # own triangles: roll the corners so that the target is corner 0, Duffy rule there
     k0 = np.argmax(vert[own], axis=1)
     roll = (k0[:, None] + np.arange(3)[None]) % 3
     fo = np.take_along_axis(faces[pf[own]], roll, axis=1)
-    blk = _pair_blocks(x[pi[own]], x[fo], area[pf[own]], *duffy_rule(duffy_points))
+    blk = _pair_blocks(x[pi[own]], x[fo], area[pf[own]], *duffy_rule(duffy_points), double)
     back = np.argsort(roll, axis=1)  # rolled corner -> original corner
     corr[own] += np.take_along_axis(blk, back[:, :, None, None], axis=1)
     sb, sw = split_rule(near_levels)
-    corr[~own] += _pair_blocks(x[pi[~own]], tri[pf[~own]], area[pf[~own]], sb, sw)
+    corr[~own] += _pair_blocks(x[pi[~own]], tri[pf[~own]], area[pf[~own]], sb, sw, double)
     # scatter into C[i, a, j, b]
     j = faces[pf]  # (P, 3)
     flat = c.reshape(-1)
@@ -177,4 +229,4 @@ def single_layer_matrix(
         + a_idx[None, None, None, :]
     )  # (P, k, a, b)
     np.add.at(flat, lin.ravel(), corr.ravel())
-    return c.reshape(3 * n, 3 * n) / (8.0 * math.pi * mu)
+    return c.reshape(3 * n, 3 * n)
