@@ -21,7 +21,8 @@ quadratic form of ``v``. Discretely (docs/method/fluids.md):
 The rigid translation and rotation are then fixed by the medium, so the gauge rows are dropped
 (:func:`solve_with_fluids`). A body force ``b`` on the cytoplasm (relative to the medium) enters
 as the hydrostatic pressure ``b . x`` of the cytoplasm pushing on the cortex, ``(b . x) n``
-(:func:`body_force_nodes`); a far-field flow as ``D u_inf`` on the right-hand side.
+(:func:`body_force_nodes`); a far-field flow ``u_inf`` as ``mu_out A S^-1 A u_inf`` on the right-hand
+side (its own traction and its disturbance's; ``D u_inf`` for equal viscosities).
 """
 
 from __future__ import annotations
@@ -49,11 +50,20 @@ class FluidOperator:
     mu_out: float
     seconds: float
     min_eigenvalue: float | None = None  # with a viscosity contrast (the symmetrised D is then not PSD by construction)
+    far_map: np.ndarray | None = None  # mu_out A S^-1 A: the far field's force (a contrast only; else D)
+
+    def far_force(self, far: np.ndarray) -> np.ndarray:
+        """The force a far-field flow ``u_inf`` (N, 3) puts on the static cortex, ``mu_out A S^-1 A
+        u_inf`` whatever the inner viscosity (the far field's own traction plus its disturbance's)."""
+        mat = self.dissipation if self.far_map is None else self.far_map
+        return mat @ np.asarray(far, float).ravel()
 
     def force(self, velocity: np.ndarray, far: np.ndarray | None = None) -> np.ndarray:
-        """The nodal forces ``-D (v - u_inf)`` the fluids put on the cortex (N, 3)."""
-        rel = velocity if far is None else velocity - far
-        return -(self.dissipation @ rel.ravel()).reshape(-1, 3)
+        """The nodal forces ``-D v + mu_out A S^-1 A u_inf`` the fluids put on the cortex (N, 3)."""
+        out = -(self.dissipation @ np.asarray(velocity, float).ravel())
+        if far is not None:
+            out += self.far_force(far)
+        return out.reshape(-1, 3)
 
 
 def fluid_operator(
@@ -93,10 +103,11 @@ def fluid_operator(
     except np.linalg.LinAlgError as err:
         raise SolverError(f"the fluids' single-layer matrix is not positive definite ({err})") from err
     d = a3[:, None] * sla.cho_solve(chol, np.diag(a3), check_finite=False)
-    min_ev = None
+    min_ev = far = None
     if mu_in == mu_out:
         d = mu_out * d
     else:
+        far = mu_out * 0.5 * (d + d.T)
         kd = double_layer_matrix(x, faces, **quadrature)
         mix = (0.5 * (mu_in + mu_out)) * np.eye(len(a3)) + (mu_out - mu_in) * kd
         d = d @ mix
@@ -110,6 +121,7 @@ def fluid_operator(
         mu_out=float(mu_out),
         seconds=time.perf_counter() - t0,
         min_eigenvalue=min_ev,
+        far_map=far,
     )
 
 
@@ -144,7 +156,7 @@ def solve_with_fluids(
     node_force: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float, np.ndarray]:
     """Velocity (N, 3), pressure and multipliers of ``system`` (a ``rayleigh_p1`` system with
-    Cartesian unknowns) with the fluids' dissipation added: ``(K + D) v + F^T lambda = f + D u_inf
+    Cartesian unknowns) with the fluids' dissipation added: ``(K + D) v + F^T lambda = f + mu_out A S^-1 A u_inf
     + node_force``, ``G v = 0`` over the constraints but the rigid-body gauge (the medium fixes
     the rigid motions). Dense: one LU of the ``3N + m`` bordered matrix."""
     basis = system.basis
@@ -162,7 +174,7 @@ def solve_with_fluids(
     rhs = np.zeros(n3 + m)
     rhs[:n3] = system.rhs
     if far is not None:
-        rhs[:n3] += fluid.dissipation @ np.asarray(far, float).ravel()
+        rhs[:n3] += fluid.far_force(far)
     if node_force is not None:
         rhs[:n3] += np.asarray(node_force, float).ravel()
     sol = np.linalg.solve(kkt, rhs)

@@ -216,3 +216,20 @@ def test_sedimentation_with_a_viscosity_contrast_162(cell162):
         fl = fluid_operator(x, sim.mesh.faces, geo.normal, mu_in=lam, mu_out=1.0)
         assert fl.min_eigenvalue > 0
         assert abs(sediment(sim, x, geo, fl)) < bound
+
+
+def test_shear_drives_lambs_strain_response_162(cell162):
+    """In the shear u = G y e_x the surface turns with -G / 2 about z and takes the degree-2 flow of
+    strain_response: measured max error / max degree-2 part 1.21e-2 (equal viscosities), 1.47e-2
+    (mu_in / mu_out = 0.1) at 162 nodes, 3.2e-3 and 4.7e-3 at 642 (benchmarks/fluids_accuracy.py)."""
+    sim, x, geo, fl_equal = cell162
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    e = np.array([[0, 0.5, 0], [0.5, 0, 0], [0, 0, 0.0]])
+    q = np.einsum("na,ab,nb->n", n, e, n)
+    for lam, fl, bound in ((1.0, fl_equal, 1.4e-2), (0.1, None, 1.7e-2)):
+        fl = fl or fluid_operator(x, sim.mesh.faces, geo.normal, mu_in=lam, mu_out=1.0)
+        v, _, _ = solve_with_fluids(sim.system(geo, zeta=np.zeros(len(x))), fl, far=shear_flow(x, 1.0))
+        sa, sb = fs.strain_response(mu_in=lam, mu_out=1.0, **SHELL)
+        strain = sa * q[:, None] * n + sb * 2.0 * (n @ e - q[:, None] * n)
+        exact = np.cross([0.0, 0.0, -0.5], x) + strain
+        assert np.abs(v - exact).max() / np.abs(strain).max() < bound
