@@ -238,8 +238,10 @@ def main(argv=None) -> int:
     builds = {r["nodes"]: r["build_s"] for r in rows}
     print("operator build [s]: " + ", ".join(f"{n}: {b:.1f}" for n, b in builds.items()))
     if args.json:
+        from cortex_ti import provenance
+
         with open(args.json, "w") as fh:
-            json.dump(rows, fh, indent=1)
+            json.dump({"provenance": provenance(), "command": sys.argv, "rows": rows}, fh, indent=1, default=str)
     return 0
 
 
