@@ -20,6 +20,7 @@ Cases (cortex eta_s = eta_b = 1, no bending viscosity; ``mu = mu_in = mu_out``):
 Usage::
 
     python benchmarks/fluids_accuracy.py --nodes 162 642 2562 --mu 0.1 1 10
+    python benchmarks/fluids_accuracy.py --operator --nodes 162 642 2562
     python benchmarks/fluids_accuracy.py --smoke
 """
 
@@ -207,6 +208,42 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
     return rows
 
 
+def operator_report(nodes_list) -> None:
+    """The operator alone on the unit icosphere: rigid motions and a pressure through the single
+    layer (against Stokes), the quadrature against a much finer one, the build times, and the
+    smallest eigenvalue of the fluids' dissipation for several viscosity ratios."""
+    from cortex_ti.physics.fluids import fluid_operator
+    from cortex_ti.physics.stokes_bie import double_layer_matrix, single_layer_matrix
+    from cortex_ti.surface.mesh import icosphere
+
+    print(
+        f"{'nodes':>6s} {'translate':>10s} {'rotate':>10s} {'pressure':>10s} {'quadrature':>10s}"
+        f" {'single s':>9s} {'double s':>9s}"
+    )
+    for nodes in nodes_list:
+        m = icosphere(nodes)
+        x = m.points
+        t0 = time.perf_counter()
+        c = single_layer_matrix(x, m.faces)
+        t1 = time.perf_counter()
+        double_layer_matrix(x, m.faces)
+        t2 = time.perf_counter()
+        tr = np.abs((c @ np.tile([0.0, 0.0, 1.0], nodes)).reshape(-1, 3) - [0, 0, 2.0 / 3.0]).max()
+        w = np.array([0.0, 0.0, 1.0])
+        rot = np.abs((c @ (3.0 * np.cross(w, x)).ravel()).reshape(-1, 3) - np.cross(w, x)).max()
+        pr = np.abs(c @ x.ravel()).max()
+        quad = float("nan")
+        if nodes <= 642:
+            fine = single_layer_matrix(x, m.faces, duffy_points=16, near_levels=3, near=5.0)
+            quad = np.abs(c - fine).max() / np.abs(fine).max()
+        print(f"{nodes:6d} {tr:10.2e} {rot:10.2e} {pr:10.2e} {quad:10.2e} {t1 - t0:9.1f} {t2 - t1:9.1f}")
+        if nodes <= 642:
+            n = x / np.linalg.norm(x, axis=1)[:, None]
+            for lam in (0.0, 0.1, 10.0, 100.0):
+                fl = fluid_operator(x, m.faces, n, mu_in=lam, mu_out=1.0)
+                print(f"       mu_in / mu_out = {lam:g}: smallest eigenvalue of D {fl.min_eigenvalue:.2e}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
@@ -214,10 +251,15 @@ def main(argv=None) -> int:
     ap.add_argument("--lam", type=float, nargs="+", default=[1.0], help="viscosity ratios mu_in / mu_out")
     ap.add_argument("--cases", nargs="+", default=["Y10", "Y20", "furrow", "sediment", "relax2", "faxen", "strain"])
     ap.add_argument("--json", help="write the rows to this file")
+    ap.add_argument("--operator", action="store_true", help="only the operator's own checks (operator_report)")
     ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
     args = ap.parse_args(argv)
     if args.smoke:
         args.nodes, args.mu, args.json = [42], [1.0], None
+    if args.operator or args.smoke:
+        operator_report(args.nodes)
+        if args.operator:
+            return 0
     rows = []
     for nodes in args.nodes:
         rows += measure(nodes, args.mu, args.cases, args.lam)
