@@ -55,15 +55,15 @@ def sphere162():
 def test_single_layer_rigid_motions_and_pressure(sphere162):
     """On the sphere a uniform force density f moves it rigidly at u = 2 R f / (3 mu) (Stokes), the
     traction 3 mu (w x x) / R turns it at w, a uniform pressure moves nothing. Measured at 162 /
-    642 / 2562 nodes (mu = 1): 1.15e-2 / 2.83e-3 / 7.00e-4, 8.9e-3 / 2.2e-3 / 5.4e-4 (of |f|),
-    7.3e-4 / 1.5e-4 / 3.7e-5: second order (the flat triangles)."""
+    642 / 2562 nodes (mu = 1, ``fluids_accuracy.py --operator``): 1.15e-2 / 2.83e-3 / 7.00e-4,
+    2.67e-2 / 6.53e-3 / 1.61e-3 (of |w|), 7.3e-4 / 1.5e-4 / 3.7e-5: second order (the flat triangles)."""
     m, c = sphere162
     mu, x = 2.0, m.points
     u = (c @ np.tile([0.0, 0.0, 1.0], len(x))).reshape(-1, 3)
     assert np.abs(u - [0, 0, 2.0 / (3.0 * mu)]).max() < 1.3e-2 / mu
     w = np.array([0.3, -0.2, 1.0])
     u = (c @ (3.0 * mu * np.cross(w, x)).ravel()).reshape(-1, 3)
-    assert np.abs(u - np.cross(w, x)).max() < 1.0e-2 * np.linalg.norm(w) * 3
+    assert np.abs(u - np.cross(w, x)).max() < 3.0e-2 * np.linalg.norm(w)
     u = (c @ x.ravel()).reshape(-1, 3)
     assert np.abs(u).max() < 8.5e-4 / mu
 
