@@ -31,7 +31,7 @@ import json
 import sys
 import time
 
-import _smoke  # benchmarks/_smoke.py: what the --smoke modes share
+import _bench  # benchmarks/_bench.py: what the scripts share
 import numpy as np
 
 NO_BENDING = [
@@ -252,7 +252,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", nargs="+", default=["Y10", "Y20", "furrow", "sediment", "relax2", "faxen", "strain"])
     ap.add_argument("--json", help="write the rows to this file")
     ap.add_argument("--operator", action="store_true", help="only the operator's own checks (operator_report)")
-    ap.add_argument("--smoke", action="store_true", help=_smoke.HELP)
+    ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     if args.smoke:
         args.nodes, args.mu, args.json = [42], [1.0], None
