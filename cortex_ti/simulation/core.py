@@ -11,7 +11,6 @@ and writes one frame; it never enters a time loop.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -25,12 +24,12 @@ from ..dynamics.schemes import Evaluation
 from ..dynamics.state import State
 from ..physics.fields import tension_of
 from ..scene.loader import Scene
+from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
-    H_MIN_DIVISOR,
     budget_scale,
     closest_points,
     edge_curvature,
@@ -54,9 +53,6 @@ log = logging.getLogger(__name__)
 
 #: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
 RETRIGGER = 0.9
-#: with a node budget (mesh.remesh.size: budget) and no mesh.remesh.h_max, the largest target edge
-#: length is this many times the initial mesh's mean edge length
-BUDGET_H_MAX = 3.0
 #: the resolution trigger (mesh.remesh.coarser) is checked every this many accepted steps
 COARSE_EVERY = 10
 #: a remeshed surface coarser than the resolution trigger is remeshed again past this multiple of it
@@ -121,14 +117,7 @@ class Simulation:
         self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
-            h_min = rem.options.h_min or mean / H_MIN_DIVISOR
-            if rem.size == "budget":  # the run keeps its node count; the flat parts may coarsen 3-fold
-                nodes = rem.options.nodes or self.mesh.n_nodes
-                h_max = rem.options.h_max or BUDGET_H_MAX * mean
-                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=nodes)
-            else:
-                h_max = rem.options.h_max or mean
-                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=None)
+            self.remesh_options = rem.sized(mean, self.mesh.n_nodes)
         self.coarse_below = None if rem is None else rem.coarser  # the resolution trigger for the current mesh
         self._checks = 0  # accepted steps since the last check of the resolution
 

@@ -294,8 +294,8 @@ def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
         return
     limit = ale_step_limit(scheme.explicit_interval, sim.motion_context)
     when = "" if t is None else f" (the mesh remeshed at t = {t:.4g})"
-    asked = sim.scene.data["time"].get("dt_max") if scheme.adaptive else s.time.dt
-    if asked is not None and float(asked) > limit:
+    asked = (s.time.dt_max if s.time.dt_max_set else None) if scheme.adaptive else s.time.dt
+    if asked is not None and asked > limit:
         key = "dt_max" if scheme.adaptive else "dt"
         raise SceneError(
             f"scene '{s.name}': time.{key} = {float(asked):g} is above the largest step {limit:.3g} with which "
@@ -354,9 +354,7 @@ def _integrate_to_file(
     attrs = output_attrs(sim)
     done = state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12)
     if done:  # the file already reaches past time.t_end: its scene records the t_end its frames reach
-        from ..scene import scene_from_dict
-
-        attrs["scene"] = scene_from_dict(sim.scene.data, [f"time.t_end={state.time!r}"]).to_yaml()
+        attrs["scene"] = sim.scene.with_overrides([f"time.t_end={state.time!r}"]).to_yaml()
     try:  # first, so that a refused resume (a changed scene: the key named) comes before any log line
         writer = TrajectoryWriter(
             output,
