@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.motion import MotionContext
+from ..dynamics.remesh_policy import COARSE_EVERY, COARSE_RETRIGGER, RETRIGGER, RemeshPolicy  # noqa: F401
 from ..dynamics.schemes import Evaluation
 from ..dynamics.state import State
 from ..physics.fields import tension_of
@@ -30,17 +31,12 @@ from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
-    budget_scale,
     closest_points,
-    edge_curvature,
     enclosed_volume,
     keep_amount,
     mean_edge_length,
-    min_angles,
-    node_coarseness,
     remesh,
     restore_volume,
-    sizes,
 )
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import DENSITY, advective_rate, dual_areas, triangle_gradients
@@ -51,12 +47,6 @@ __all__ = ["Simulation", "Solution"]
 
 log = logging.getLogger(__name__)
 
-#: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
-RETRIGGER = 0.9
-#: the resolution trigger (mesh.remesh.coarser) is checked every this many accepted steps
-COARSE_EVERY = 10
-#: a remeshed surface coarser than the resolution trigger is remeshed again past this multiple of it
-COARSE_RETRIGGER = 1.25
 #: settling (mesh.remesh.settle_steps) stops once a pseudo-step lowers the largest excess normal
 #: speed by less than this factor: the stiff transient is gone (Simulation._settle)
 SETTLE_SLOWDOWN = 0.9
@@ -113,13 +103,20 @@ class Simulation:
         self.segment = 0  # how many times the mesh was replaced (remeshing)
         self.on_remesh = None  # called with the new state after a remeshing (the run's writer)
         rem = self.settings.mesh.remesh
-        self.remesh_options = None
-        self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
+        self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
-            self.remesh_options = rem.sized(mean, self.mesh.n_nodes)
-        self.coarse_below = None if rem is None else rem.coarser  # the resolution trigger for the current mesh
-        self._checks = 0  # accepted steps since the last check of the resolution
+            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser)
+
+    @property
+    def remesh_options(self):
+        """The options the mesh is remeshed with (size defaults resolved; None: never remeshed)."""
+        return None if self.remesh_policy is None else self.remesh_policy.options
+
+    @property
+    def remesh_below(self) -> float | None:
+        """The angle trigger of the current mesh (deg; None: never remeshed)."""
+        return None if self.remesh_policy is None else self.remesh_policy.below
 
     def use_mesh(self, points: np.ndarray, faces: np.ndarray, reference: np.ndarray | None = None) -> None:
         """Solve on a new triangulation from now on (a remeshing, or resuming after one): the
@@ -138,45 +135,31 @@ class Simulation:
         reference (the nodes right after that remeshing) and the trigger it had then."""
         self.use_mesh(points, triangles, reference)
         self.segment = segment
-        if self.remesh_below is not None:
-            self._judge_new_mesh(reference, triangles)
+        if self.remesh_policy is not None:
+            self.remesh_policy.judge(reference, triangles)
 
     def _judge_new_mesh(self, points: np.ndarray, faces: np.ndarray) -> float:
-        """Set the triggers a new mesh is remeshed by: a mesh that misses a trigger itself would be
-        remeshed at every step, so its own triggers are RETRIGGER times its smallest angle (only if it
-        is below min_angle: a mesh above it keeps min_angle) and
-        COARSE_RETRIGGER times its coarseness (said in the log; the run's min_angle_deg shows it).
-        Returns its smallest angle."""
-        rem = self.settings.mesh.remesh
-        after = float(min_angles(points, faces).min())
-        self.remesh_below = rem.min_angle if after >= rem.min_angle else RETRIGGER * after
-        if self.coarse_below is not None:
-            own = self._coarseness(State(points, {}, faces), now=True)
-            self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)
-        return after
+        """The triggers of a new mesh (:meth:`cortex_ti.dynamics.remesh_policy.RemeshPolicy.judge`)."""
+        return self.remesh_policy.judge(points, faces)
 
     def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
-        """The state on a new mesh when its smallest triangle angle fell below
-        ``mesh.remesh.min_angle`` (:func:`cortex_ti.surface.remesh.remesh`: sized by curvature, the
-        volume of ``state`` restored, densities conserving their amount); None otherwise."""
-        rem = self.settings.mesh.remesh
-        if rem is None:
+        """The state on a new mesh when the remeshing policy says so (:mod:`cortex_ti.dynamics.remesh_policy`:
+        the smallest triangle angle below ``mesh.remesh.min_angle``, or the mesh too coarse), by
+        :func:`cortex_ti.surface.remesh.remesh` (sized by curvature, the volume of ``state``
+        restored, densities conserving their amount); None otherwise."""
+        rem, policy = self.settings.mesh.remesh, self.remesh_policy
+        if policy is None:
             return None
-        angle = float(min_angles(state.points, state.faces).min())
-        if angle >= self.remesh_below:
-            coarse = self._coarseness(state)
-            if coarse is None or coarse < self.coarse_below:
-                return None
-            why = f"mesh {coarse:.2f} times coarser than its size field (> {self.coarse_below:.3g})"
-        else:
-            why = f"smallest angle {angle:.2f} deg < {self.remesh_below:.3g}"
+        why = policy.due(state.points, state.faces)
+        if why is None:
+            return None
         kinds = {spec.name: spec.kind for spec in self.fields}
         flow = None
         if rem.settle_steps > 0:  # the old mesh's flow, before the solver turns to the new mesh
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
-        res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
-        after = self._judge_new_mesh(res.points, res.faces)
+        res = remesh(state.points, state.faces, dict(state.fields), kinds, policy.options)
+        after = policy.judge(res.points, res.faces)
         log.info(
             "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
             "volume offset %.2e)",
@@ -196,7 +179,7 @@ class Simulation:
                 t,
                 after,
                 rem.min_angle,
-                self.remesh_below,
+                policy.below,
             )
         self.use_mesh(res.points, res.faces)
         fields = res.fields
@@ -211,23 +194,6 @@ class Simulation:
         if self.on_remesh is not None:
             self.on_remesh(new)
         return new
-
-    def _coarseness(self, state: State, now: bool = False) -> float | None:
-        """How much coarser than its size field the mesh is where it is coarsest (the largest ratio
-        of a node's mean edge length to its target length, the field scaled by the budget on this
-        mesh, ungraded); None when the resolution trigger is off or not due (every COARSE_EVERY steps)."""
-        if self.coarse_below is None:
-            return None
-        self._checks += 1
-        if not now and self._checks < COARSE_EVERY:
-            return None
-        self._checks = 0
-        o = self.remesh_options
-        kappa = edge_curvature(state.points, state.faces)
-        scale = o.edge_angle
-        if o.nodes is not None:
-            scale = budget_scale(state.points, state.faces, o.nodes, o.h_min, o.h_max, None, kappa)
-        return node_coarseness(state.points, state.faces, sizes(kappa, scale, o.h_min, o.h_max))
 
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
