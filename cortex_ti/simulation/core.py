@@ -101,7 +101,6 @@ class Simulation:
         self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
         self.report = None  # what the last run() did (cortex_ti.simulation.run.RunReport)
         self.segment = 0  # how many times the mesh was replaced (remeshing)
-        self.on_remesh = None  # called with the new state after a remeshing (the run's writer)
         rem = self.settings.mesh.remesh
         self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
@@ -190,10 +189,7 @@ class Simulation:
                 "t = %.4g: the remeshed surface settled in %d pseudo-steps, nodes moved %.2e at most", t, steps, moved
             )
         self.segment += 1
-        new = State(self.mesh.points, fields, self.mesh.faces)
-        if self.on_remesh is not None:
-            self.on_remesh(new)
-        return new
+        return State(self.mesh.points, fields, self.mesh.faces)
 
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
@@ -357,8 +353,13 @@ class Simulation:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).
         An existing ``output``, or its ``.partial`` file with frames, is refused as the command line
         refuses it, unless ``resume`` (continue or extend it) or ``force`` (replace it).
-        What the run did is in :attr:`report` (and :meth:`summary`)."""
-        self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
+        What the run did is in :attr:`report` (and :meth:`summary`), also when it raised."""
+        self.seconds, self.report = {}, None
+        try:
+            self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
+        except BaseException as exc:
+            self.report = getattr(exc, "run_report", None)  # what it did before it raised
+            raise
         return self.report.path
 
     def summary(self) -> dict:
