@@ -90,7 +90,10 @@ def load_scene(scene, overrides: str | Sequence[str] = (), **settings):
 
 
 def open_trajectory(path):
-    """A trajectory file read into memory as an xarray Dataset (works on a ``.partial`` file too)."""
+    """A trajectory file read into memory as an xarray Dataset, the file closed again (works on the
+    ``.partial`` file of a running simulation too): :func:`cortex_ti.io.load_trajectory`. (The lazy
+    reader that keeps the file open is :func:`cortex_ti.io.open_trajectory`; the reader that knows
+    the stored scene is :class:`cortex_ti.io.Trajectory`.)"""
     from .io.trajectory import load_trajectory
 
     return load_trajectory(path)

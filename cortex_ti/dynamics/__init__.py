@@ -1,7 +1,8 @@
 """Time: how a shape advances, and what stops a run that goes wrong.
 
 Owns the time schemes (``schemes``, registry :data:`~cortex_ti.dynamics.schemes.SCHEMES`, with
-the rules that belong to a scheme as class properties), the stability guard (``guard``), the
+the rules that belong to a scheme as class properties), the stability guard (``guard``), when a run
+remeshes and with which options (``remesh_policy``; how, is ``surface.remesh``), the
 integration loop with its frame times (``integrate``) and the spectrum of the linearised
 normal dynamics (``spectrum``). The loop works on any ``evaluate(points, dt)`` callable; the
 spectrum linearises a simulation's own system (it asks it for ``shape_geometry`` and

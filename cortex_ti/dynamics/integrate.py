@@ -28,7 +28,7 @@ from ..errors import SolverError
 from .guard import StabilityGuard
 from .state import State
 
-__all__ = ["RunStats", "integrate"]
+__all__ = ["RunHooks", "RunStats", "FrameClock", "integrate"]
 
 
 @dataclass
@@ -43,6 +43,57 @@ class RunStats:
     remesh_wall: float = 0.0  # seconds spent remeshing (the new mesh's set-up included)
 
 
+class RunHooks:
+    """What a run does besides stepping, in one object: :func:`integrate` calls
+
+    * ``frame(t, ev, dt_next, final)`` at each frame time (the frame's evaluation, the step taken next);
+    * ``remesh(state, t) -> State | None`` after every accepted step: a new state on a new mesh
+      replaces the step's (None: the mesh stays);
+    * ``stop(t) -> str | None`` where the steady state is checked (after each step's frames): a reason
+      ends the run there (:attr:`RunStats.stopped`);
+    * ``progress(t, ev, dt, stats)`` once per pass of the loop (after the step's frames).
+
+    The defaults do nothing; a run subclasses it (:mod:`cortex_ti.simulation.run`), a test passes a
+    frame function. ``remesh`` is None for a run that never remeshes (no new mesh is asked for).
+    """
+
+    remesh = None
+
+    def __init__(self, frame=None, progress=None, remesh=None, stop=None):
+        if frame is not None:
+            self.frame = frame
+        if progress is not None:
+            self.progress = progress
+        if remesh is not None:
+            self.remesh = remesh
+        if stop is not None:
+            self.stop = stop
+
+    def frame(self, t: float, ev, dt_next: float, final: bool = False) -> None:
+        pass
+
+    def stop(self, t: float) -> str | None:
+        return None
+
+    def progress(self, t: float, ev, dt: float, stats: RunStats) -> None:
+        pass
+
+
+class FrameClock:
+    """The frame times: every multiple of ``save_every`` (counted from 0, so that a run resumed from
+    an extra frame keeps the same grid) and each of ``save_times``."""
+
+    def __init__(self, save_every: float, save_times=()):
+        self.save_every = save_every
+        self.eps = 1e-9 * max(save_every, 1e-12)
+        self.extra = sorted(float(s) for s in save_times)
+
+    def after(self, t: float) -> float:
+        """The first frame time after ``t``."""
+        regular = self.save_every * (math.floor((t + self.eps) / self.save_every) + 1)
+        return min([regular] + [s for s in self.extra if s > t + self.eps])
+
+
 def integrate(
     evaluate,
     state0: State | np.ndarray,
@@ -51,7 +102,7 @@ def integrate(
     dt0: float,
     scheme,
     save_every: float,
-    on_frame,
+    hooks,
     steady_tol: float = 0.0,
     progress=None,
     guard: StabilityGuard | None = None,
@@ -62,181 +113,67 @@ def integrate(
     stop=None,
     restored=None,
 ) -> RunStats:
-    """Advance the shape from ``t0`` to ``t_end``.
+    """Advance the shape from ``t0`` to ``t_end``: one loop for the fixed-step, adaptive and dense schemes.
 
     ``state0`` is the :class:`~cortex_ti.dynamics.state.State` to start from (an array: positions only).
     ``evaluate(state, dt) -> Evaluation`` solves the force balance on a state (for a step
-    ``dt`` with the semi-implicit tension when ``implicit``, else always with ``dt = 0``);
-    ``on_frame(t, ev, dt_next, final)`` is called at ``t0`` (if ``write_first``; a
-    resumed run has that frame already), at every multiple of ``save_every`` and at each of
-    ``save_times`` (extra frame times, e.g. a figure's) between ``t0`` and ``t_end``.
-    ``remesh(state, t) -> State | None`` is asked after every accepted step: a new state (on a new
-    mesh) replaces the step's, the scheme forgets its history (:meth:`Scheme.restart`) and the
-    guard follows the new triangles; None: the mesh stays. ``stop(t) -> str | None``, asked where the
-    steady state is (after each step's frames): a reason ends the run there (``RunStats.stopped``).
+    ``dt`` with the semi-implicit tension when ``implicit``, else always with ``dt = 0``).
+    ``hooks`` (:class:`RunHooks`, or a frame function ``(t, ev, dt_next, final)`` with the other hooks
+    given as ``progress``, ``remesh``, ``stop``) is called at ``t0`` (if ``write_first``; a resumed
+    run has that frame already), at every multiple of ``save_every`` and at each of ``save_times``
+    (extra frame times, e.g. a figure's) between ``t0`` and ``t_end``. After a remeshing the scheme
+    forgets its history (:meth:`Scheme.restart`; a dense scheme starts again from a solve on the new
+    mesh, with its Euler start of at most ``dt0``) and the guard follows the new triangles.
     ``restored = (checkpoint, dt)``: a dense scheme (bdf2) continues from its saved step history
     (:meth:`~cortex_ti.dynamics.schemes.BDF2.checkpoint`) with the step ``dt`` it had proposed,
     ``t0`` being the last frame written: the run goes on as the uninterrupted one did.
     """
+    if not isinstance(hooks, RunHooks):
+        hooks = RunHooks(frame=hooks, progress=progress, remesh=remesh, stop=stop)
     stats = RunStats()
     start = _time.perf_counter()
     guard = guard if guard is not None else StabilityGuard()
-    t, dt = t0, dt0
+    clock = FrameClock(save_every, save_times)
+    eps, dense = clock.eps, getattr(scheme, "dense", False)
     x = state0 if isinstance(state0, State) else State(np.asarray(state0))
-    eps = 1e-9 * max(save_every, 1e-12)
-    extra = sorted(float(s) for s in save_times)
+    t, dt = t0, dt0
 
-    def next_frame(t_now):
-        """The first frame time after ``t_now``: a multiple of ``save_every`` (counted from 0, so
-        a run resumed from an extra frame keeps the same grid) or an extra time."""
-        regular = save_every * (math.floor((t_now + eps) / save_every) + 1)
-        return min([regular] + [s for s in extra if s > t_now + eps])
-
-    if getattr(scheme, "dense", False):
-        return _integrate_dense(
-            evaluate,
-            x,
-            t0,
-            t_end,
-            dt0,
-            scheme,
-            save_every,
-            on_frame,
-            steady_tol,
-            progress,
-            guard,
-            write_first,
-            implicit,
-            next_frame,
-            stats,
-            start,
-            remesh,
-            stop,
-            restored,
-        )
-
-    next_save = next_frame(t0)
-
-    def planned(dt):
-        """The step the implicit solve is for: the scheme's step, not the one shortened to land on
-        a frame (a shorter step than solved for is still damped, and the rate then depends only
-        on the controller's step, which varies smoothly, not on where the frames fall)."""
-        return dt if implicit else 0.0
-
-    def solve(points, t_now, step):
+    def solve(state, t_now, step, starting=False):
+        """The solve a step is taken with: for the scheme's step ``step`` with the semi-implicit
+        tension (not the one shortened to land on a frame: a shorter step than solved for is still
+        damped, and the rate then depends only on the controller's step, which varies smoothly);
+        ``starting``: the solve a dense scheme starts with (its Euler start's step)."""
+        planned = (scheme.start_step(step) if starting else step) if implicit else 0.0
         try:
-            return evaluate(points, planned(step))
+            ev = evaluate(state, planned)
         except SolverError as exc:
             raise _which_solve(exc, t_now, step, implicit) from None
-
-    ev = solve(x, t, dt)
-    stats.solves += 1
-    if write_first:
-        on_frame(t, ev, dt, final=False)
-    while True:
-        if progress is not None:
-            progress(t, ev, dt, stats)
-        vmax = float(np.max(np.abs(ev.normal_speed)))
-        if t >= t_end - eps:
-            break
-        if steady_tol > 0 and vmax < steady_tol:
-            stats.stopped = "steady"
-            break
-        if stop is not None and (why := stop(t)) is not None:
-            stats.stopped = why
-            break
-        h = min(dt, t_end - t, next_save - t)
-        try:
-            res = scheme.step(ev, h)
-        except SolverError as exc:
-            raise guard.failed_solve(_which_solve(exc, t, h, True), ev) from None
-        stats.solves += res.solves
-        if not res.accepted:
-            stats.rejected += 1
-            dt = res.dt_next
-            continue
-        guard.check(t + res.dt, res.dt, x.points, res.points, ev, ev.edge_length)
-        x, t = res.state, t + res.dt  # the scheme may take a shorter step than offered
-        stats.steps += 1
-        if remesh is not None:
-            started = _time.perf_counter()
-            new = remesh(x, t)
-            if new is not None:
-                x = new
-                scheme.restart()
-                guard.new_mesh(new.faces)
-                stats.remeshes += 1
-            stats.remesh_wall += _time.perf_counter() - started
-        if scheme.adaptive and res.dt_next is not None:
-            # keep the controller's proposal, not the step shortened to reach a frame time
-            dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
-            dt = min(dt, scheme.dt_cap)
-        ev = solve(x, t, dt)
         stats.solves += 1
-        if t >= next_save - eps or t >= t_end - eps:
-            on_frame(t, ev, dt, final=t >= t_end - eps)
-            next_save = next_frame(t)
-    stats.wall = _time.perf_counter() - start
-    stats.t = t
-    return stats
+        return ev
 
-
-def _integrate_dense(
-    evaluate,
-    x,
-    t0,
-    t_end,
-    dt0,
-    scheme,
-    save_every,
-    on_frame,
-    steady_tol,
-    progress,
-    guard,
-    write_first,
-    implicit,
-    next_frame,
-    stats,
-    start,
-    remesh=None,
-    stop=None,
-    restored=None,
-) -> RunStats:
-    """:func:`integrate` for a scheme that steps on its own and interpolates its frames (module
-    docstring): one solve at ``t0`` (the start), then the scheme's steps, each frame time passed
-    on the way written from the scheme's ``interpolate``. A remeshing comes after the frames of
-    the step (interpolated on the mesh they were computed on); the scheme then starts again from a
-    solve on the new mesh, with its Euler start of the first ``dt0``."""
-    t, dt = t0, dt0
-    eps = 1e-9 * max(save_every, 1e-12)
-    if restored is not None:  # the history's newest state, solved for the diagnostics it lends
+    if dense and restored is not None:  # the history's newest state, solved for the diagnostics it lends
         dt = restored[1]
         x = State(np.asarray(restored[0][f"{int(restored[0]['n']) - 1}__points"]), x.fields, x.faces)
-    try:
-        ev = evaluate(x, scheme.start_step(dt) if implicit else 0.0)  # the solve the start steps with
-    except SolverError as exc:
-        raise _which_solve(exc, t, dt, implicit) from None
-    stats.solves += 1
-    if restored is not None:
+    ev = solve(x, t, dt, starting=dense)
+    if dense and restored is not None:
         t = scheme.restore(restored[0], x.faces, ev)
         x, ev = scheme.history[-1][1], scheme.last_evaluation
-    else:
+    elif dense:
         scheme.start(t, ev)
     if write_first:
-        on_frame(t, ev, dt, final=False)
-    next_save = next_frame(t0)
+        hooks.frame(t, ev, dt, final=False)
+    next_save = clock.after(t0)
     while True:
-        if progress is not None:
-            progress(t, ev, dt, stats)
+        hooks.progress(t, ev, dt, stats)
         if t >= t_end - eps:
             break
         if steady_tol > 0 and float(np.max(np.abs(ev.normal_speed))) < steady_tol:
             stats.stopped = "steady"
             break
-        if stop is not None and (why := stop(t)) is not None:
+        if (why := hooks.stop(t)) is not None:
             stats.stopped = why
             break
-        h = min(dt, t_end - t)
+        h = min(dt, t_end - t) if dense else min(dt, t_end - t, next_save - t)  # a dense scheme interpolates
         try:
             res = scheme.step(ev, h)
         except SolverError as exc:
@@ -246,37 +183,56 @@ def _integrate_dense(
             stats.rejected += 1
             dt = res.dt_next
             continue
-        ev_step = scheme.last_evaluation
+        ev_step = scheme.last_evaluation if dense else ev
         guard.check(t + res.dt, res.dt, x.points, res.points, ev_step, ev_step.edge_length)
-        t_new = t + res.dt
-        dt = res.dt_next if res.dt_next is not None else dt
+        t_new = t + res.dt  # the scheme may take a shorter step than offered
         final = t_new >= t_end - eps
-        while next_save <= t_new + eps or (final and next_save < math.inf):
-            tf = min(next_save, t_new)
-            on_frame(tf, scheme.interpolate(tf), dt, final=final and tf >= t_new - eps)
-            if tf >= t_new - eps:
-                break
-            next_save = next_frame(tf)
-        next_save = next_frame(t_new) if next_save <= t_new + eps else next_save
+        if dense:
+            dt = res.dt_next if res.dt_next is not None else dt
+            next_save = _interpolated_frames(hooks, scheme, clock, next_save, t_new, dt, final)
+        elif scheme.adaptive and res.dt_next is not None:
+            # keep the controller's proposal, not the step shortened to reach a frame time
+            dt = res.dt_next if res.dt >= dt * (1 - 1e-12) else max(dt, res.dt_next)
+            dt = min(dt, scheme.dt_cap)
         x, t, ev = res.state, t_new, ev_step
         stats.steps += 1
-        if remesh is not None and not final:
+        new = None
+        if hooks.remesh is not None and not (dense and final):  # a dense run's last frame is written
             started = _time.perf_counter()
-            new = remesh(x, t)
+            new = hooks.remesh(x, t)
             if new is not None:
-                x, dt = new, min(dt, dt0)
-                try:
-                    ev = evaluate(x, scheme.start_step(dt) if implicit else 0.0)
-                except SolverError as exc:
-                    raise _which_solve(exc, t, dt, implicit) from None
-                stats.solves += 1
-                scheme.start(t, ev)
+                x = new
                 guard.new_mesh(new.faces)
                 stats.remeshes += 1
+                if dense:  # the scheme starts again from a solve on the new mesh
+                    dt = min(dt, dt0)
+                    ev = solve(x, t, dt, starting=True)
+                    scheme.start(t, ev)
+                else:
+                    scheme.restart()
             stats.remesh_wall += _time.perf_counter() - started
+        if not dense:
+            ev = solve(x, t, dt)
+            if t >= next_save - eps or final:
+                hooks.frame(t, ev, dt, final=final)
+                next_save = clock.after(t)
     stats.wall = _time.perf_counter() - start
     stats.t = t
     return stats
+
+
+def _interpolated_frames(hooks, scheme, clock: FrameClock, next_save: float, t_new: float, dt: float, final: bool):
+    """A dense scheme's frames passed in its step to ``t_new``, interpolated (on the mesh they were
+    computed on, before a remeshing), and the frame time after them (``final``: the last step also
+    writes a frame at ``t_new``)."""
+    eps = clock.eps
+    while next_save <= t_new + eps or (final and next_save < math.inf):
+        tf = min(next_save, t_new)
+        hooks.frame(tf, scheme.interpolate(tf), dt, final=final and tf >= t_new - eps)
+        if tf >= t_new - eps:
+            break
+        next_save = clock.after(tf)
+    return clock.after(t_new) if next_save <= t_new + eps else next_save
 
 
 def _which_solve(exc: SolverError, t: float, step: float, with_step: bool) -> SolverError:

@@ -117,6 +117,11 @@ class Scene:
             raise ValueError(f"unknown effect {effect!r}; known effects: {', '.join(EFFECTS)}")
         return effect in self._data["effects"]
 
+    def with_overrides(self, overrides: Sequence[str]) -> Scene:
+        """This scene with ``dotted.key=value`` assignments applied, validated again
+        (:func:`scene_from_dict`)."""
+        return scene_from_dict(self._data, overrides, self.source)
+
     def to_yaml(self) -> str:
         """Canonical YAML text of :attr:`data`.
 

@@ -14,6 +14,7 @@ frozen dataclass.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,7 +24,7 @@ from ..physics.formulations import FORMULATIONS
 from ..physics.model import Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
-from ..surface.remesh import RemeshOptions
+from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
 
 __all__ = [
     "RunSettings",
@@ -35,7 +36,12 @@ __all__ = [
     "TimeSettings",
     "AxisymmetricSettings",
     "RigiditySettings",
+    "BUDGET_H_MAX",
 ]
+
+#: with a node budget (mesh.remesh.size: budget) and no mesh.remesh.h_max, the largest target edge
+#: length is this many times the initial mesh's mean edge length
+BUDGET_H_MAX = 3.0
 
 
 @dataclass(frozen=True)
@@ -51,6 +57,20 @@ class RemeshSettings:
     coarser: float | None = None
     settle_steps: int = 0  # pseudo-steps settling the new mesh into its discrete equilibrium (0: off)
     settle_dt: float = 1e-3  # their length (t_a)
+
+    def sized(self, mean_edge: float, n_nodes: int) -> RemeshOptions:
+        """:attr:`options` with the size defaults of a run resolved against its initial mesh (mean
+        edge length ``mean_edge``, ``n_nodes`` nodes), where the scene leaves them null: ``h_min`` =
+        ``mean_edge`` / :data:`~cortex_ti.surface.remesh.H_MIN_DIVISOR`; with ``size: budget`` the
+        node budget is the initial mesh's and ``h_max`` = :data:`BUDGET_H_MAX` ``mean_edge`` (the
+        run keeps its node count, the flat parts may coarsen 3-fold); with ``size: curvature`` no
+        budget and ``h_max`` = ``mean_edge``."""
+        o = self.options
+        h_min = o.h_min or mean_edge / H_MIN_DIVISOR
+        if self.size == "budget":
+            h_max = o.h_max or BUDGET_H_MAX * mean_edge
+            return dataclasses.replace(o, h_min=h_min, h_max=h_max, nodes=o.nodes or int(n_nodes))
+        return dataclasses.replace(o, h_min=h_min, h_max=o.h_max or mean_edge, nodes=None)
 
 
 @dataclass(frozen=True)
@@ -144,6 +164,7 @@ class TimeSettings:
     dt_max: float
     implicit_tension: bool  # the semi-implicit tension, resolved for the scheme (False for a static scene)
     stop_neck: float | None = None  # stop when the neck radius falls to this (R0); None: never
+    dt_max_set: bool = False  # whether the scene set time.dt_max (else dt_max is the scheme's default)
 
     @property
     def scheme_class(self):
@@ -255,6 +276,7 @@ class RunSettings:
                 stop_neck=None if tim["stop_neck"] is None else float(tim["stop_neck"]),
                 tol=tol,
                 dt_max=dt_max,
+                dt_max_set=tim["dt_max"] is not None,
                 implicit_tension=bool(implicit),
             ),
             axisymmetric=AxisymmetricSettings(

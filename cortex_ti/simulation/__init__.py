@@ -3,8 +3,9 @@
 Owns the set-up of a run from its :class:`~cortex_ti.scene.RunSettings` (initial mesh, initial
 shape, active tension: ``setup``), :class:`~cortex_ti.simulation.core.Simulation`, the velocity
 solve on any shape of the scene's mesh (geometry -> assembly -> constrained solve: ``core``),
-and the static and dynamic runs that write, flush and resume trajectories and report what they
-cost (``run``). Imports every layer below it (scene, surface, physics, solve, dynamics,
+and the static and dynamic runs that write and flush trajectories (``run``: the hooks of the
+integration loop that write the file), resume them (``resume``) and report how they ended and
+what they cost (``report``). Imports every layer below it (scene, surface, physics, solve, dynamics,
 analysis, io); ``setup`` needs no Taichi, so ``cortex-ti check`` does not start it
 (``tests/repository/test_layers.py``).
 

@@ -11,7 +11,6 @@ and writes one frame; it never enters a time loop.
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -21,27 +20,23 @@ from pathlib import Path
 import numpy as np
 
 from ..dynamics.motion import MotionContext
+from ..dynamics.remesh_policy import COARSE_EVERY, COARSE_RETRIGGER, RETRIGGER, RemeshPolicy  # noqa: F401
 from ..dynamics.schemes import Evaluation
 from ..dynamics.state import State
 from ..physics.fields import tension_of
 from ..scene.loader import Scene
+from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
-    H_MIN_DIVISOR,
-    budget_scale,
     closest_points,
-    edge_curvature,
     enclosed_volume,
     keep_amount,
     mean_edge_length,
-    min_angles,
-    node_coarseness,
     remesh,
     restore_volume,
-    sizes,
 )
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import DENSITY, advective_rate, dual_areas, triangle_gradients
@@ -52,15 +47,6 @@ __all__ = ["Simulation", "Solution"]
 
 log = logging.getLogger(__name__)
 
-#: a remeshed surface below the trigger is remeshed again below this fraction of its smallest angle
-RETRIGGER = 0.9
-#: with a node budget (mesh.remesh.size: budget) and no mesh.remesh.h_max, the largest target edge
-#: length is this many times the initial mesh's mean edge length
-BUDGET_H_MAX = 3.0
-#: the resolution trigger (mesh.remesh.coarser) is checked every this many accepted steps
-COARSE_EVERY = 10
-#: a remeshed surface coarser than the resolution trigger is remeshed again past this multiple of it
-COARSE_RETRIGGER = 1.25
 #: settling (mesh.remesh.settle_steps) stops once a pseudo-step lowers the largest excess normal
 #: speed by less than this factor: the stiff transient is gone (Simulation._settle)
 SETTLE_SLOWDOWN = 0.9
@@ -115,22 +101,21 @@ class Simulation:
         self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
         self.report = None  # what the last run() did (cortex_ti.simulation.run.RunReport)
         self.segment = 0  # how many times the mesh was replaced (remeshing)
-        self.on_remesh = None  # called with the new state after a remeshing (the run's writer)
         rem = self.settings.mesh.remesh
-        self.remesh_options = None
-        self.remesh_below = None if rem is None else rem.min_angle  # the trigger for the current mesh
+        self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
-            h_min = rem.options.h_min or mean / H_MIN_DIVISOR
-            if rem.size == "budget":  # the run keeps its node count; the flat parts may coarsen 3-fold
-                nodes = rem.options.nodes or self.mesh.n_nodes
-                h_max = rem.options.h_max or BUDGET_H_MAX * mean
-                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=nodes)
-            else:
-                h_max = rem.options.h_max or mean
-                self.remesh_options = dataclasses.replace(rem.options, h_min=h_min, h_max=h_max, nodes=None)
-        self.coarse_below = None if rem is None else rem.coarser  # the resolution trigger for the current mesh
-        self._checks = 0  # accepted steps since the last check of the resolution
+            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser)
+
+    @property
+    def remesh_options(self):
+        """The options the mesh is remeshed with (size defaults resolved; None: never remeshed)."""
+        return None if self.remesh_policy is None else self.remesh_policy.options
+
+    @property
+    def remesh_below(self) -> float | None:
+        """The angle trigger of the current mesh (deg; None: never remeshed)."""
+        return None if self.remesh_policy is None else self.remesh_policy.below
 
     def use_mesh(self, points: np.ndarray, faces: np.ndarray, reference: np.ndarray | None = None) -> None:
         """Solve on a new triangulation from now on (a remeshing, or resuming after one): the
@@ -149,45 +134,31 @@ class Simulation:
         reference (the nodes right after that remeshing) and the trigger it had then."""
         self.use_mesh(points, triangles, reference)
         self.segment = segment
-        if self.remesh_below is not None:
-            self._judge_new_mesh(reference, triangles)
+        if self.remesh_policy is not None:
+            self.remesh_policy.judge(reference, triangles)
 
     def _judge_new_mesh(self, points: np.ndarray, faces: np.ndarray) -> float:
-        """Set the triggers a new mesh is remeshed by: a mesh that misses a trigger itself would be
-        remeshed at every step, so its own triggers are RETRIGGER times its smallest angle (only if it
-        is below min_angle: a mesh above it keeps min_angle) and
-        COARSE_RETRIGGER times its coarseness (said in the log; the run's min_angle_deg shows it).
-        Returns its smallest angle."""
-        rem = self.settings.mesh.remesh
-        after = float(min_angles(points, faces).min())
-        self.remesh_below = rem.min_angle if after >= rem.min_angle else RETRIGGER * after
-        if self.coarse_below is not None:
-            own = self._coarseness(State(points, {}, faces), now=True)
-            self.coarse_below = max(rem.coarser, COARSE_RETRIGGER * own)
-        return after
+        """The triggers of a new mesh (:meth:`cortex_ti.dynamics.remesh_policy.RemeshPolicy.judge`)."""
+        return self.remesh_policy.judge(points, faces)
 
     def remesh_state(self, state: State, t: float = float("nan")) -> State | None:
-        """The state on a new mesh when its smallest triangle angle fell below
-        ``mesh.remesh.min_angle`` (:func:`cortex_ti.surface.remesh.remesh`: sized by curvature, the
-        volume of ``state`` restored, densities conserving their amount); None otherwise."""
-        rem = self.settings.mesh.remesh
-        if rem is None:
+        """The state on a new mesh when the remeshing policy says so (:mod:`cortex_ti.dynamics.remesh_policy`:
+        the smallest triangle angle below ``mesh.remesh.min_angle``, or the mesh too coarse), by
+        :func:`cortex_ti.surface.remesh.remesh` (sized by curvature, the volume of ``state``
+        restored, densities conserving their amount); None otherwise."""
+        rem, policy = self.settings.mesh.remesh, self.remesh_policy
+        if policy is None:
             return None
-        angle = float(min_angles(state.points, state.faces).min())
-        if angle >= self.remesh_below:
-            coarse = self._coarseness(state)
-            if coarse is None or coarse < self.coarse_below:
-                return None
-            why = f"mesh {coarse:.2f} times coarser than its size field (> {self.coarse_below:.3g})"
-        else:
-            why = f"smallest angle {angle:.2f} deg < {self.remesh_below:.3g}"
+        why = policy.due(state.points, state.faces)
+        if why is None:
+            return None
         kinds = {spec.name: spec.kind for spec in self.fields}
         flow = None
         if rem.settle_steps > 0:  # the old mesh's flow, before the solver turns to the new mesh
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
-        res = remesh(state.points, state.faces, dict(state.fields), kinds, self.remesh_options)
-        after = self._judge_new_mesh(res.points, res.faces)
+        res = remesh(state.points, state.faces, dict(state.fields), kinds, policy.options)
+        after = policy.judge(res.points, res.faces)
         log.info(
             "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
             "volume offset %.2e)",
@@ -207,7 +178,7 @@ class Simulation:
                 t,
                 after,
                 rem.min_angle,
-                self.remesh_below,
+                policy.below,
             )
         self.use_mesh(res.points, res.faces)
         fields = res.fields
@@ -218,27 +189,7 @@ class Simulation:
                 "t = %.4g: the remeshed surface settled in %d pseudo-steps, nodes moved %.2e at most", t, steps, moved
             )
         self.segment += 1
-        new = State(self.mesh.points, fields, self.mesh.faces)
-        if self.on_remesh is not None:
-            self.on_remesh(new)
-        return new
-
-    def _coarseness(self, state: State, now: bool = False) -> float | None:
-        """How much coarser than its size field the mesh is where it is coarsest (the largest ratio
-        of a node's mean edge length to its target length, the field scaled by the budget on this
-        mesh, ungraded); None when the resolution trigger is off or not due (every COARSE_EVERY steps)."""
-        if self.coarse_below is None:
-            return None
-        self._checks += 1
-        if not now and self._checks < COARSE_EVERY:
-            return None
-        self._checks = 0
-        o = self.remesh_options
-        kappa = edge_curvature(state.points, state.faces)
-        scale = o.edge_angle
-        if o.nodes is not None:
-            scale = budget_scale(state.points, state.faces, o.nodes, o.h_min, o.h_max, None, kappa)
-        return node_coarseness(state.points, state.faces, sizes(kappa, scale, o.h_min, o.h_max))
+        return State(self.mesh.points, fields, self.mesh.faces)
 
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
@@ -402,8 +353,13 @@ class Simulation:
         """Run the scene and write its trajectory file (atomically; dynamic runs resumable).
         An existing ``output``, or its ``.partial`` file with frames, is refused as the command line
         refuses it, unless ``resume`` (continue or extend it) or ``force`` (replace it).
-        What the run did is in :attr:`report` (and :meth:`summary`)."""
-        self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
+        What the run did is in :attr:`report` (and :meth:`summary`), also when it raised."""
+        self.seconds, self.report = {}, None
+        try:
+            self.report = run_scene(self, Path(output), resume=resume, progress=progress, force=force)
+        except BaseException as exc:
+            self.report = getattr(exc, "run_report", None)  # what it did before it raised
+            raise
         return self.report.path
 
     def summary(self) -> dict:

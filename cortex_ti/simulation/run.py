@@ -1,25 +1,23 @@
-"""Running a scene to its trajectory file, and what the run cost.
+"""Running a scene to its trajectory file.
 
 A static scene solves once and writes one frame. A dynamic scene advances the shape
-(:func:`cortex_ti.dynamics.integrate.integrate`) and writes a frame every ``time.save_every``,
+(:func:`cortex_ti.dynamics.integrate.integrate`, with the hooks of :class:`FileHooks`: the frames,
+the remeshing, the neck stop, the commits) and writes a frame every ``time.save_every``,
 flushed as it goes to ``<output>.partial``; an interrupted run continues from there with
-``resume`` (:class:`cortex_ti.io.trajectory.ResumeState`), and the finished file is renamed
+``resume`` (:mod:`cortex_ti.simulation.resume`), and the finished file is renamed
 atomically to ``output``. ``resume`` on a finished trajectory with a later ``time.t_end`` extends it:
 its frames are copied to the partial file and the run continues from the last one.
 
-How a run ended is one of :data:`STOP_REASONS` (the summary's ``stopped``); a run that fails or is
-interrupted still leaves its :class:`RunReport` (real step and solve counts) on the simulation.
-:func:`~cortex_ti.errors.interruptible` makes SIGTERM end a run the way Ctrl-C does
-(:class:`~cortex_ti.errors.Interrupted`).
+:func:`run_scene` returns the run's :class:`~cortex_ti.simulation.report.RunReport`; a run that fails
+or is interrupted raises with its report (why it stopped, its real step and solve counts) on the
+exception's ``run_report``. :func:`~cortex_ti.errors.interruptible` makes SIGTERM end a run the way
+Ctrl-C does (:class:`~cortex_ti.errors.Interrupted`).
 """
 
 from __future__ import annotations
 
 import logging
-import os
-import shutil
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -29,26 +27,24 @@ from ..about import provenance
 from ..analysis.curved_measures import curved_measures
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, frame_diagnostics, neck_radius
 from ..dynamics.guard import StabilityGuard, extensile_tension
-from ..dynamics.integrate import RunStats, integrate
+from ..dynamics.integrate import RunHooks, RunStats, integrate
 from ..dynamics.motion import ale_step_limit, ale_stiffest_rate
 from ..dynamics.schemes import make_scheme
-from ..dynamics.state import State
-from ..errors import (
-    CortexError,
-    Interrupted,
-    MeshError,
-    SceneError,
-    SolverError,
-    StabilityError,
-    check_interrupted,
-    interruptible,
-)
+from ..errors import CortexError, Interrupted, SceneError, check_interrupted, interruptible
 from ..io.claim import check_output, claim_output
-from ..io.files import OutputError, describe_os_error
 from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial_path
 from ..physics.fields import tension_of
 from ..physics.patterns import evaluate_active_stress
 from ..surface.transport import DENSITY
+from .report import EXIT_CODES, STOP_REASONS, RunReport, _ProgressBar, run_summary, stop_reason
+from .resume import (  # noqa: F401  (their old home: cortex_ti.simulation.run)
+    extend_finished,
+    frame_fields,
+    history_path,
+    read_history,
+    resumed_state,
+    write_history,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from .core import Simulation
@@ -61,6 +57,7 @@ __all__ = [
     "FRAME_EXTRAS",
     "STOP_REASONS",
     "EXIT_CODES",
+    "FileHooks",
     "Interrupted",
     "RunReport",
     "check_interrupted",
@@ -71,45 +68,6 @@ __all__ = [
     "step_scheme",
     "unphysical",
 ]
-
-#: Why a run ended (the summary's ``stopped``): the value, and what it means.
-STOP_REASONS = {
-    "static": "a static scene: solved once",
-    "t_end": "reached time.t_end",
-    "steady": "max |v_n| fell below time.steady_tol",
-    "neck": "the neck radius fell to time.stop_neck (the axisymmetric model: or to axisymmetric.stop_neck)",
-    "interrupted": "SIGINT (Ctrl-C) or SIGTERM: the frames so far are kept for --resume",
-    "guard": "the stability guard stopped it (dynamics.guard)",
-    "solver": "a solve failed",
-    "io": "writing a file failed (full disk, I/O error)",
-    "input": "the input was refused (the scene, its mesh, a pattern, an option): most before the run started",
-    "error": "another error",
-}
-
-#: Exit status of ``cortex-ti`` by how it ended.
-EXIT_CODES = {
-    "ok": 0,
-    "error": 2,  # bad input, a failed solve, the guard, a file that cannot be written: one line
-    "internal": 1,  # a bug: the traceback is kept
-    "SIGINT": 130,  # 128 + 2, as a shell reports Ctrl-C
-    "SIGTERM": 143,  # 128 + 15
-}
-
-
-def stop_reason(exc: BaseException | None) -> str:
-    """The :data:`STOP_REASONS` value of a run that raised ``exc``."""
-    if isinstance(exc, KeyboardInterrupt):
-        return "interrupted"
-    if isinstance(exc, StabilityError):
-        return "guard"
-    if isinstance(exc, SolverError):
-        return "solver"
-    if isinstance(exc, (OutputError, OSError)):
-        return "io"
-    if isinstance(exc, (SceneError, MeshError)):
-        return "input"
-    return "error"
-
 
 #: Per-frame diagnostics of the solve written with every frame
 SOLVE_DIAGNOSTICS = {
@@ -148,21 +106,6 @@ _DYNAMIC_EXTRAS = {
 }
 
 
-@dataclass
-class RunReport:
-    """What a run did: the file it wrote (or the partial file it kept) and, for a dynamic run, its
-    steps and solves; ``stopped`` one of :data:`STOP_REASONS`."""
-
-    path: Path
-    stats: RunStats | None = None  # None for a static run
-    stopped: str = "static"
-    solved: int = 1  # solves of a static run (0 if it failed before its solve)
-
-    @property
-    def solves(self) -> int:
-        return self.solved if self.stats is None else self.stats.solves
-
-
 def output_attrs(sim: Simulation) -> dict:
     """The global attributes of the scene's trajectory (with :func:`cortex_ti.provenance`)."""
     s = sim.settings
@@ -197,35 +140,31 @@ def field_values(sim: Simulation) -> dict:
 def run_scene(
     sim: Simulation, output: Path, resume: bool = False, progress: bool = True, force: bool = False
 ) -> RunReport:
-    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring). What is
-    already at ``output`` is treated as the command line does (:func:`cortex_ti.io.claim.check_output`:
-    refused unless ``resume`` or ``force``)."""
-    sim.seconds = {}
-    sim.report = None
+    """Run ``sim``'s scene and write its trajectory to ``output`` (see the module docstring); returns
+    what the run did. What is already at ``output`` is treated as the command line does
+    (:func:`cortex_ti.io.claim.check_output`: refused unless ``resume`` or ``force``). A run that
+    raises once started carries its :class:`RunReport` on the exception (``exc.run_report``)."""
+    started = time.perf_counter()
+    seen: dict = {}  # the counts so far, for the report of a run that does not finish
     with claim_output(output):
         check_output(output, resume, force)
-        if sim.settings.dynamic:
-            return _run_dynamic(sim, output, resume, progress, force)
-        return _run_static(sim, output, force)
+        try:
+            if sim.settings.dynamic:
+                return _integrate_to_file(sim, output, resume, progress, seen, force)
+            return _write_static(sim, output, force)
+        except BaseException as exc:
+            exc.run_report = _failed(output, exc, seen.get("stats"), started)
+            raise
 
 
-def _failed(sim: Simulation, output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> None:
-    """Leave what a run that raised ``exc`` did on ``sim.report``: why it stopped, its real counts."""
+def _failed(output: Path, exc: BaseException, stats: RunStats | None, t0: float) -> RunReport:
+    """What a run that raised ``exc`` did: why it stopped, its real counts, the file it kept."""
     reason = stop_reason(exc)
     partial = partial_path(output)
     if stats is not None:
         stats.stopped = reason
         stats.wall = time.perf_counter() - t0
-    sim.report = RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason, solved=0)
-
-
-def _run_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
-    t0 = time.perf_counter()
-    try:
-        return _write_static(sim, output, force)
-    except BaseException as exc:
-        _failed(sim, output, exc, None, t0)
-        raise
+    return RunReport(path=partial if partial.exists() else output, stats=stats, stopped=reason, solved=0)
 
 
 def _write_static(sim: Simulation, output: Path, force: bool = False) -> RunReport:
@@ -255,35 +194,6 @@ def _write_static(sim: Simulation, output: Path, force: bool = False) -> RunRepo
     return RunReport(path=output)
 
 
-def extend_finished(output: Path) -> bool:
-    """``resume`` of a finished trajectory: copy ``output`` to its partial file (under a temporary
-    name, then renamed) so that the run continues from its last frame; the finished file stays until
-    the longer one replaces it. True if it copied."""
-    partial = partial_path(output)
-    if partial.exists() or not output.is_file():
-        return False
-    tmp = partial.with_name(partial.name + ".copy")
-    try:
-        shutil.copyfile(output, tmp)
-        os.replace(tmp, partial)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise OutputError(
-            f"cannot copy '{output}' to '{partial}' to extend it ({describe_os_error(exc)}); '{output}' is unchanged"
-        ) from None
-    return True
-
-
-def _run_dynamic(sim: Simulation, output: Path, resume: bool, progress: bool, force: bool = False) -> RunReport:
-    start = time.perf_counter()
-    seen: dict = {}
-    try:
-        return _integrate_to_file(sim, output, resume, progress, seen, force)
-    except BaseException as exc:
-        _failed(sim, output, exc, seen.get("stats"), start)
-        raise
-
-
 def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
     """With ``mesh.motion: ale``, keep the scheme's steps within the stability limit of the explicit
     mesh velocity about the current reference triangles (:func:`cortex_ti.dynamics.motion.ale_step_limit`):
@@ -294,8 +204,8 @@ def cap_ale_step(sim: Simulation, scheme, t: float | None = None) -> None:
         return
     limit = ale_step_limit(scheme.explicit_interval, sim.motion_context)
     when = "" if t is None else f" (the mesh remeshed at t = {t:.4g})"
-    asked = sim.scene.data["time"].get("dt_max") if scheme.adaptive else s.time.dt
-    if asked is not None and float(asked) > limit:
+    asked = (s.time.dt_max if s.time.dt_max_set else None) if scheme.adaptive else s.time.dt
+    if asked is not None and asked > limit:
         key = "dt_max" if scheme.adaptive else "dt"
         raise SceneError(
             f"scene '{s.name}': time.{key} = {float(asked):g} is above the largest step {limit:.3g} with which "
@@ -340,25 +250,90 @@ def unphysical(sim: Simulation | SceneSetup) -> list[str]:
     return out
 
 
-def _integrate_to_file(
-    sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict, force: bool = False
-) -> RunReport:
-    st = sim.settings.time
-    scheme = step_scheme(sim)
-    start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
-    extended = resume and extend_finished(output)
-    state = ResumeState.read(output) if resume else None
-    axis = sim.settings.pattern_axis
-    has_p = sim.settings.has("incompressibility")
-    stored = stored_fields(sim)
-    attrs = output_attrs(sim)
-    done = state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12)
-    if done:  # the file already reaches past time.t_end: its scene records the t_end its frames reach
-        from ..scene import scene_from_dict
+class FileHooks(RunHooks):
+    """The hooks of a run that writes its trajectory (:class:`~cortex_ti.dynamics.integrate.RunHooks`):
+    each frame appended to ``writer`` with its diagnostics (held until the step's frames are
+    committed), a remeshing starting a new segment of the file (and capping an ALE run's step for
+    the new triangles), the stop at ``time.stop_neck``, and after each step the commit, a dense
+    scheme's step history beside the partial file, the check for signals and the progress bar.
+    ``seen["stats"]`` holds the counts so far."""
 
-        attrs["scene"] = scene_from_dict(sim.scene.data, [f"time.t_end={state.time!r}"]).to_yaml()
-    try:  # first, so that a refused resume (a changed scene: the key named) comes before any log line
-        writer = TrajectoryWriter(
+    def __init__(self, sim: Simulation, writer: TrajectoryWriter, scheme, output: Path, bar, seen: dict):
+        s = sim.settings
+        self.sim, self.writer, self.scheme, self.output, self.bar, self.seen = sim, writer, scheme, output, bar, seen
+        self.axis = s.pattern_axis
+        self.has_pressure = s.has("incompressibility")
+        self.stored = stored_fields(sim)
+        self.curved = s.numerics.formulation_entry.curved
+        self.stop_neck = s.time.stop_neck
+        self.neck, self.neck_t = np.inf, None  # the last frame's neck radius and time (time.stop_neck)
+        self.saved = writer.n_frames  # frames the saved step history belongs to
+        if s.mesh.remesh is None:
+            self.remesh = None  # never asked
+
+    def frame(self, t, ev, dt_next, final=False):
+        sim = self.sim
+        diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=self.axis)
+        if self.curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
+            diag.update(curved_measures(ev.points, sim.mesh.faces, axis=self.axis))
+        if self.stop_neck is not None:
+            radius = neck_radius(ev.points, sim.mesh.faces, axis=self.axis)[0]
+            self.neck, self.neck_t = (radius if np.isfinite(radius) else np.inf), t
+            diag["neck_radius"] = radius
+        fields = ev.state.fields
+        self.writer.append(
+            t,
+            ev.points,
+            ev.velocity,
+            tension_of(fields, sim.mesh.n_nodes, sim.settings),
+            ev.pressure if self.has_pressure else float("nan"),
+            normal=ev.normal,
+            dt=dt_next,
+            hold=True,  # committed with the step's other frames, in progress()
+            **ev.solution.diagnostics,
+            **diag,
+            **{spec.var: fields[spec.name] for spec in self.stored},
+        )
+
+    def remesh(self, state, t):
+        new = self.sim.remesh_state(state, t)
+        if new is not None:
+            self.writer.start_segment(new.faces, new.n_nodes, new.points)
+            cap_ale_step(self.sim, self.scheme, t)  # the new reference triangles have their own stiffness
+        return new
+
+    def stop(self, t):
+        """``time.stop_neck``: the run ends at the first frame whose neck is at or below it."""
+        if self.stop_neck is None or self.neck > self.stop_neck:
+            return None
+        log.warning(
+            "%s: the neck radius %.4g R0 at t = %.6g fell to time.stop_neck = %g: the surface would pinch into "
+            "two, which this model does not go through; the run stops here, its frames kept",
+            self.sim.settings.name,
+            self.neck,
+            self.neck_t,
+            self.stop_neck,
+        )
+        return "neck"
+
+    def progress(self, t, ev, dt, stats):
+        writer = self.writer
+        writer.commit()  # the frames of the step just made, in one write
+        if self.scheme.dense and writer.n_frames != self.saved:  # the history those frames continue from
+            write_history(self.output, self.scheme, dt, writer.n_frames, writer.last_time)
+            self.saved = writer.n_frames
+        check_interrupted()
+        self.seen["stats"] = stats
+        if self.bar is not None:
+            self.bar(t, ev, dt, stats)
+
+
+def _open_writer(sim: Simulation, output: Path, attrs: dict, resumed: bool, extended: bool, force: bool):
+    """The trajectory writer of a dynamic run (a refused resume names the key that changed); a refused
+    extension removes its copy of the finished file, which stays unchanged."""
+    st = sim.settings.time
+    try:
+        return TrajectoryWriter(
             output,
             sim.state0.faces,  # the initial mesh (segment 0); a resumed remeshed run continues its last segment
             sim.state0.n_nodes,
@@ -367,16 +342,15 @@ def _integrate_to_file(
                 **FRAME_EXTRAS,
                 **_DYNAMIC_EXTRAS,
                 **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
-                **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored},
+                **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored_fields(sim)},
             },
-            resume=state is not None,
+            resume=resumed,
             node_vars=field_values(sim),
             force=force,
         )
     except BaseException as exc:
         if not extended:
             raise
-        # the copy of the finished file made to extend it goes: the finished file is unchanged
         partial_path(output).unlink(missing_ok=True)
         prefix = f"cannot resume '{partial_path(output)}'"
         if isinstance(exc, CortexError) and str(exc).startswith(prefix):
@@ -385,6 +359,22 @@ def _integrate_to_file(
             )
             raise CortexError(f"cannot extend '{output}'{said}") from None
         raise
+
+
+def _integrate_to_file(
+    sim: Simulation, output: Path, resume: bool, progress: bool, seen: dict, force: bool = False
+) -> RunReport:
+    st = sim.settings.time
+    scheme = step_scheme(sim)
+    start, t0, dt = sim.state0, 0.0, min(st.dt, scheme.dt_cap)
+    extended = resume and extend_finished(output)
+    state = ResumeState.read(output) if resume else None
+    attrs = output_attrs(sim)
+    done = state is not None and state.time >= st.t_end - 1e-9 * max(st.save_every, 1e-12)
+    if done:  # the file already reaches past time.t_end: its scene records the t_end its frames reach
+        attrs["scene"] = sim.scene.with_overrides([f"time.t_end={state.time!r}"]).to_yaml()
+    # first, so that a refused resume (a changed scene: the key named) comes before any log line
+    writer = _open_writer(sim, output, attrs, state is not None, extended, force)
     if extended:
         log.info("extending the finished run %s from its last frame", output)
     history = read_history(output, state) if state is not None and scheme.dense else None
@@ -418,75 +408,12 @@ def _integrate_to_file(
     caveat = sim.settings.numerics.formulation_entry.dynamic_caveat
     if caveat:
         log.warning("scene '%s': numerics.formulation = %s: %s", sim.settings.name, sim.formulation, caveat)
-
-    neck = {"radius": np.inf, "t": None}  # the last frame's neck, with time.stop_neck
-    curved = sim.settings.numerics.formulation_entry.curved
-
-    def on_frame(t, ev, dt_next, final=False):
-        diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=axis)
-        if curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
-            diag.update(curved_measures(ev.points, sim.mesh.faces, axis=axis))
-        if st.stop_neck is not None:
-            radius = neck_radius(ev.points, sim.mesh.faces, axis=axis)[0]
-            neck.update(radius=radius if np.isfinite(radius) else np.inf, t=t)
-            diag["neck_radius"] = radius
-        fields = ev.state.fields
-        writer.append(
-            t,
-            ev.points,
-            ev.velocity,
-            tension_of(fields, sim.mesh.n_nodes, sim.settings),
-            ev.pressure if has_p else float("nan"),
-            normal=ev.normal,
-            dt=dt_next,
-            hold=True,  # committed with the step's other frames, in watch()
-            **ev.solution.diagnostics,
-            **diag,
-            **{spec.var: fields[spec.name] for spec in stored},
-        )
-
     if done:
         log.info("%s reaches t = %.6g already (time.t_end = %.6g): nothing to compute", output, state.time, st.t_end)
         seen["stats"] = RunStats(t=state.time)
         return RunReport(path=writer.finish(), stats=seen["stats"], stopped="t_end")
     bar = _ProgressBar(t0, st.t_end) if progress else None
-    remesh = None
-    if sim.settings.mesh.remesh is not None:
-
-        def remesh(state, t):
-            new = sim.remesh_state(state, t)
-            if new is not None:
-                cap_ale_step(sim, scheme, t)  # the new reference triangles have their own stiffness
-            return new
-
-        sim.on_remesh = lambda new: writer.start_segment(new.faces, new.n_nodes, new.points)
-
-    def stop_at_neck(t):
-        """``time.stop_neck``: the run ends at the first frame whose neck is at or below it."""
-        if neck["radius"] > st.stop_neck:
-            return None
-        log.warning(
-            "%s: the neck radius %.4g R0 at t = %.6g fell to time.stop_neck = %g: the surface would pinch into "
-            "two, which this model does not go through; the run stops here, its frames kept",
-            sim.settings.name,
-            neck["radius"],
-            neck["t"],
-            st.stop_neck,
-        )
-        return "neck"
-
-    saved = {"frames": writer.n_frames}
-
-    def watch(t, ev, dt, stats):
-        writer.commit()  # the frames of the step just made, in one write
-        if scheme.dense and writer.n_frames != saved["frames"]:  # the history those frames continue from
-            write_history(output, scheme, dt, writer.n_frames, writer.last_time)
-            saved["frames"] = writer.n_frames
-        check_interrupted()
-        seen["stats"] = stats  # the counts so far, for the summary of a run that does not finish
-        if bar is not None:
-            bar(t, ev, dt, stats)
-
+    hooks = FileHooks(sim, writer, scheme, output, bar, seen)
     try:
         stats = integrate(
             sim.evaluate,
@@ -496,19 +423,15 @@ def _integrate_to_file(
             dt,
             scheme,
             st.save_every,
-            on_frame,
+            hooks,
             steady_tol=st.steady_tol,
-            progress=watch,
             write_first=state is None,
             implicit=st.implicit_tension,
             guard=_guard(sim),
             save_times=st.save_times,
-            remesh=remesh,
-            stop=stop_at_neck if st.stop_neck is not None else None,
             restored=restored,
         )
     except BaseException:
-        sim.on_remesh = None
         writer.close_partial()
         if seen.get("stats") is not None and writer.n_frames:
             seen["stats"].t = writer.last_time
@@ -517,9 +440,8 @@ def _integrate_to_file(
         if bar is not None:
             bar.close()
     if stats.stopped == "neck":  # a dense scheme's step may end past the frame that crossed
-        stats.t = neck["t"]
+        stats.t = hooks.neck_t
     seen["stats"] = stats
-    sim.on_remesh = None
     path = writer.finish()
     history_path(output).unlink(missing_ok=True)
     per = {k: v / max(stats.solves, 1) * 1e3 for k, v in sim.seconds.items()}
@@ -537,144 +459,12 @@ def _integrate_to_file(
     return RunReport(path=path, stats=stats, stopped=stats.stopped)
 
 
-def history_path(output: str | os.PathLike) -> Path:
-    """Beside ``<output>.partial``: the step history of a dense scheme (bdf2) at its last frame."""
-    return Path(os.fspath(partial_path(output)) + ".history.npz")
-
-
-def write_history(output, scheme, dt: float, n_frames: int, frame_time: float) -> None:
-    """Save ``scheme``'s step history (:meth:`~cortex_ti.dynamics.schemes.BDF2.checkpoint`), the
-    step it proposes next and the frames of the partial file it belongs to, atomically (a
-    temporary file renamed over the last one)."""
-    path = history_path(output)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        np.savez(
-            f,
-            dt=np.array(float(dt)),
-            n_frames=np.array(int(n_frames)),
-            frame_time=np.array(frame_time),
-            **scheme.checkpoint(),
-        )
-    os.replace(tmp, path)
-
-
-def read_history(output, state: ResumeState) -> dict | None:
-    """The saved step history that continues the partial file's last frame, or None (no file, or one
-    of other frames: the run was killed between its frames and its history)."""
-    path = history_path(output)
-    if not path.exists():
-        return None
-    try:
-        with np.load(path) as data:
-            history = {k: data[k] for k in data.files}
-    except (OSError, ValueError, KeyError) as exc:
-        log.warning("cannot read %s (%s): restarting the scheme from the last frame", path, exc)
-        return None
-    if int(history["n_frames"]) != state.n_frames or float(history["frame_time"]) != state.time:
-        log.info("%s belongs to other frames: restarting the scheme from the last frame", path)
-        return None
-    newest = history[f"{int(history['n']) - 1}__points"]
-    if int(history["n"]) < 2 or newest.shape != np.shape(state.points):
-        return None  # at the start (one state): the restart is the same computation
-    return history
-
-
 def stored_fields(sim: Simulation) -> list:
     """The fields a trajectory stores as variables of their own: all but a prescribed tension that is
     the whole active tension (the ``active_stress`` variable already holds it)."""
     specs = sim.fields
     alone = [spec.name for spec in specs if spec.tension is not None] == ["prescribed_tension"]
     return [spec for spec in specs if not (alone and spec.name == "prescribed_tension")]
-
-
-def frame_fields(sim: Simulation, stored: dict, active_stress: np.ndarray, where: str) -> dict:
-    """``sim``'s fields at a stored frame: each from its variable in ``stored`` (variable name ->
-    nodal values), a prescribed tension that is the whole tension from ``active_stress`` (a
-    trajectory stores it only there; files written before the fields existed hold only that)."""
-    fields = {}
-    for spec in sim.fields:
-        if spec.var in stored:
-            fields[spec.name] = np.asarray(stored[spec.var], dtype=float)
-        elif spec.name == "prescribed_tension":
-            fields[spec.name] = np.asarray(active_stress, dtype=float)
-        else:
-            raise CortexError(f"{where} holds no values of the field {spec.var!r}")
-    return fields
-
-
-def resumed_state(sim: Simulation, resume: ResumeState) -> State:
-    """The state of the last complete frame of an interrupted run: its points and every field
-    (:func:`frame_fields`)."""
-    fields = frame_fields(sim, resume.fields, resume.active_stress, f"cannot resume {resume.path}: it")
-    points = np.asarray(resume.points, dtype=float)
-    if resume.segment > 0:  # the run had remeshed: continue on the frame's mesh
-        sim.continue_segment(points, resume.triangles, resume.reference, resume.segment)
-    return State(points, fields, sim.mesh.faces)
-
-
-def run_summary(sim: Simulation) -> dict:
-    """What ``sim``'s last run took (steps, solves, time per stage), and how it was set up."""
-    s = sim.settings
-    report = sim.report
-    st = sim.stats
-    solves = report.solves if report is not None else 0
-    stopped = report.stopped if report is not None else "static"
-    out = {
-        "scene": s.name,
-        "model": s.model,
-        "n_nodes": sim.mesh.n_nodes,
-        "fit": s.numerics.fit,
-        "solver_backend": s.solver.backend,
-        "effects": sorted(s.effects),
-        "steps": st.steps if st is not None else 0,
-        "rejected": st.rejected if st is not None else 0,
-        "solves": solves,
-        "t_reached": st.t if st is not None else 0.0,
-        "stopped": stopped,
-        "implicit_tension": s.time.implicit_tension,
-        "formulation": s.numerics.formulation,
-        "fit_residual_weight": s.numerics.fit_residual_weight,
-    }
-    out.update({f"ms_{k}_per_solve": 1e3 * v / max(solves, 1) for k, v in sim.seconds.items()})
-    out.update(factorizations=sim.solver.n_factorizations, krylov_iterations=sim.solver.n_iterations)
-    if s.mesh.remesh is not None:
-        out.update(
-            remeshes=st.remeshes if st is not None else 0,
-            remesh_seconds=st.remesh_wall if st is not None else 0.0,
-            symbolic_analyses=sim.solver.n_analyses,
-            final_nodes=sim.mesh.n_nodes,
-        )
-    return out
-
-
-class _ProgressBar:
-    """tqdm bar over simulated time; silent when stderr is not a terminal."""
-
-    def __init__(self, t0: float, t_end: float):
-        from tqdm import tqdm
-
-        self._bar = tqdm(
-            total=round(t_end, 6),
-            initial=round(t0, 6),
-            unit="t_a",
-            disable=None,
-            bar_format="{l_bar}{bar}| t={n:.3f}/{total:.3f} [{elapsed}<{remaining}{postfix}]",
-        )
-        self._t = t0
-        self._start = time.perf_counter()
-
-    def __call__(self, t, ev, dt, stats):
-        if self._bar.disable:
-            return
-        self._bar.update(round(t - self._t, 6))
-        self._t = t
-        rate = stats.steps / max(time.perf_counter() - self._start, 1e-9)
-        vmax = float(np.max(np.abs(ev.normal_speed)))
-        self._bar.set_postfix_str(f"{rate:.1f} steps/s, dt={dt:.2g}, max|v_n|={vmax:.2e}", refresh=False)
-
-    def close(self):
-        self._bar.close()
 
 
 def _guard(sim) -> StabilityGuard:

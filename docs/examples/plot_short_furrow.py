@@ -9,24 +9,16 @@ to :math:`t = 3`), with the scene's defaults otherwise: ``rayleigh_p1``, Euler a
 """
 
 # %%
-import tempfile
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 
-from cortex_ti.io import Trajectory
-from cortex_ti.scene import load_scene
-from cortex_ti.simulation.core import Simulation
+import cortex_ti as ct
 from cortex_ti.viz.plotting import plot_frame, plot_timeseries
 
-scene = load_scene("furrow_p8_a1", ["mesh.nodes=642", "time.t_end=0.3"])
-sim = Simulation(scene)
-path = sim.run(Path(tempfile.mkdtemp()) / "furrow.h5", progress=False)
-print(f"{sim.stats.steps} steps, {sim.stats.solves} solves")
+ds = ct.run("furrow_p8_a1", nodes=642, t_end=0.3)  # the trajectory in memory (no file kept)
+print(f"{ds.sizes['time']} frames to t = {float(ds.time[-1]):.2f}, {ds.sizes['node']} nodes")
 
 # %%
 # The last frame coloured by the active tension, and the radii over time.
-ds = Trajectory(path).ds
 fig = plt.figure(figsize=(10, 4))
 plot_frame(ds, -1, color="active_stress", ax=fig.add_subplot(1, 2, 1, projection="3d"))
 plot_timeseries(ds, ["pole_radius", "furrow_radius"], ax=fig.add_subplot(1, 2, 2))

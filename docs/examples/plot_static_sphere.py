@@ -11,33 +11,24 @@ interior, the exact flow is purely normal, :math:`v = -(R / 2\\eta_b)\\,\\zeta_l
 
 # %%
 # Load the built-in scene with a smaller mesh, and solve it once (a static scene writes one frame).
-import tempfile
-from pathlib import Path
-
 import matplotlib.pyplot as plt
 import numpy as np
 
-from cortex_ti.io import Trajectory
-from cortex_ti.scene import load_scene
-from cortex_ti.simulation.core import Simulation
+import cortex_ti as ct
 from cortex_ti.truth.analytic import error_measures, scene_solution
 
-out = Path(tempfile.mkdtemp())
 results = {}
 for formulation, fit in [("paper", "quartic"), ("rayleigh_p1", "quadratic")]:
-    scene = load_scene(
-        "sphere_y20_full", ["mesh.nodes=642", f"numerics.formulation={formulation}", f"numerics.fit={fit}"]
-    )
-    path = Simulation(scene).run(out / f"y20_{formulation}.h5", progress=False)
-    results[formulation] = Trajectory(path)
+    scene = ct.load_scene("sphere_y20_full", nodes=642, formulation=formulation, numerics__fit=fit)
+    results[formulation] = (scene, ct.run(scene))  # the trajectory in memory: one frame
 
 # %%
 # The exact flow at the same nodes, and the paper's error measure eps_rel (Eq. 58).
 fig, ax = plt.subplots(figsize=(6, 4))
-for formulation, tr in results.items():
-    points = tr.ds.points.values[0]
-    v = tr.ds.velocity.values[0]
-    exact = scene_solution(tr.settings, points)
+for formulation, (scene, ds) in results.items():
+    points = ds.points.values[0]
+    v = ds.velocity.values[0]
+    exact = scene_solution(scene.settings, points)
     eps, eps_rel = error_measures(v, exact)
     print(f"{formulation:12s} eps_rel = {eps_rel:.2e}")
     theta = np.arccos(np.clip(points[:, 2] / np.linalg.norm(points, axis=1), -1, 1))
