@@ -157,7 +157,7 @@ def degree_jacobian(sim, l: int, eps: float = 1e-6, field_name: str = "myosin") 
     ``J v`` by central differences of :func:`state_rates` for the ``2 (2l + 1)`` vectors ``v``
     (myosin ``Y_lm``, normal displacement ``Y_lm``; a direct solve per evaluation), projected back
     with the dual areas (a density on the curved cells: in their mass, :func:`curved_degree_basis`). Its
-    eigenvalues are a Galerkin projection of :func:`state_spectrum`'s, at
+    eigenvalues are a Galerkin projection of :func:`~cortex_ti.dynamics.spectrum.state_spectrum`'s, at
     ``4 (2l + 1)`` solves instead of ``4 N``; on the icosphere degrees 1 and 2 mix only with degrees
     >= 4 (resp. 5), which moves them at second order in the mixing (docs/derivations/myosin_rates_3d.md)."""
     from ..analysis.myosin_stability import activity as law_activity
