@@ -7,8 +7,8 @@ Answer: the dilution measured by the flat dual cells' area change: the exact sph
 adds 0 / -1.4e-3 / -3.6e-3 of l (l + 1). On the curved cells (consistent mass, the curved area
 change, the P2 stiffness) they are -6.9e-6 / -4.7e-5 / -1.4e-4 and +6.1e-6 / +1.1e-5 / +4.2e-5, at
 order 4, when projected in the cells' mass (in the dual areas they read at order 2). A row-sum
-lumped mass on the quadratic cells is off by +250-700 %. Table and command:
-docs/derivations/curved_transport.md (measured at 9824d49 with the module, 2026-12-07).
+lumped mass on the quadratic cells is off by +240 to +720 %. Table and command:
+docs/derivations/curved_transport.md (measured at 7beb8d9, 2026-12-07).
 
 Each candidate separately, against closed forms on the unit sphere (no solve of the flow: the exact
 sphere flow, :func:`cortex_ti.truth.sphere_exact.sphere_flow`, of the tension ``1 + eps Y_l0`` with
