@@ -7,7 +7,8 @@ eta_s = eta_b = 1, the mean-velocity gauge) is linearised with the rates of
 direct solve per evaluation, as :func:`~cortex_ti.dynamics.spectrum.state_jacobian`), but only
 along the degree-l harmonics: ``J v`` by central differences for the ``2 (2l + 1)`` vectors ``v``
 (normal displacement ``Y_lm``, myosin ``Y_lm``), projected back on the same harmonics with the
-dual areas. The rates of degree l are the eigenvalues of that ``2 (2l + 1)`` square matrix
+dual areas (on ``rayleigh_p2``: with the curved cells' mass, the density's own inner product,
+docs/derivations/curved_transport.md). The rates of degree l are the eigenvalues of that ``2 (2l + 1)`` square matrix
 (a Galerkin projection of the state spectrum); ``--full`` checks them against every eigenvalue
 of the whole dense Jacobian (``state_spectrum``'s), feasible to 642 nodes. On the icosphere the
 degree-1 and degree-2 harmonics are irreducible under its symmetry group, so their modes mix only
@@ -94,13 +95,19 @@ def full_jacobian(sim):
     return jac.matrix
 
 
-def gamma0_columns(points, faces) -> np.ndarray:
-    """The myosin columns of the whole Jacobian at gamma = 0: no flow; diffusion and turnover only."""
+def gamma0_columns(points, faces, curved: bool = False) -> np.ndarray:
+    """The myosin columns of the whole Jacobian at gamma = 0: no flow; diffusion and turnover only
+    (``curved``: the curved cells' ``-D M^-1 K``)."""
+    from cortex_ti.surface.curved_transport import curved_mass, curved_stiffness
     from cortex_ti.surface.transport import cotan_laplacian, dual_areas
 
     n = len(points)
-    area = dual_areas(points, faces)
     cols = np.zeros((2 * n, n))
+    if curved:
+        lap = np.linalg.solve(curved_mass(points, faces).toarray(), curved_stiffness(points, faces).toarray())
+        cols[n:] = -D * lap - K * np.eye(n)
+        return cols
+    area = dual_areas(points, faces)
     cols[n:] = -D * cotan_laplacian(points, faces).toarray() / area[:, None] - K * np.eye(n)
     return cols
 
@@ -130,7 +137,8 @@ def dilution_split(nodes: int, l: int, eps: float = 1e-3) -> tuple:
     here) from the 3D flow and the transport's operators, from the exact sphere flow
     (:func:`cortex_ti.truth.sphere_exact.sphere_flow`) and the same operators, and the 3D
     normal velocity's amplitude against the exact one. Without bending viscosity and with eta_s =
-    eta_b the flow of an l >= 2 tension is normal, so the operator is the dual cells' area rate."""
+    eta_b the flow of an l >= 2 tension is normal, so the operator is the dual cells' area rate. On the
+    curved cells (``rayleigh_p2``): ``M^-1 (r - dM/dt c)`` and the projections in the mass ``M``."""
     from cortex_ti.dynamics.state import State
     from cortex_ti.surface.transport import DENSITY, advective_rate, dual_area_rates, dual_areas
     from cortex_ti.truth.sphere_exact import real_sph_harm, sphere_flow
@@ -145,13 +153,28 @@ def dilution_split(nodes: int, l: int, eps: float = 1e-3) -> tuple:
         lambda p: 1.0 + eps * real_sph_harm(l, 0, p), pts, eta_s=1.0, eta_b=1.0, lmax=8, axis=[0, 0, 1]
     )
     nrm = ev.normal
+    if sim.transport["myosin"].curved_density:
+        from scipy.sparse.linalg import spsolve
 
-    def dilution(v):
-        w = np.einsum("nc,nc->n", v, nrm)[:, None] * nrm
-        return (advective_rate(c, DENSITY, pts, faces, v - w) - c * dual_area_rates(pts, faces, w)) / area
+        from cortex_ti.surface.curved_transport import curved_advective_rate, curved_mass, curved_mass_rate
 
-    def proj(f):
-        return float((f * Y * area).sum() / (Y * Y * area).sum() / eps)
+        mass = curved_mass(pts, faces)
+
+        def dilution(v):
+            w = np.einsum("nc,nc->n", v, nrm)[:, None] * nrm
+            rate = curved_advective_rate(c, pts, faces, v - w) - curved_mass_rate(pts, faces, w) @ c
+            return spsolve(mass.tocsc(), rate)
+
+        def proj(f):
+            return float(Y @ (mass @ f) / (Y @ (mass @ Y)) / eps)
+    else:
+
+        def dilution(v):
+            w = np.einsum("nc,nc->n", v, nrm)[:, None] * nrm
+            return (advective_rate(c, DENSITY, pts, faces, v - w) - c * dual_area_rates(pts, faces, w)) / area
+
+        def proj(f):
+            return float((f * Y * area).sum() / (Y * Y * area).sum() / eps)
 
     vn3, vnx = (proj(np.einsum("nc,nc->n", v, nrm)) for v in (ev.velocity, vex))
     return proj(dilution(ev.velocity)), proj(dilution(vex)), vn3 / vnx - 1.0
@@ -194,7 +217,8 @@ def main(argv=None) -> int:
         full = None
         if args.full and nodes <= 642:
             t0 = time.perf_counter()
-            full = (full_jacobian(sim), gamma0_columns(sim.mesh.points, sim.mesh.faces))
+            curved = sim.transport["myosin"].curved_density
+            full = (full_jacobian(sim), gamma0_columns(sim.mesh.points, sim.mesh.faces, curved))
             print(f"{nodes} nodes: whole Jacobian {time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
         for gamma in args.gammas:
             every = None if full is None else np.linalg.eigvals(at_gamma(*full, gamma))

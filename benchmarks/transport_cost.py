@@ -6,6 +6,7 @@ at the end, and the furrow radius.
     python benchmarks/transport_cost.py                 # 2562 nodes to t = 0.5
     python benchmarks/transport_cost.py --smoke         # 162 nodes, a few steps
     python benchmarks/transport_cost.py --write docs/validation/transport.md
+    python benchmarks/transport_cost.py --formulation rayleigh_p2   # the myosin on the curved cells
 
 The table carries the date, the commit and the machine (the timings are whole-step wall times on
 a machine that may be shared: compare the columns of one table, not tables of two machines).
@@ -38,7 +39,7 @@ VARIANTS = {
 }
 
 
-def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int = 1) -> list[dict]:
+def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int = 1, numerics: tuple = ()) -> list[dict]:
     """Per variant, the fastest of ``repeat`` runs (wall and CPU time per step: on a shared machine
     the CPU time of this single-threaded process is the steadier of the two)."""
     import time
@@ -49,12 +50,13 @@ def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int =
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         # warm-up: the kernels are compiled (and the factorisation backend loaded) before any is timed
-        warm = [f"mesh.nodes={nodes}", "time.t_end=0.01", *STEPPING, *VARIANTS["myosin field, ale"]]
+        warm = [f"mesh.nodes={nodes}", "time.t_end=0.01", *STEPPING, *numerics, *VARIANTS["myosin field, ale"]]
         Simulation(load_scene(scene, warm)).run(Path(tmp) / "warm.h5", progress=False)
         for label, sets in VARIANTS.items():
             best = None
             for _ in range(repeat):
-                sim = Simulation(load_scene(scene, [f"mesh.nodes={nodes}", f"time.t_end={t_end}", *STEPPING, *sets]))
+                over = [f"mesh.nodes={nodes}", f"time.t_end={t_end}", *STEPPING, *numerics, *sets]
+                sim = Simulation(load_scene(scene, over))
                 cpu = time.process_time()
                 out = sim.run(Path(tmp) / "run.h5", progress=False, force=True)  # one file, run after run
                 cpu = time.process_time() - cpu
@@ -85,9 +87,10 @@ def measure(nodes: int, t_end: float, scene: str = "furrow_p4_a1", repeat: int =
     return rows
 
 
-def table(rows: list[dict], nodes: int, t_end: float, repeat: int = 1) -> str:
+def table(rows: list[dict], nodes: int, t_end: float, repeat: int = 1, formulation: str = "rayleigh_p1") -> str:
     head = (
-        f"{_bench.header()}\nfurrow_p4_a1, {nodes} nodes, to t = {t_end:g} (Euler, dt 5e-3, semi-implicit tension); "
+        f"{_bench.header()}\nfurrow_p4_a1 on {formulation}, {nodes} nodes, to t = {t_end:g} (Euler, dt 5e-3, "
+        "semi-implicit tension); "
         f"the fastest of {repeat} run(s) per variant, wall and CPU time of this process per step\n\n"
     )
     cols = [
@@ -122,10 +125,14 @@ def main(argv=None) -> None:
     ap.add_argument("--smoke", action="store_true", help="162 nodes, t_end 0.02: checks that it runs")
     ap.add_argument("--write", type=Path, help="write the markdown table to this file")
     ap.add_argument("--repeat", type=int, default=1, help="runs per variant; the fastest is kept")
+    ap.add_argument("--formulation", default="rayleigh_p1", help="numerics.formulation (rayleigh_p2: quartic fit)")
     args = ap.parse_args(argv)
     nodes, t_end = (162, 0.02) if args.smoke else (args.nodes, args.t_end)
-    rows = measure(nodes, t_end, repeat=args.repeat)
-    text = table(rows, nodes, t_end, args.repeat)
+    numerics = (f"numerics.formulation={args.formulation}",)
+    if args.formulation == "rayleigh_p2":
+        numerics += ("numerics.fit=quartic",)
+    rows = measure(nodes, t_end, repeat=args.repeat, numerics=numerics)
+    text = table(rows, nodes, t_end, args.repeat, args.formulation)
     print(text)
     if args.write:
         args.write.parent.mkdir(parents=True, exist_ok=True)

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import SceneError, StabilityError
+from ..surface.curved_transport import curved_implicit_diffusion_reaction
 from ..surface.transport import DENSITY, dual_areas
 from .state import Rates, State
 
@@ -551,6 +552,9 @@ class BDF2(Scheme):
                 tr = transport.get(k)
                 if all(st.fields.get(k) is v for st in states):
                     fields[k] = v  # glued to the nodes
+                elif tr is not None and tr.curved_density:  # the content M c on the curved cells
+                    content = sum(wi * st.stored(k, tr.kind, tr.cells) for wi, st in zip(w, states, strict=True))
+                    fields[k] = curved_implicit_diffusion_reaction(content, points, newest.faces, 0.0)
                 elif tr is not None and tr.kind == DENSITY:  # the content c A: its total is kept
                     content = sum(wi * st.stored(k, tr.kind) for wi, st in zip(w, states, strict=True))
                     fields[k] = content / dual_areas(points, newest.faces)

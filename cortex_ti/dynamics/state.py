@@ -12,6 +12,11 @@ Rates add and scale like vectors, so a scheme writes its update once for the who
 :meth:`State.advanced` takes the explicit update and then the implicit part of the step
 (diffusion and turnover, on the new shape), and turns stored quantities back into values on the
 new shape. A field without a rate (``None``: glued to the nodes) keeps its values exactly.
+
+A density's content is measured on the cells of the formulation (``FieldTransport.cells``): the flat
+dual cells' ``c A`` (:mod:`cortex_ti.surface.transport`), or on the curved six-node cells of
+``rayleigh_p2`` the consistent mass's ``M c`` (:mod:`cortex_ti.surface.curved_transport`), whose
+implicit step then solves with the curved mass and stiffness.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..surface.curved_transport import CURVED, FLAT, curved_content, curved_implicit_diffusion_reaction
 from ..surface.transport import DENSITY, dual_areas, implicit_diffusion_reaction
 
 __all__ = ["State", "Rates", "FieldTransport"]
@@ -29,12 +35,19 @@ __all__ = ["State", "Rates", "FieldTransport"]
 
 @dataclass(frozen=True)
 class FieldTransport:
-    """How one field of a state moves in a step: its kind and its implicit diffusion and turnover."""
+    """How one field of a state moves in a step: its kind, its implicit diffusion and turnover, and
+    the cells a density's content is measured on (``flat`` dual cells or the ``curved`` cells)."""
 
     kind: str
     diffusion: float = 0.0
     turnover: float = 0.0
     target: float = 0.0
+    cells: str = FLAT
+
+    @property
+    def curved_density(self) -> bool:
+        """A density on the curved cells: content ``M c``, Galerkin transport (module docstring)."""
+        return self.cells == CURVED and self.kind == DENSITY
 
 
 @dataclass(frozen=True)
@@ -80,10 +93,12 @@ class State:
         """The same fields on other node positions."""
         return State(points, self.fields, self.faces)
 
-    def stored(self, name: str, kind: str) -> np.ndarray:
+    def stored(self, name: str, kind: str, cells: str = FLAT) -> np.ndarray:
         """The quantity a scheme advances for field ``name``: ``c A`` (dual areas of this shape) for
-        a density, the value for a property."""
+        a density, ``M c`` on the ``curved`` cells, the value for a property."""
         values = self.fields[name]
+        if kind == DENSITY and cells == CURVED:
+            return curved_content(values, self.points, self.faces)
         return values * dual_areas(self.points, self.faces) if kind == DENSITY else values
 
     def advanced(self, dt: float, rates: Rates, transport: Mapping[str, FieldTransport]) -> State:
@@ -109,12 +124,12 @@ class State:
             if tr is None or (rate is None and tr.kind != DENSITY and tr.diffusion == 0.0 and tr.turnover == 0.0):
                 fields[name] = values  # glued to the nodes: unchanged
                 continue
-            stored = sum(a * st.stored(name, tr.kind) for a, st in parts)
+            stored = sum(a * st.stored(name, tr.kind, tr.cells) for a, st in parts)
             if rate is not None:
                 stored = stored + dt * rate
-            fields[name] = implicit_diffusion_reaction(
-                stored, tr.kind, points, newest.faces, dt, tr.diffusion, tr.turnover, tr.target
-            )
+            implicit = curved_implicit_diffusion_reaction if tr.curved_density else implicit_diffusion_reaction
+            args = () if tr.curved_density else (tr.kind,)
+            fields[name] = implicit(stored, *args, points, newest.faces, dt, tr.diffusion, tr.turnover, tr.target)
         return State(points, fields, newest.faces)
 
     def extrapolated(self, older: State, factor: float) -> State:
@@ -127,9 +142,10 @@ class State:
         }
         return State(points, fields, self.faces)
 
-    def total(self, name: str) -> float:
-        """``sum_i c_i A_i`` of a field on this shape (the amount of a density)."""
-        return float(np.sum(self.fields[name] * dual_areas(self.points, self.faces)))
+    def total(self, name: str, cells: str = FLAT) -> float:
+        """The amount of a density on this shape: ``sum_i c_i A_i``, or ``int c_h dA`` on the
+        ``curved`` cells."""
+        return float(np.sum(self.stored(name, DENSITY, cells)))
 
     @staticmethod
     def empty_transport() -> Mapping[str, FieldTransport]:

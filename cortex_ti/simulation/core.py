@@ -27,6 +27,7 @@ from ..physics.fields import tension_of
 from ..scene.loader import Scene
 from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
+from ..surface.curved_transport import cell_quadrature, curved_advective_rate
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
@@ -329,9 +330,15 @@ class Simulation:
                 else (np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal)
             )
             u = sol.velocity - w
-            tri = triangle_gradients(points, self.mesh.faces)
+            tri = quad = None
             for spec in carried:
-                rates[spec.name] = advective_rate(state.fields[spec.name], spec.kind, points, self.mesh.faces, u, tri)
+                values, faces = state.fields[spec.name], self.mesh.faces
+                if self.transport[spec.name].curved_density:  # Galerkin on the curved cells
+                    quad = cell_quadrature(points, faces) if quad is None else quad
+                    rates[spec.name] = curved_advective_rate(values, points, faces, u, quad)
+                    continue
+                tri = triangle_gradients(points, faces) if tri is None else tri
+                rates[spec.name] = advective_rate(values, spec.kind, points, faces, u, tri)
         if mesh_velocity is not None or carried:
             sol.seconds["transport"] = time.perf_counter() - t0
         for k, v in sol.seconds.items():

@@ -140,6 +140,7 @@ class SceneSetup:
     def __init__(self, scene, mesh: Mesh | None = None):
         from ..dynamics.motion import MESH_MOTIONS, MotionContext
         from ..dynamics.state import FieldTransport, State
+        from ..surface.curved_transport import CURVED, FLAT
         from ..surface.remesh import REMESH_EXTRA_HINT, remesh_available
         from ..surface.topology import build_topology
 
@@ -152,8 +153,10 @@ class SceneSetup:
         self.mesh = initial_shape(self.undeformed, settings)
         self.state0 = State(self.mesh.points, values, self.mesh.faces)
         self.fields = scene_fields(settings)
+        # a density's content on the formulation's cells: the curved cells' consistent mass on rayleigh_p2
+        cells = CURVED if settings.numerics.formulation_entry.curved else FLAT
         self.transport = {
-            spec.name: FieldTransport(spec.kind, spec.diffusion(settings), *spec.turnover(settings))
+            spec.name: FieldTransport(spec.kind, spec.diffusion(settings), *spec.turnover(settings), cells=cells)
             for spec in self.fields
             if field_moves(spec, settings)
         }
