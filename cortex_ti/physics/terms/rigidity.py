@@ -1,15 +1,21 @@
-"""Helfrich bending rigidity (the effect ``bending_rigidity``): in no 3D formulation yet.
+"""Helfrich bending rigidity (the effect ``bending_rigidity``): formulation ``rayleigh_p2`` only in 3D.
 
-The axisymmetric model carries it (:mod:`cortex_ti.axisymmetric.rigidity`, derivation
-``docs/derivations/bending_rigidity.md``). On the 3D formulations no bending force has been measured
-to converge at every node (``docs/validation/bending_rigidity.md``), so every method is ``None``: the
-scene rules refuse the effect with ``model: 3d`` in one line, and :func:`~.base.terms_for` would
-refuse it again should a scene reach a 3D assembly another way.
+The axisymmetric model carries it too (:mod:`cortex_ti.axisymmetric.rigidity`); the derivation of both
+is ``docs/derivations/bending_rigidity.md``. On the curved cells of ``rayleigh_p2`` the force on the
+nodes is minus the exact gradient of the discrete energy ``E_h = kappa/2 [H_h^T M H_h + 2 c0 b^T H_h +
+c0^2 A]`` with the mixed curvature vector ``M H_h = -L X``
+(:func:`cortex_ti.surface.curved_bending.bending_energy`), so with no activity the shape dynamics is a
+gradient flow of ``E_h``: ``dE_h/dt = -(dissipation)`` at every solve (with nodes that move with the
+material), up to the time scheme's error over a step. On the flat triangles of ``paper`` and
+``rayleigh_p1`` no bending force has been measured to converge at every node
+(``docs/validation/bending_rigidity.md``), so those methods are ``None``: the scene rules refuse the
+effect there in one line naming ``rayleigh_p2``, and :func:`~.base.terms_for` would refuse it again
+should a scene reach such an assembly another way.
 """
 
 from __future__ import annotations
 
-from .base import Context, Term, register
+from .base import Context, P2Context, Term, register
 
 
 @register
@@ -18,7 +24,13 @@ class BendingRigidity(Term):
     name = "bending rigidity"
     paper = None
     rayleigh_p1 = None
-    rayleigh_p2 = None
 
     def applies(self, ctx: Context) -> bool:
-        return False
+        return ctx.physics.kappa > 0
+
+    def rayleigh_p2(self, ctx: P2Context) -> None:
+        from ...surface.curved_bending import bending_energy
+
+        surf = ctx.surface
+        e = bending_energy(surf.nodes, surf.cells, ctx.physics.kappa, ctx.physics.c0)
+        ctx.add_node_force(-e.gradient)
