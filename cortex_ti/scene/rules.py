@@ -127,7 +127,7 @@ def _check_motion(data: dict) -> None:
 def _check_curved(data: dict) -> None:
     """A formulation on curved cells (``rayleigh_p2``) needs a mesh of at least one split: an icosphere
     of 42 nodes or more, or a mesh file (split when the run starts); remeshing is not implemented for
-    it."""
+    it; its pressure is ``petrov`` or ``exact``."""
     formulation = data["numerics"]["formulation"]
     if data["model"] != "3d" or not FORMULATIONS[formulation].curved:
         return
@@ -142,6 +142,11 @@ def _check_curved(data: dict) -> None:
             f"mesh.remesh with numerics.formulation = {formulation}: remeshing a surface of curved cells is not "
             "implemented (the new cells' midpoints would have to be placed on the curved surface); use "
             "numerics.formulation: rayleigh_p1 for a remeshed run"
+        )
+    if data["numerics"]["pressure_weights"] == "area":
+        raise SceneError(
+            f"numerics.pressure_weights = area with numerics.formulation = {formulation}: its pressure pushes along "
+            "the smooth normal speed's rows (petrov) or the exact volume rows (exact); 'area' is rayleigh_p1's"
         )
 
 

@@ -214,6 +214,9 @@ class P2Context(Context):
     #: ``zeta_i P_i int tr u_i dA`` of its node's own value
     balanced_tension: np.ndarray | None = None
     active_force: str = "balanced"
+    #: numerics.pressure_weights: ``petrov`` (the pressure pushes along the smooth normal speed's rows) or
+    #: ``exact`` (along the volume rows it holds: then the dynamics is a constrained gradient flow)
+    pressure_weights: str = "petrov"
     #: (M,): a tension whose force is the exact gradient ``-dE_h/dx`` of ``E_h = int zeta dA`` over the
     #: curved cells (:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`), numerics.active_force
     #: gradient
