@@ -15,11 +15,12 @@ import hashlib
 import numpy as np
 import pytest
 
+from cortex_ti.dynamics.mode_rates import normal_mode_rate
 from cortex_ti.physics.spherical import direction_angles, real_sph_harm
 from cortex_ti.scene import load_scene, scene_from_dict
 from cortex_ti.simulation import Simulation
 from cortex_ti.surface.curved import p2_cells
-from cortex_ti.surface.curved_bending import bending_energy, cell_matrices
+from cortex_ti.surface.curved_bending import bending_energy
 from cortex_ti.surface.mesh import icosphere
 from cortex_ti.truth.helfrich_sphere import base_pressure, rate, stiffness
 
@@ -108,24 +109,6 @@ def _relaxation(nodes, over=(), zeta0=0.0, kappa=1.0):
     return data
 
 
-def mode_rate(sim, l, m=0, eps=1e-4):
-    """The linearised rate of the normal mode ``Y_lm`` of the unit sphere: the normal speed of
-    ``r = 1 +- eps Y_lm`` (central difference), projected on ``Y_lm`` with the curved cells' mass matrix."""
-    x0 = sim.mesh.points / np.linalg.norm(sim.mesh.points, axis=1)[:, None]
-    theta, phi = direction_angles(x0)
-    y = real_sph_harm(l, m, theta, phi)
-    mass, _ = cell_matrices(x0, p2_cells(sim.mesh.faces))
-    speeds = []
-    for s in (1, -1):
-        x = x0 * (1 + s * eps * y)[:, None]
-        geometry = sim.shape_geometry(x)
-        system = sim.system(geometry)
-        v, _, _ = sim.solver.solve(system, x)
-        speeds.append(np.einsum("nc,nc->n", system.velocity(v), geometry.normal))
-    d = (speeds[0] - speeds[1]) / (2 * eps)
-    return float(y @ (mass @ d) / (y @ (mass @ y)))
-
-
 @pytest.mark.parametrize("zeta0", [0.0, 1.0])
 def test_the_shape_mode_rates_converge_to_the_closed_form(zeta0):
     """The linearised relaxation rates of l = 2, 3 (kappa = eta_s = eta_b = 1, with and without a
@@ -137,7 +120,7 @@ def test_the_shape_mode_rates_converge_to_the_closed_form(zeta0):
     for n in (162, 642):
         sim = Simulation(scene_from_dict(_relaxation(n, over, zeta0)))
         for l in errors:
-            errors[l].append(mode_rate(sim, l) / rate(l, kappa=1.0, eta_s=1.0, eta_b=1.0, zeta0=zeta0) - 1)
+            errors[l].append(normal_mode_rate(sim, l) / rate(l, kappa=1.0, eta_s=1.0, eta_b=1.0, zeta0=zeta0) - 1)
     for l, e in errors.items():
         assert abs(e[-1]) < 2.5e-2, (l, e)
         assert _orders(e)[0] > 2.0, (l, e)
