@@ -211,3 +211,14 @@ def test_regression_systems_without_rigidity_are_bitwise_unchanged():
     commit before the rigidity reached 3D. A platform whose floating point differs would fail it:
     regenerate the digests there with ``_system_digests()`` at that commit."""
     assert _system_digests() == MAIN_DIGESTS
+
+
+def test_the_curved_cells_refuse_the_area_pressure_in_one_line():
+    """``numerics.pressure_weights`` reaches ``rayleigh_p2`` as ``petrov`` or ``exact``; ``area`` (the
+    flat triangles' Meyer areas) is refused, naming the two it has."""
+    from cortex_ti.errors import SceneError
+
+    with pytest.raises(SceneError, match="'area' is rayleigh_p1's") as err:
+        load_scene("furrow_p4_a1", ["numerics.formulation=rayleigh_p2", "numerics.pressure_weights=area"])
+    assert "\n" not in str(err.value)
+    assert load_scene("furrow_p4_a1", ["numerics.formulation=rayleigh_p2", "numerics.pressure_weights=exact"])
