@@ -24,9 +24,9 @@ what converges: (1) the energy of the sphere against 8 pi kappa, and the second 
 against ``K_l`` of :mod:`cortex_ti.truth.helfrich_sphere`, with the time of one energy and gradient;
 (2) the linearised shape-mode rates of l = 2, 3, 4 (``cortex_ti.dynamics.mode_rates``, m = 0;
 ``--all-m``: every m of l = 2) against ``lambda_l = -M_l K_l``, kappa = eta_s = eta_b = 1, with and
-without a uniform tension (then ``numerics.active_force: gradient``); (3) ``--steps T``: a relaxation
-run from an ellipsoid to t = T with ``time.scheme: bdf2`` (its error control) and the step sizes it
-takes.
+without a uniform tension (then ``numerics.active_force: gradient``); (3) ``--steps T``: relaxation
+runs from an ellipsoid to t = T with ``time.scheme: bdf2`` (its error control), normal and lagrangian
+node motion, kappa = 1 and 0.01, and the step sizes it takes (or the stability guard's stop).
 
 Usage::
 
@@ -219,28 +219,40 @@ def p2_rates(nodes: list[int], degrees: list[int], all_m: bool) -> None:
             print("orders: " + "; ".join(f"l={l}: {_orders(v)}" for l, v in errors.items()))
 
 
-def p2_steps(nodes: list[int], t_end: float) -> None:
+def p2_steps(nodes: list[int], t_end: float, kappas: tuple[float, ...] = (KAPPA, 0.01)) -> None:
     import tempfile
     import time
     from pathlib import Path
 
+    from cortex_ti.errors import StabilityError
     from cortex_ti.io import Trajectory
+    from cortex_ti.scene import scene_from_dict
     from cortex_ti.simulation import Simulation
+    from cortex_ti.simulation.report import run_summary
 
-    print(f"(3) relaxation from the ellipsoid diag(1.1, 1, 0.9), bdf2 (its default tolerance), to t = {t_end:g}")
+    print(f"(3) relaxation from the ellipsoid diag(1.1, 1, 0.9), bdf2 at its default tolerance, to t = {t_end:g}")
     with tempfile.TemporaryDirectory() as tmp:
         for n in nodes:
-            over = ["time.scheme=bdf2", "time.dt=1e-4", f"time.t_end={t_end}", f"time.save_every={t_end / 10}"]
-            scene = _relaxation_scene(n, 0.0, over)
-            scene.data["mesh"]["transform"] = [[1.1, 0, 0], [0, 1.0, 0], [0, 0, 0.9]]
-            from cortex_ti.scene import scene_from_dict
-
-            sim = Simulation(scene_from_dict(scene.data))
-            t0 = time.perf_counter()
-            with Trajectory(sim.run(Path(tmp) / f"relax_{n}.h5", progress=False)) as tr:
-                dts = tr.ds["dt"].values
-            wall = time.perf_counter() - t0
-            print(f"N={n:6d}: step at the frames " + " ".join(f"{d:.2e}" for d in dts) + f" ({wall:.1f} s)", flush=True)
+            for motion in ("normal", "lagrangian"):
+                for kappa in kappas:
+                    over = ["time.scheme=bdf2", "time.dt=1e-4", f"time.t_end={t_end}", f"time.save_every={t_end / 10}"]
+                    data = _relaxation_scene(n, 0.0, [*over, f"mesh.motion={motion}"]).data
+                    data["mesh"]["transform"] = [[1.1, 0, 0], [0, 1.0, 0], [0, 0, 0.9]]
+                    data["rigidity"]["bending"] = kappa
+                    sim = Simulation(scene_from_dict(data))
+                    t0 = time.perf_counter()
+                    head = f"N={n:5d} {motion:10s} kappa={kappa:g}:"
+                    try:
+                        out = sim.run(Path(tmp) / f"relax_{n}_{motion}_{kappa}.h5", progress=False)
+                    except StabilityError as err:
+                        print(f"{head} stopped by the guard: {str(err)[:150]}", flush=True)
+                        continue
+                    with Trajectory(out) as tr:
+                        dts = tr.ds["dt"].values[1:]
+                    wall = time.perf_counter() - t0
+                    s = run_summary(sim)
+                    steps = f"{s['steps']} steps ({s['rejected']} rejected), {wall:.0f} s"
+                    print(f"{head} step at the frames " + " ".join(f"{d:.1e}" for d in dts) + f"; {steps}", flush=True)
 
 
 def main(argv=None) -> int:
@@ -257,7 +269,7 @@ def main(argv=None) -> int:
     if args.smoke:  # both parts, tiny
         p2_energies([42, 162])
         p2_rates([42, 162], [2], False)
-        p2_steps([42], 2e-4)
+        p2_steps([42], 2e-4, (KAPPA,))
         args.nodes, args.fits, args.eps = [162, 642], ["quadratic"], [0.2]
     elif args.p2:
         print(_bench.header(), end="")
