@@ -153,15 +153,15 @@ def test_the_relaxation_run_keeps_the_power_balance(tmp_path):
     """With no activity, nodes that move with the material and the pressure along the exact volume
     rows, the lost energy ``E_h(0) - E_h(T)`` equals the dissipation's time integral (Simpson on every
     step) up to the time scheme's error: Heun at 42 nodes from an ellipsoid, T = 0.004, relative
-    differences measured 9.8e-3 and 2.2e-3 at dt = 4e-4 and 2e-4 (order 2.2; 4.7e-4 at 1e-4 over T =
-    0.008), while the energy falls by 1.7 %."""
+    differences measured 9.8e-3, 2.2e-3, 5.1e-4 at dt = 4e-4, 2e-4, 1e-4 (orders 2.2, 2.1), while
+    the energy falls by 1.7 %."""
     rel = []
-    for dt in (4e-4, 2e-4):
+    for dt in (4e-4, 2e-4, 1e-4):
         lost, dissipated = _energy_and_dissipation(tmp_path, dt, 0.004)
         rel.append(abs(lost - dissipated) / dissipated)
     assert lost > 0.01 * 25.0
-    assert rel[-1] < 4e-3, rel
-    assert _orders(rel)[0] > 1.6, rel
+    assert rel[-1] < 1e-3, rel
+    assert (_orders(rel) > 1.6).all(), rel
 
 
 def _system_digests():
