@@ -167,6 +167,10 @@ def assemble_p2(
     pattern = block_pattern(surf.cells, m)
     kmat = pattern.matrix(blocks)
     f = np.bincount(pattern.dof.ravel(), weights=force.ravel(), minlength=3 * m)
+    for smat, centre in ctx.matrices:
+        kmat = (kmat + smat).tocsr()
+        if centre is not None:
+            f = f + smat @ np.asarray(centre, dtype=float).ravel()
     if ctx.balanced_tension is not None:
         # remove the tangential part of each node's own tension times the area's rate there
         rate = np.bincount(pattern.dof.ravel(), weights=area_rate.ravel(), minlength=3 * m).reshape(m, 3)

@@ -223,6 +223,9 @@ class P2Context(Context):
     energy_tension: np.ndarray | None = None
     normal_forms: list = field(default_factory=list)  # (B (T, Q, 3, 3), beta0 (T, Q) or None, centre (M, 3) or None)
     node_force: np.ndarray | None = None  # (M, 3)
+    #: (matrix (3M, 3M) on the nodes' Cartesian velocities, centre (M, 3) or None): ``1/2 (v - r)^T S (v - r)``
+    #: added to the dissipation (a semi-implicit stiffness)
+    matrices: list = field(default_factory=list)
 
     formulation = "rayleigh_p2"
 
@@ -240,6 +243,11 @@ class P2Context(Context):
 
     def add_node_force(self, force: np.ndarray) -> None:
         self.node_force = _plus(self.node_force, force)
+
+    def add_matrix(self, matrix, centre: np.ndarray | None = None) -> None:
+        """``1/2 (v - r)^T S (v - r)`` with ``S`` (3M, 3M, node-major) symmetric positive semidefinite and
+        ``r`` the nodal vectors ``centre`` (M, 3) (none: ``r = 0``)."""
+        self.matrices.append((matrix, centre))
 
 
 class Term:
