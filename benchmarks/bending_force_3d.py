@@ -26,13 +26,16 @@ against ``K_l`` of :mod:`cortex_ti.truth.helfrich_sphere`, with the time of one 
 ``--all-m``: every m of l = 2) against ``lambda_l = -M_l K_l``, kappa = eta_s = eta_b = 1, with and
 without a uniform tension (then ``numerics.active_force: gradient``); (3) ``--steps T``: relaxation
 runs from an ellipsoid to t = T with ``time.scheme: bdf2`` (its error control), normal and lagrangian
-node motion, kappa = 1 and 0.01, and the step sizes it takes (or the stability guard's stop).
+node motion, kappa = 1 and 0.01, and the step sizes it takes (or the stability guard's stop); (4)
+``--accuracy T``: the same relaxation (first mesh of ``--nodes``) by ``bdf2`` at three tolerances
+against explicit Heun at dt = 2e-5, the largest node difference at t = T.
 
 Usage::
 
     python benchmarks/bending_force_3d.py --nodes 642 2562 10242 40962 --fits quadratic quartic
     python benchmarks/bending_force_3d.py --p2 --nodes 162 642 2562 10242
-    python benchmarks/bending_force_3d.py --p2 --nodes 162 642 --steps 0.02
+    python benchmarks/bending_force_3d.py --p2 --nodes 162 642 2562 --degrees 2 --steps 0.01
+    python benchmarks/bending_force_3d.py --p2 --nodes 162 --degrees 2 --accuracy 0.01
 
 Cost: 40962 nodes with the quartic fit ~1 min; ``--p2`` to 10242 nodes a few minutes.
 """
@@ -255,6 +258,36 @@ def p2_steps(nodes: list[int], t_end: float, kappas: tuple[float, ...] = (KAPPA,
                     print(f"{head} step at the frames " + " ".join(f"{d:.1e}" for d in dts) + f"; {steps}", flush=True)
 
 
+def p2_accuracy(nodes: int, t_end: float, dt_ref: float, tols: list[float]) -> None:
+    import tempfile
+    import time
+    from pathlib import Path
+
+    from cortex_ti.io import Trajectory
+    from cortex_ti.scene import scene_from_dict
+    from cortex_ti.simulation import Simulation
+
+    print(f"(4) bdf2, semi-implicit rigidity, against explicit Heun at dt = {dt_ref:g} (N = {nodes}, t = {t_end:g})")
+    with tempfile.TemporaryDirectory() as tmp:
+
+        def final(over, name):
+            data = _relaxation_scene(nodes, 0.0, [f"time.t_end={t_end}", f"time.save_every={t_end}", *over]).data
+            data["mesh"]["transform"] = [[1.1, 0, 0], [0, 1.0, 0], [0, 0, 0.9]]
+            sim = Simulation(scene_from_dict(data))
+            t0 = time.perf_counter()
+            with Trajectory(sim.run(Path(tmp) / f"{name}.h5", progress=False)) as tr:
+                x = tr.ds["points"].values[-1].copy()
+            return x, sim.stats.steps, time.perf_counter() - t0
+
+        ref, steps, wall = final(["time.scheme=heun", f"time.dt={dt_ref}"], "ref")
+        print(f"reference: {steps} Heun steps, {wall:.0f} s")
+        for tol in tols:
+            x, steps, wall = final(["time.scheme=bdf2", "time.dt=1e-4", f"time.tol={tol}"], f"bdf2_{tol}")
+            print(
+                f"time.tol={tol:g}: {steps} steps, largest node difference {np.abs(x - ref).max():.2e} ({wall:.0f} s)"
+            )
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="*", default=[642, 2562, 10242])
@@ -262,6 +295,9 @@ def main(argv=None) -> int:
     p.add_argument("--degrees", type=int, nargs="*", default=[2, 3, 4], help="--p2: the shape modes' degrees")
     p.add_argument("--all-m", action="store_true", help="--p2: every m of l = 2 too")
     p.add_argument("--steps", type=float, default=0.0, help="--p2: the relaxation run's end time (0: none)")
+    p.add_argument(
+        "--accuracy", type=float, default=0.0, help="--p2: bdf2 against explicit Heun to this time (0: none)"
+    )
     p.add_argument("--fits", nargs="*", default=["quadratic", "quartic"])
     p.add_argument("--eps", type=float, nargs="*", default=[0.0, 0.2], help="amplitudes of the P2 shape")
     p.add_argument("--smoke", action="store_true", help=_bench.HELP)
@@ -270,13 +306,16 @@ def main(argv=None) -> int:
         p2_energies([42, 162])
         p2_rates([42, 162], [2], False)
         p2_steps([42], 2e-4, (KAPPA,))
+        p2_accuracy(42, 2e-4, 1e-4, [1e-5])
         args.nodes, args.fits, args.eps = [162, 642], ["quadratic"], [0.2]
     elif args.p2:
         print(_bench.header(), end="")
         p2_energies(args.nodes)
         p2_rates(args.nodes, args.degrees, args.all_m)
         if args.steps > 0:
-            p2_steps(args.nodes[:2], args.steps)
+            p2_steps(args.nodes, args.steps)
+        if args.accuracy > 0:
+            p2_accuracy(args.nodes[0], args.accuracy, 2e-5, [1e-5, 1e-6, 1e-7])
         return 0
     print(f"kappa = {KAPPA}, c0 = {C0}; errors of the normal force density against the exact first variation")
     for fit in args.fits:
