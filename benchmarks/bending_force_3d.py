@@ -28,7 +28,9 @@ without a uniform tension (then ``numerics.active_force: gradient``); (3) ``--st
 runs from an ellipsoid to t = T with ``time.scheme: bdf2`` (its error control), normal and lagrangian
 node motion, kappa = 1 and 0.01, and the step sizes it takes (or the stability guard's stop); (4)
 ``--accuracy T``: the same relaxation (first mesh of ``--nodes``) by ``bdf2`` at three tolerances
-against explicit Heun at dt = 2e-5, the largest node difference at t = T.
+against explicit Heun at dt = 2e-5, the largest node difference at t = T; (5) ``--ratio``: how much
+larger the frozen-geometry Hessian ``L M^-1 L`` can be than ``L D^-1 L`` (the semi-implicit
+rigidity's factor).
 
 Usage::
 
@@ -288,6 +290,23 @@ def p2_accuracy(nodes: int, t_end: float, dt_ref: float, tols: list[float]) -> N
             )
 
 
+def p2_ratio(nodes: list[int]) -> None:
+    import scipy.linalg as sla
+
+    from cortex_ti.surface.curved import p2_cells
+    from cortex_ti.surface.curved_bending import cell_matrices
+    from cortex_ti.surface.mesh import icosphere
+
+    print("(5) the semi-implicit rigidity's factor: largest generalised eigenvalue of (L M^-1 L, L D^-1 L)")
+    for n in nodes:
+        m = icosphere(n)
+        mass, stiff = (a.toarray() for a in cell_matrices(m.points, p2_cells(m.faces)))
+        d = np.diag(mass)
+        hess, approx = stiff @ np.linalg.solve(mass, stiff), stiff @ (stiff / d[:, None])
+        shift = 1e-9 * np.eye(n)  # both vanish on the constants
+        print(f"N={n:6d}: {sla.eigh(hess + shift, approx + shift, eigvals_only=True).max():.3f}", flush=True)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="*", default=[642, 2562, 10242])
@@ -307,6 +326,7 @@ def main(argv=None) -> int:
         p2_rates([42, 162], [2], False)
         p2_steps([42], 2e-4, (KAPPA,))
         p2_accuracy(42, 2e-4, 1e-4, [1e-5])
+        p2_ratio([42])
         args.nodes, args.fits, args.eps = [162, 642], ["quadratic"], [0.2]
     elif args.p2:
         print(_bench.header(), end="")
@@ -316,6 +336,8 @@ def main(argv=None) -> int:
             p2_steps(args.nodes, args.steps)
         if args.accuracy > 0:
             p2_accuracy(args.nodes[0], args.accuracy, 2e-5, [1e-5, 1e-6, 1e-7])
+        if args.ratio:
+            p2_ratio([n for n in args.nodes if n <= 2562])
         return 0
     print(f"kappa = {KAPPA}, c0 = {C0}; errors of the normal force density against the exact first variation")
     for fit in args.fits:
