@@ -30,7 +30,8 @@ node motion, kappa = 1 and 0.01, and the step sizes it takes (or the stability g
 ``--accuracy T``: the same relaxation (first mesh of ``--nodes``) by ``bdf2`` at three tolerances
 against explicit Heun at dt = 2e-5, the largest node difference at t = T; (5) ``--ratio``: how much
 larger the frozen-geometry Hessian ``L M^-1 L`` can be than ``L D^-1 L`` (the semi-implicit
-rigidity's factor).
+rigidity's factor); (6) ``--rest``: the icosphere's nodes on the unit sphere are not a discrete
+equilibrium of ``E_h``: the velocity of the solve at dt = 0 and the transient of a run.
 
 Usage::
 
@@ -307,6 +308,34 @@ def p2_ratio(nodes: list[int]) -> None:
         print(f"N={n:6d}: {sla.eigh(hess + shift, approx + shift, eigvals_only=True).max():.3f}", flush=True)
 
 
+def p2_rest(nodes: list[int], t_end: float = 0.01) -> None:
+    import tempfile
+    from pathlib import Path
+
+    from cortex_ti.io import Trajectory
+    from cortex_ti.simulation import Simulation
+
+    print(f"(6) the icosphere at rest (no activity): the solve at dt = 0, then bdf2 to t = {t_end:g}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in nodes:
+            over = ["time.scheme=bdf2", "time.dt=1e-5", f"time.t_end={t_end}", f"time.save_every={t_end / 5}"]
+            sim = Simulation(_relaxation_scene(n, 0.0, over))
+            x = sim.mesh.points / np.linalg.norm(sim.mesh.points, axis=1)[:, None]
+            system = sim.system(sim.shape_geometry(x))
+            v, _, _ = sim.solver.solve(system, x)
+            with Trajectory(sim.run(Path(tmp) / f"rest_{n}.h5", progress=False)) as tr:
+                p, vel = tr.ds["points"].values, tr.ds["velocity"].values
+            moved = np.abs(np.linalg.norm(p, axis=2) - 1).max(1)
+            print(
+                f"N={n:6d}: max |v| at dt = 0 {np.abs(system.velocity(v)).max():.2e}; in the run at the frames "
+                + " ".join(f"{a:.1e}" for a in np.abs(vel).max((1, 2)))
+                + "; max ||x| - 1| "
+                + " ".join(f"{a:.1e}" for a in moved)
+                + f"; {sim.stats.steps} steps",
+                flush=True,
+            )
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--nodes", type=int, nargs="*", default=[642, 2562, 10242])
@@ -336,6 +365,8 @@ def main(argv=None) -> int:
             p2_steps(args.nodes, args.steps)
         if args.accuracy > 0:
             p2_accuracy(args.nodes[0], args.accuracy, 2e-5, [1e-5, 1e-6, 1e-7])
+        if args.rest:
+            p2_rest(args.nodes)
         if args.ratio:
             p2_ratio([n for n in args.nodes if n <= 2562])
         return 0
