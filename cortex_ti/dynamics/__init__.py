@@ -4,7 +4,8 @@ Owns the time schemes (``schemes``, registry :data:`~cortex_ti.dynamics.schemes.
 the rules that belong to a scheme as class properties), the stability guard (``guard``), when a run
 remeshes and with which options (``remesh_policy``; how, is ``surface.remesh``), the
 integration loop with its frame times (``integrate``) and the spectrum of the linearised
-normal dynamics (``spectrum``). The loop works on any ``evaluate(points, dt)`` callable; the
+normal dynamics (``spectrum``; one sphere mode's rate by two solves in ``mode_rates``). The loop
+works on any ``evaluate(points, dt)`` callable; the
 spectrum linearises a simulation's own system (it asks it for ``shape_geometry`` and
 ``system``) and factorises with :mod:`cortex_ti.solve`. Imports numpy, scipy,
 :mod:`cortex_ti.errors`, ``solve`` and the shape diagnostics of ``analysis``, never a scene.

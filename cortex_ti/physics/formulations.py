@@ -104,7 +104,14 @@ def _rayleigh_p2(geometry, physics, zeta, faces, numerics, dt, implicit_rate=Non
     from .galerkin_p2 import assemble_p2
 
     return assemble_p2(
-        geometry, physics, zeta, faces, implicit_dt=dt, implicit_rate=implicit_rate, active_force=numerics.active_force
+        geometry,
+        physics,
+        zeta,
+        faces,
+        implicit_dt=dt,
+        implicit_rate=implicit_rate,
+        active_force=numerics.active_force,
+        pressure_weights=numerics.pressure_weights,
     )
 
 
@@ -132,7 +139,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "the same Rayleighian on curved six-node cells (midpoints on the fitted surface) with quadratic "
         "velocities, the normal speed along the smooth normal: symmetric positive semidefinite; third order",
         _rayleigh_p2,
-        keys=("active_force",),
+        keys=("pressure_weights", "active_force"),
         centred_implicit=True,
         curved=True,
         dynamic_caveat="with numerics.active_force balanced (the default) its shape dynamics is not stable by "
@@ -143,5 +150,5 @@ FORMULATIONS: dict[str, Formulation] = {
     ),
 }
 
-#: the choices of ``numerics.pressure_weights`` (rayleigh_p1), re-exported for the schema
+#: the choices of ``numerics.pressure_weights`` (rayleigh_p1; petrov and exact in rayleigh_p2), for the schema
 PRESSURE_WEIGHT_CHOICES = tuple(PRESSURE_WEIGHTS)

@@ -133,10 +133,13 @@ def assemble_p2(
     implicit_dt: float = 0.0,
     implicit_rate: np.ndarray | None = None,
     active_force: str = "balanced",
+    pressure_weights: str = "petrov",
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the curved cells of ``geometry``
     (module docstring); ``implicit_dt > 0``: the semi-implicit tension of a step of that length,
-    centred on the nodes' rate ``implicit_rate`` (N, 3) when given. Its unknowns are the velocities
+    centred on the nodes' rate ``implicit_rate`` (N, 3) when given; ``pressure_weights``: ``petrov``, the
+    pressure pushing along the smooth normal speed's rows, or ``exact``, along the exact rate of the
+    curved cells' volume it holds (:mod:`cortex_ti.physics.terms.constraints`). Its unknowns are the velocities
     of all the mesh's nodes (the cells' corners and midpoints)."""
     zeta = check_inputs(physics, zeta, implicit_dt)
     faces = np.asarray(faces)
@@ -154,6 +157,7 @@ def assemble_p2(
         implicit_rate=implicit_rate,
         surface=surf,
         active_force=active_force,
+        pressure_weights=pressure_weights,
     )
     terms = terms_for(ctx)
     for term in terms:
@@ -163,6 +167,10 @@ def assemble_p2(
     pattern = block_pattern(surf.cells, m)
     kmat = pattern.matrix(blocks)
     f = np.bincount(pattern.dof.ravel(), weights=force.ravel(), minlength=3 * m)
+    for smat, centre in ctx.matrices:
+        kmat = (kmat + smat).tocsr()
+        if centre is not None:
+            f = f + smat @ np.asarray(centre, dtype=float).ravel()
     if ctx.balanced_tension is not None:
         # remove the tangential part of each node's own tension times the area's rate there
         rate = np.bincount(pattern.dof.ravel(), weights=area_rate.ravel(), minlength=3 * m).reshape(m, 3)

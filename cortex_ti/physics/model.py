@@ -19,7 +19,7 @@ EFFECTS: dict[str, str] = {
     "bending_viscosity": "viscous bending moments, coefficients viscosity.bending and "
     "viscosity.bending_bulk (paper Eq. 45)",
     "bending_rigidity": "Helfrich bending rigidity: the normal force of kappa/2 oint (C - c0)^2 dA, coefficients "
-    "rigidity.bending and rigidity.spontaneous_curvature (model: axisymmetric only)",
+    "rigidity.bending and rigidity.spontaneous_curvature (model: axisymmetric, or 3D with formulation rayleigh_p2)",
     "normal_balance": "solve the normal force balance for the normal velocity",
     "fixed_normal_velocity": "impose zero normal velocity: tangential flow only, the shape stays fixed",
     "incompressibility": "conserve the enclosed volume with a pressure P = p_inside - p_outside",
@@ -38,6 +38,8 @@ class Physics:
     eta_bar_b: float = 0.0
     translation: str = "mean_velocity"  # how the free rigid translation is fixed (scene key ``translation``)
     material_nodes: bool = False  # the nodes move with the full velocity (mesh.motion: lagrangian)
+    kappa: float = 0.0  # Helfrich bending rigidity (rigidity.bending; 0 without the effect bending_rigidity)
+    c0: float = 0.0  # spontaneous curvature (rigidity.spontaneous_curvature, C = 2/R on a sphere)
 
     @property
     def centroid_gauge(self) -> bool:

@@ -45,7 +45,8 @@ def check_rules(data: dict) -> None:
 
 def _check_rigidity(data: dict, seen: set[str]) -> None:
     """The effect ``bending_rigidity`` is on exactly when ``rigidity.bending > 0``, and only the
-    axisymmetric model carries it (no 3D formulation has a bending force measured to converge)."""
+    axisymmetric model and the 3D formulation ``rayleigh_p2`` carry it (the flat triangles have no
+    bending force measured to converge)."""
     rig = data.get("rigidity") or {}
     kappa, c0 = rig.get("bending", 0.0), rig.get("spontaneous_curvature", 0.0)
     on = "bending_rigidity" in seen
@@ -64,10 +65,12 @@ def _check_rigidity(data: dict, seen: set[str]) -> None:
             "the effect 'bending_rigidity' is on but rigidity.bending = 0: set it > 0 or remove "
             "'bending_rigidity' from effects"
         )
-    if on and data["model"] != "axisymmetric":
+    formulation = data["numerics"]["formulation"]
+    if on and data["model"] != "axisymmetric" and formulation != "rayleigh_p2":
         raise SceneError(
-            "the effect 'bending_rigidity' is carried by model: axisymmetric only; no 3D formulation has a "
-            "bending force measured to converge (docs/validation/bending_rigidity.md)"
+            f"the effect 'bending_rigidity' is not carried by numerics.formulation = {formulation} (no bending force "
+            "on flat triangles converges, docs/validation/bending_rigidity.md): set numerics.formulation: rayleigh_p2 "
+            "or model: axisymmetric"
         )
 
 
@@ -124,7 +127,7 @@ def _check_motion(data: dict) -> None:
 def _check_curved(data: dict) -> None:
     """A formulation on curved cells (``rayleigh_p2``) needs a mesh of at least one split: an icosphere
     of 42 nodes or more, or a mesh file (split when the run starts); remeshing is not implemented for
-    it."""
+    it; its pressure is ``petrov`` or ``exact``."""
     formulation = data["numerics"]["formulation"]
     if data["model"] != "3d" or not FORMULATIONS[formulation].curved:
         return
@@ -139,6 +142,11 @@ def _check_curved(data: dict) -> None:
             f"mesh.remesh with numerics.formulation = {formulation}: remeshing a surface of curved cells is not "
             "implemented (the new cells' midpoints would have to be placed on the curved surface); use "
             "numerics.formulation: rayleigh_p1 for a remeshed run"
+        )
+    if data["numerics"]["pressure_weights"] == "area":
+        raise SceneError(
+            f"numerics.pressure_weights = area with numerics.formulation = {formulation}: its pressure pushes along "
+            "the smooth normal speed's rows (petrov) or the exact volume rows (exact); 'area' is rayleigh_p1's"
         )
 
 

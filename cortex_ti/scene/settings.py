@@ -326,6 +326,8 @@ class RunSettings:
             eta_bar_b=v.bending_bulk,
             translation=self.translation,
             material_nodes=self.mesh.motion == "lagrangian",
+            kappa=self.rigidity.bending,
+            c0=self.rigidity.spontaneous_curvature if self.rigidity.bending > 0 else 0.0,
         )
 
     @property

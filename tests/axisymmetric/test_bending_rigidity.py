@@ -193,7 +193,8 @@ def test_a_scene_passes_the_rigidity_to_the_meridian_model():
 @pytest.mark.parametrize(
     "change,message",
     [
-        (dict(model="3d"), "carried by model: axisymmetric only"),
+        (dict(model="3d"), "not carried by numerics.formulation = rayleigh_p1 .* rayleigh_p2"),
+        (dict(model="3d", numerics={"formulation": "paper"}), "not carried by numerics.formulation = paper"),
         (dict(rigidity={"bending": 0.0}), "rigidity.bending = 0"),
         (
             dict(effects=[e for e in _scene()["effects"] if e != "bending_rigidity"]),
@@ -211,12 +212,18 @@ def test_the_scene_refuses_rigidity_in_one_line(change, message):
     assert "\n" not in str(err.value)
 
 
-def test_3d_formulations_refuse_the_effect():
-    """Second line of defence: a 3D assembly that met the effect would refuse it, not drop it."""
+def test_the_flat_triangle_formulations_refuse_the_effect():
+    """Second line of defence: a flat-triangle assembly that met the effect would refuse it, not drop
+    it; ``rayleigh_p2`` carries it (tests/physics/test_rayleigh_p2_bending.py), and a 3D scene with
+    it loads."""
     from cortex_ti.physics.terms import effects_without_terms
+    from cortex_ti.scene import scene_from_dict
 
-    for form in ("paper", "rayleigh_p1", "rayleigh_p2"):
+    for form in ("paper", "rayleigh_p1"):
         assert effects_without_terms({"bending_rigidity"}, form) == ["bending_rigidity"]
+    assert effects_without_terms({"bending_rigidity"}, "rayleigh_p2") == []
+    physics = scene_from_dict(_scene(model="3d", numerics={"formulation": "rayleigh_p2"})).settings.physics
+    assert (physics.kappa, physics.c0) == (0.05, 0.5)
 
 
 @pytest.mark.parametrize("symmetric,n", [(True, 8), (True, 16), (False, 16), (False, 32)])

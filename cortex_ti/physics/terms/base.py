@@ -214,12 +214,18 @@ class P2Context(Context):
     #: ``zeta_i P_i int tr u_i dA`` of its node's own value
     balanced_tension: np.ndarray | None = None
     active_force: str = "balanced"
+    #: numerics.pressure_weights: ``petrov`` (the pressure pushes along the smooth normal speed's rows) or
+    #: ``exact`` (along the volume rows it holds: then the dynamics is a constrained gradient flow)
+    pressure_weights: str = "petrov"
     #: (M,): a tension whose force is the exact gradient ``-dE_h/dx`` of ``E_h = int zeta dA`` over the
     #: curved cells (:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`), numerics.active_force
     #: gradient
     energy_tension: np.ndarray | None = None
     normal_forms: list = field(default_factory=list)  # (B (T, Q, 3, 3), beta0 (T, Q) or None, centre (M, 3) or None)
     node_force: np.ndarray | None = None  # (M, 3)
+    #: (matrix (3M, 3M) on the nodes' Cartesian velocities, centre (M, 3) or None): ``1/2 (v - r)^T S (v - r)``
+    #: added to the dissipation (a semi-implicit stiffness)
+    matrices: list = field(default_factory=list)
 
     formulation = "rayleigh_p2"
 
@@ -237,6 +243,11 @@ class P2Context(Context):
 
     def add_node_force(self, force: np.ndarray) -> None:
         self.node_force = _plus(self.node_force, force)
+
+    def add_matrix(self, matrix, centre: np.ndarray | None = None) -> None:
+        """``1/2 (v - r)^T S (v - r)`` with ``S`` (3M, 3M, node-major) symmetric positive semidefinite and
+        ``r`` the nodal vectors ``centre`` (M, 3) (none: ``r = 0``)."""
+        self.matrices.append((matrix, centre))
 
 
 class Term:

@@ -43,7 +43,11 @@ volume row is the exact rate of the volume the cells enclose under the nodes' mo
 normals by ``v_n``, or with ``v`` itself under ``mesh.motion: lagrangian``), and the pressure pushes along the
 smooth normal speed's rows ``(int N_i dA) n_i`` (a Petrov-Galerkin constraint as ``petrov`` above:
 along the cells' own normal, which is only second-order accurate and kinks between cells, a
-uniform pressure would not balance a uniform tension, an error of 7e-2 at 642 nodes).
+uniform pressure would not balance a uniform tension, an error of 7e-2 at 642 nodes). With
+``numerics.pressure_weights: exact`` it pushes along the volume rows themselves: the force is then
+minus the exact gradient of ``E_h - P V_h``, and with the exact-gradient forces (``active_force:
+gradient``, the bending rigidity) the power of every force is the rate of one discrete energy, so
+``dE_h/dt = -(dissipation)`` at every solve (docs/derivations/bending_rigidity.md, Sec. 7).
 """
 
 from __future__ import annotations
@@ -134,4 +138,5 @@ class Incompressibility(Term):
         if not ctx.physics.material_nodes:
             # the nodes move along their normals by v_n only: the volume's rate under that motion
             rows = np.einsum("nc,nc->n", rows, surf.normal)[:, None] * surf.normal
-        ctx.constraints.append(Constraint("volume", rows[None], force_rows=surf.normal_rows()[None], pressure=True))
+        force = None if ctx.pressure_weights == "exact" else surf.normal_rows()[None]
+        ctx.constraints.append(Constraint("volume", rows[None], force_rows=force, pressure=True))
