@@ -27,6 +27,7 @@ from ..physics.fields import tension_of
 from ..scene.loader import Scene
 from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
+from ..surface import curved_remesh
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
@@ -157,7 +158,8 @@ class Simulation:
         if rem.settle_steps > 0:  # the old mesh's flow, before the solver turns to the new mesh
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
-        res = remesh(state.points, state.faces, dict(state.fields), kinds, policy.options)
+        how = curved_remesh.remesh_curved if self.curved else remesh
+        res = how(state.points, state.faces, dict(state.fields), kinds, policy.options)
         after = policy.judge(res.points, res.faces)
         log.info(
             "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
@@ -211,8 +213,11 @@ class Simulation:
         docs/validation/remesh_constriction.md). Then the volume is
         restored as the remeshing restores it, the densities' amounts rescaled. Returns the points,
         the fields, the largest move and the pseudo-steps taken."""
-        tri, bary = closest_points(state.points, state.faces, points)
-        old = np.einsum("qk,qkc->qc", bary, flow[state.faces[tri]])
+        if self.curved:  # the old cells' quadratic flow at the feet on the old curved surface
+            old = curved_remesh.interpolate_at(state.points, state.faces, flow, points)
+        else:
+            tri, bary = closest_points(state.points, state.faces, points)
+            old = np.einsum("qk,qkc->qc", bary, flow[state.faces[tri]])
         zeta = tension_of(fields, len(points), self.settings)
         x = np.array(points, dtype=float)
         last, taken = math.inf, 0
@@ -227,9 +232,13 @@ class Simulation:
                 break
             last, taken = largest, k + 1
             x = x + rem.settle_dt * excess[:, None] * sol.normal
-        x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
+        if self.curved:  # the curved cells' volume and the densities' totals over them
+            x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
+            before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
+        else:
+            x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
+            before, after = dual_areas(points, faces), dual_areas(x, faces)
         out = dict(fields)
-        before, after = dual_areas(points, faces), dual_areas(x, faces)
         for name, values in fields.items():
             if kinds.get(name) == DENSITY:
                 out[name] = keep_amount(values, float(np.dot(values, before)), after)
@@ -254,6 +263,12 @@ class Simulation:
     def state_at(self, points: np.ndarray) -> State:
         """The initial state's fields on the shape ``points``."""
         return self.state0.with_points(points)
+
+    @property
+    def curved(self) -> bool:
+        """Whether the surface is made of curved six-node cells (``rayleigh_p2``): remeshed by
+        :func:`cortex_ti.surface.curved_remesh.remesh_curved`, its volume and amounts those of the cells."""
+        return self.settings.numerics.formulation_entry.curved
 
     @property
     def formulation(self) -> str:
