@@ -251,4 +251,6 @@ def remesh_curved(
                 m_old, m_new = curved_masses(points, faces), curved_masses(nodes, new_faces)
             v = keep_amount(v, float(np.dot(np.asarray(values, dtype=float), m_old)), m_new)
         out[name] = v
-    return RemeshResult(nodes, new_faces, out, delta, len(points), len(nodes), new.scale, new.predicted, new.passes)
+    # the corner mesh's predicted count in velocity nodes (4 V - 6); the scale is the corner mesh's
+    predicted = 4.0 * new.predicted - 6.0
+    return RemeshResult(nodes, new_faces, out, delta, len(points), len(nodes), new.scale, predicted, new.passes)
