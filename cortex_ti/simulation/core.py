@@ -106,7 +106,8 @@ class Simulation:
         self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
-            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser)
+            view = curved_remesh.corner_mesh if self.curved else None  # the curved cells' corners (remesh_policy)
+            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser, view)
 
     @property
     def remesh_options(self):

@@ -27,16 +27,21 @@ point, the fields linearly interpolated there): the comparison of
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from ..errors import CortexError
 from .closest import closest_points
 from .curved import p2_cells, p2_shape, triangle_rule
 from .mesh import split_faces, vertex_normals
-from .remesh import RemeshOptions, RemeshResult, keep_amount, triangulate
+from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, triangulate
 from .transport import DENSITY
 
+log = logging.getLogger(__name__)
+
 __all__ = [
+    "jacobian_ratio",
     "PLACEMENTS",
     "corner_mesh",
     "corner_options",
@@ -56,17 +61,30 @@ PLACEMENTS = ("curved", "flat")
 _REF = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])
 _SUB = np.array([[0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]])
 
+#: MMG's default Hausdorff distance for the corner mesh is this times the flat one's of the same
+#: sizes. That default grows with the scale s and h_max, both doubled for the corners, so the corner
+#: mesh would get 4 times the distance of a rayleigh_p1 run at the same velocity nodes (0.25 keeps
+#: it). On amplitude 12's neck at t = 2.1 (2562 nodes, meridian curvature ~65 / R0) the factor 1
+#: gave an inverted cell, 0.25 a valid mesh of 3746 nodes (budget 2562), 0.5 a valid one of 2894
+CORNER_HAUSD = 0.5
+
+#: a new cell whose area element falls below this fraction of its corner triangle's (at a quadrature
+#: point) gets its edges' midpoints back on the straight chords (a valid cell: four flat triangles):
+#: a cell across a crease sharper than itself folds with midpoints on the surface
+FOLD_RATIO = 0.1
+
 #: Gauss-Newton iterations of the closest point on a cell (quadratic convergence from the flat
 #: sub-triangle's foot, which is O(h^2) off: a few suffice; the last steps are below 1e-15 R0)
 NEWTON_STEPS = 8
 
 
-def corner_mesh(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def corner_mesh(points: np.ndarray, faces: np.ndarray, ids: bool = False):
     """The corner triangulation of a split mesh: its corner nodes (C, 3) and the cells' corner
-    triangles (T/4, 3) into them."""
+    triangles (T/4, 3) into them (``ids``: and the corners' node numbers in the split mesh)."""
     cells = p2_cells(faces)
     corners, inverse = np.unique(cells[:, :3], return_inverse=True)
-    return np.asarray(points, dtype=float)[corners], inverse.reshape(-1, 3).astype(np.int32)
+    out = np.asarray(points, dtype=float)[corners], inverse.reshape(-1, 3).astype(np.int32)
+    return (*out, corners) if ids else out
 
 
 def corner_options(options: RemeshOptions) -> RemeshOptions:
@@ -130,6 +148,34 @@ def interpolate_at(points: np.ndarray, faces: np.ndarray, values: np.ndarray, qu
     quadratic interpolant at their feet (:func:`curved_closest`)."""
     cell, ref, _ = curved_closest(points, faces, queries)
     return _interpolate(points, faces, values, cell, ref)
+
+
+def jacobian_ratio(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(T,): the smallest ratio, over a cell's quadrature points, of its area element projected on its
+    corner triangle's normal to the corner triangle's (1 on a flat cell, <= 0 where it folds)."""
+    cells = p2_cells(faces)
+    q, _ = triangle_rule(3)
+    _, dn = p2_shape(q)
+    xc = np.asarray(points, dtype=float)[cells]
+    tang = np.einsum("qia,tic->tqac", dn, xc)
+    x = xc[:, :3]
+    flat = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    ratio = np.einsum("tqc,tc->tq", np.cross(tang[:, :, 0], tang[:, :, 1]), flat)
+    return ratio.min(axis=1) / np.einsum("tc,tc->t", flat, flat)
+
+
+def _unfold(nodes: np.ndarray, faces: np.ndarray, edges: np.ndarray, n_corners: int) -> np.ndarray:
+    """The midpoints of cells below :data:`FOLD_RATIO` put back on their straight chords (twice at
+    most: a neighbour that shares such an edge may fold in turn)."""
+    for _ in range(2):
+        bad = np.flatnonzero(jacobian_ratio(nodes, faces) < FOLD_RATIO)
+        if bad.size == 0:
+            break
+        mids = np.unique(p2_cells(faces)[bad, 3:]) - n_corners
+        nodes = nodes.copy()
+        nodes[n_corners + mids] = 0.5 * (nodes[edges[mids, 0]] + nodes[edges[mids, 1]])
+        log.info("remeshing: %d curved cells folded over a crease: %d midpoints on their chords", bad.size, mids.size)
+    return nodes
 
 
 def _interpolate(points, faces, values, cell, ref) -> np.ndarray:
@@ -222,8 +268,11 @@ def remesh_curved(
     points = np.ascontiguousarray(points, dtype=np.float64)
     faces = np.ascontiguousarray(faces, dtype=np.int32)
     target = curved_volume(points, faces) if volume is None else float(volume)
-    corners, corner_faces = corner_mesh(points, faces)
-    new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()))
+    corners, corner_faces, corner_ids = corner_mesh(points, faces, ids=True)
+    # the size field's curvature from the split mesh (its edges are half the corner mesh's: a deep
+    # neck's meridian, ~80 / R0 at amplitude 12, is smoothed away by the corner mesh's own estimate)
+    kappa = edge_curvature(points, faces)[corner_ids]
+    new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
     edges, split = split_faces(new.faces, len(new.points))
     new_faces = np.ascontiguousarray(split, dtype=np.int32)
     if placement == "curved":
@@ -238,6 +287,7 @@ def remesh_curved(
         tri_m, bary_m = closest_points(points, faces, mids)
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
+    nodes = _unfold(nodes, new_faces, edges, len(new.points))
     nodes, delta = restore_curved_volume(nodes, new_faces, target)
     out, kinds = {}, dict(kinds or {})
     m_old = m_new = None

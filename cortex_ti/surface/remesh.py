@@ -416,11 +416,19 @@ def remesh(
     )
 
 
-def triangulate(points: np.ndarray, faces: np.ndarray, options: RemeshOptions | None = None) -> RemeshResult:
+def triangulate(
+    points: np.ndarray,
+    faces: np.ndarray,
+    options: RemeshOptions | None = None,
+    kappa: np.ndarray | None = None,
+    hausd_scale: float = 1.0,
+) -> RemeshResult:
     """The new triangulation of :func:`remesh` alone: MMG to the size field (its node budget
     corrected by MMG's count), the repair and the retries of ``options.min_angle``; the nodes where
     MMG and the repair left them (no volume restored, no fields: ``fields`` empty, ``offset`` 0).
-    The curved cells' remeshing (:mod:`cortex_ti.surface.curved_remesh`) starts from it."""
+    The curved cells' remeshing (:mod:`cortex_ti.surface.curved_remesh`) starts from it, with the
+    curvature ``kappa`` (N,) of its finer mesh (None: :func:`edge_curvature` of this one) and the
+    default ``hausd`` times ``hausd_scale``."""
     if not remesh_available():
         raise CortexError(REMESH_EXTRA_HINT)
     options = options or RemeshOptions()
@@ -429,7 +437,7 @@ def triangulate(points: np.ndarray, faces: np.ndarray, options: RemeshOptions | 
     mean = mean_edge_length(points, faces)
     h_max = mean if options.h_max is None else float(options.h_max)
     h_min = mean / H_MIN_DIVISOR if options.h_min is None else float(options.h_min)
-    kappa = edge_curvature(points, faces)
+    kappa = edge_curvature(points, faces) if kappa is None else np.asarray(kappa, dtype=float)
     area = dual_areas(points, faces)
     scale = options.edge_angle
     if options.nodes is not None:
@@ -439,7 +447,9 @@ def triangulate(points: np.ndarray, faces: np.ndarray, options: RemeshOptions | 
         return grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
 
     def hausd(scale):
-        return options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
+        if options.hausd is not None:
+            return options.hausd
+        return hausd_scale * max(0.05, 0.15 * min(scale, 1.0)) * h_max
 
     def mmg(scale):
         h = field(scale)
