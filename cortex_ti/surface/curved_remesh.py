@@ -62,11 +62,12 @@ _REF = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.
 _SUB = np.array([[0, 3, 5], [1, 4, 3], [2, 5, 4], [3, 4, 5]])
 
 #: MMG's default Hausdorff distance for the corner mesh is this times the flat one's of the same
-#: sizes. That default grows with the scale s and h_max, both doubled for the corners, so the corner
-#: mesh would get 4 times the distance of a rayleigh_p1 run at the same velocity nodes (0.25 keeps
-#: it). On amplitude 12's neck at t = 2.1 (2562 nodes, meridian curvature ~65 / R0) the factor 1
-#: gave an inverted cell, 0.25 a valid mesh of 3746 nodes (budget 2562), 0.5 a valid one of 2894
-CORNER_HAUSD = 0.5
+#: sizes. That default grows with the scale s and h_max, both doubled for the corners: 4 times the
+#: distance of a rayleigh_p1 run at the same velocity nodes, the corner triangles' sagitta at the
+#: sizes asked (docs/derivations/remeshing.md), which the curved cells carry. Smaller factors make
+#: MMG refine the flat parts for their sagitta: at amplitude 12's first remeshing (2562 nodes,
+#: t = 0.64) 0.5 gave 3070 nodes for a budget of 2562; at its neck at t = 2.1 0.25 gave 3746
+CORNER_HAUSD = 1.0
 
 #: a new cell whose area element falls below this fraction of its corner triangle's (at a quadrature
 #: point) gets its edges' midpoints back on the straight chords (a valid cell: four flat triangles):
@@ -257,12 +258,14 @@ def remesh_curved(
     options: RemeshOptions | None = None,
     volume: float | None = None,
     placement: str = "curved",
+    restore: bool = True,
 ) -> RemeshResult:
     """A new split mesh of the curved surface ``(points, faces)`` with its fields (module docstring).
 
     ``options``: the run's (lengths and budget of the velocity nodes; :func:`corner_options` turns
     them into the corner mesh's); ``volume``: the volume to restore (None: the curved cells' own);
-    ``kinds``: field name -> ``density`` or ``property``; ``placement``: ``curved`` or ``flat``."""
+    ``kinds``: field name -> ``density`` or ``property``; ``placement``: ``curved`` or ``flat``;
+    ``restore``: False leaves the volume as the placement made it (``offset`` 0)."""
     if placement not in PLACEMENTS:
         raise ValueError(f"placement must be one of {PLACEMENTS}, not {placement!r}")
     points = np.ascontiguousarray(points, dtype=np.float64)
@@ -288,7 +291,7 @@ def remesh_curved(
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
     nodes = _unfold(nodes, new_faces, edges, len(new.points))
-    nodes, delta = restore_curved_volume(nodes, new_faces, target)
+    nodes, delta = restore_curved_volume(nodes, new_faces, target) if restore else (nodes, 0.0)
     out, kinds = {}, dict(kinds or {})
     m_old = m_new = None
     for name, values in (fields or {}).items():
