@@ -54,8 +54,8 @@ def area(points, faces) -> float:
 def one(sim: Simulation, state, label: str, exact=None) -> list[str]:
     """The rows of one shape: one remeshing per placement."""
     rem = load_scene("constriction_p4", ["mesh.remesh.min_angle=25"]).settings.mesh.remesh
-    from cortex_ti.surface.remesh import mean_edge_length
     from cortex_ti.surface.mesh import icosphere
+    from cortex_ti.surface.remesh import mean_edge_length
 
     n0 = sim.mesh.n_nodes if label == "sphere" else sim.state0.points.shape[0]
     ico = icosphere(n0)
@@ -67,8 +67,9 @@ def one(sim: Simulation, state, label: str, exact=None) -> list[str]:
     scale = float(np.abs(v_old).max())
     rows = []
     for placement in PLACEMENTS:
-        raw = remesh_curved(state.points, faces0, dict(state.fields), kinds, options, placement=placement, restore=False)
-        res = remesh_curved(state.points, faces0, dict(state.fields), kinds, options, placement=placement)
+        args = (state.points, faces0, dict(state.fields), kinds, options)
+        raw = remesh_curved(*args, placement=placement, restore=False)
+        res = remesh_curved(*args, placement=placement)
         dvol = curved_volume(raw.points, raw.faces) / vol0 - 1.0
         darea = area(res.points, res.faces) / area0 - 1.0
         sim.use_mesh(res.points, res.faces)
