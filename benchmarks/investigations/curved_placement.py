@@ -1,9 +1,18 @@
 """Question: What does placing a remeshing's new nodes on the old curved cells buy, against placing
 them on the flat sub-triangles (rayleigh_p2)?
 
-Answer: (measured at 2562 velocity nodes, docs/validation/remesh_constriction.md, "Curved cells")
-the volume a remeshing changes before it is restored, the area it changes after, and the jump in
-the velocity solved right after all fall by one to two orders of magnitude; see the tables printed.
+Answer: the geometry, by two orders of magnitude; on a deep furrow not the velocity jump, which is
+the new mesh's own discrete equilibrium, not the placement. At 2562 velocity nodes (d9a6da2,
+2026-12-07, docs/validation/remesh_constriction.md, "Curved cells"): on the sphere the volume a
+remeshing changes before it is restored is -6.9e-6 (curved) against -1.4e-3 (flat), the area change
+after the restoration 2.8e-9 against 5.0e-6, the velocity right after 3.9e-3 of max|v| from the old
+flow against 0.44 (the flat nodes' sagitta bends the new mesh at its own scale), its error against
+the exact sphere flow 5.9e-3 against 0.44 (the old mesh's 2.1e-3); on amplitude 12's furrow at
+t = 0.6 the volume change is -3.4e-5 against -3.5e-3 and the area change -2.6e-5 against -8.6e-4,
+but the velocity jumps by 1.7 (curved) and 2.0 (flat) of max|v| (rms 0.25 and 0.36), almost all of
+it normal, in the furrow's flanks, and larger at 2562 nodes than at 642 (1.1, 1.6): the new mesh's
+mesh-scale equilibrium differs from the old one's whatever the placement (the settling after a
+remeshing, mesh.remesh.settle_steps, is there for it).
 
 One remeshing of a shape with :func:`cortex_ti.surface.curved_remesh.remesh_curved`, its new nodes
 placed on the old curved cells (``curved``) or on their flat sub-triangles (``flat``), the same new
