@@ -152,6 +152,10 @@ class Simulation:
         if policy is None:
             return None
         why = policy.due(state.points, state.faces)
+        if why is None and self.curved:  # a cell folding over a crease sharper than itself: remeshed
+            ratio = float(curved_remesh.jacobian_ratio(state.points, state.faces).min())
+            if ratio < curved_remesh.FOLD_RATIO:
+                why = f"a curved cell folds (area element {ratio:.2f} of its corner triangle's)"
         if why is None:
             return None
         kinds = {spec.name: spec.kind for spec in self.fields}
@@ -234,6 +238,7 @@ class Simulation:
             last, taken = largest, k + 1
             x = x + rem.settle_dt * excess[:, None] * sol.normal
         if self.curved:  # the curved cells' volume and the densities' totals over them
+            x, _ = curved_remesh.unfold(x, faces)  # the settling may fold a cell across a crease again
             x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
             before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
         else:

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..errors import CortexError
 from .closest import closest_points
-from .curved import p2_cells, p2_shape, triangle_rule
+from .curved import CELL_EDGES, p2_cells, p2_shape, triangle_rule
 from .mesh import split_faces, vertex_normals
 from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, triangulate
 from .transport import DENSITY
@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 
 __all__ = [
     "jacobian_ratio",
+    "unfold",
     "PLACEMENTS",
     "corner_mesh",
     "corner_options",
@@ -165,18 +166,23 @@ def jacobian_ratio(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return ratio.min(axis=1) / np.einsum("tc,tc->t", flat, flat)
 
 
-def _unfold(nodes: np.ndarray, faces: np.ndarray, edges: np.ndarray, n_corners: int) -> np.ndarray:
-    """The midpoints of cells below :data:`FOLD_RATIO` put back on their straight chords (twice at
-    most: a neighbour that shares such an edge may fold in turn)."""
+def unfold(points: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, int]:
+    """The midpoints of the cells below :data:`FOLD_RATIO` (:func:`jacobian_ratio`) put back on their
+    straight chords, twice at most (a neighbour that shares such an edge may fold in turn). Returns
+    the points and how many cells were unfolded."""
+    cells = p2_cells(faces)
+    nodes, count = np.asarray(points, dtype=float), 0
     for _ in range(2):
         bad = np.flatnonzero(jacobian_ratio(nodes, faces) < FOLD_RATIO)
         if bad.size == 0:
             break
-        mids = np.unique(p2_cells(faces)[bad, 3:]) - n_corners
+        count += bad.size
         nodes = nodes.copy()
-        nodes[n_corners + mids] = 0.5 * (nodes[edges[mids, 0]] + nodes[edges[mids, 1]])
-        log.info("remeshing: %d curved cells folded over a crease: %d midpoints on their chords", bad.size, mids.size)
-    return nodes
+        for k, (a, b) in enumerate(CELL_EDGES):
+            c = cells[bad]
+            nodes[c[:, 3 + k]] = 0.5 * (nodes[c[:, a]] + nodes[c[:, b]])
+        log.info("remeshing: %d curved cells folded over a crease: their midpoints on their chords", bad.size)
+    return nodes, count
 
 
 def _interpolate(points, faces, values, cell, ref) -> np.ndarray:
@@ -290,7 +296,7 @@ def remesh_curved(
         tri_m, bary_m = closest_points(points, faces, mids)
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
-    nodes = _unfold(nodes, new_faces, edges, len(new.points))
+    nodes, _ = unfold(nodes, new_faces)
     nodes, delta = restore_curved_volume(nodes, new_faces, target) if restore else (nodes, 0.0)
     out, kinds = {}, dict(kinds or {})
     m_old = m_new = None
