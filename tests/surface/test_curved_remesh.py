@@ -19,7 +19,9 @@ from cortex_ti.surface.curved_remesh import (
     curved_closest,
     curved_masses,
     curved_volume,
+    jacobian_ratio,
     remesh_curved,
+    unfold,
 )
 from cortex_ti.surface.mesh import icosphere
 from cortex_ti.surface.remesh import RemeshOptions, mean_edge_length, min_angles, remesh_available
@@ -50,6 +52,23 @@ def test_the_closest_point_of_a_point_pushed_off_a_cell_is_that_point():
     cell, got_ref, foot = curved_closest(x, m.faces, on + 1e-3 * normal)
     assert np.array_equal(cell, pick)
     assert np.abs(foot - on).max() < 1e-13 and np.abs(got_ref - ref).max() < 1e-11
+
+
+def test_a_folded_cell_gets_its_midpoints_on_its_chords():
+    m = icosphere(162)
+    cells = p2_cells(m.faces)
+    x = m.points.copy()
+    mid = cells[7, 3]  # the midpoint of cell 7's first edge, pushed across the cell
+    x[mid] = x[mid] + 0.6 * (x[cells[7, 2]] - x[mid])
+    before = jacobian_ratio(x, m.faces)
+    assert before[7] < 0 and np.count_nonzero(before < 0.1) == 1  # its neighbour bulges the other way
+    y, count = unfold(x, m.faces)
+    after = jacobian_ratio(y, m.faces)
+    # a cell on its chords is four flat triangles: an affine map, the ratio 1 to round-off
+    folded = np.flatnonzero(before < 0.1)
+    assert count == 1 and np.abs(after[folded] - 1.0).max() < 1e-12 and after.min() > 0.1
+    moved = np.flatnonzero(np.any(y != x, axis=1))
+    assert set(moved) <= set(cells[folded, 3:].ravel())  # only their midpoints moved
 
 
 def test_corner_options_translate_the_velocity_nodes_budget():
