@@ -17,8 +17,8 @@ On a surface of curved cells (``rayleigh_p2``) the angle trigger judges the corn
 (``angle_view``), not the four flat sub-triangles of each cell: the remesher makes and repairs the
 corner triangles, while the sub-triangles of a well-shaped cell across a strongly curved neck are
 distorted by the curvature itself (the cell's midpoints lie off its chords on the surface), which no
-remeshing removes: judged on them, amplitude 12's neck at 2562 nodes came out of the remesher at 19 -
-26 deg with its corners at 33 deg, was remeshed again at once, and the run failed
+remeshing removes: judged on them, amplitude 12's neck at 2562 nodes came out of the remesher with
+sub-triangles at 21.5 - 26.5 deg where the corners were at 34 deg, was remeshed again soon, and the run failed
 (docs/validation/remesh_constriction.md, "Curved cells"). A corner triangle sheared by the flow shears
 its sub-triangles alike, so the trigger still sees the flow's distortion.
 
