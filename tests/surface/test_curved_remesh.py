@@ -161,3 +161,25 @@ def test_a_remeshed_rayleigh_p2_run_through_the_cli_runs_and_resumes(tmp_path, c
     gap = np.abs(a["points"].values[-1, :n] - tr.ds["points"].values[-1, :n]).max()
     assert gap < 10 * tr.settings.time.tol
     capsys.readouterr()
+
+
+def test_a_cell_the_flow_folds_is_unfolded_in_place_keeping_volume_and_total():
+    from cortex_ti.dynamics.state import State
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sets = [*RUN[:2], "mesh.remesh.min_angle=25", "fields.myosin.initial=[{type: ring, zeta0: 1.0, amplitude: 0.5}]"]
+    sim = Simulation(load_scene("furrow_p4_a1", [*sets, "tension_transport=material"]))
+    s0 = sim.state0
+    cells = p2_cells(s0.faces)
+    x = s0.points.copy()
+    x[cells[7, 3]] += 0.6 * (x[cells[7, 2]] - x[cells[7, 3]])  # a fold; the corner triangles unchanged
+    state = State(x, dict(s0.fields), s0.faces)
+    new = sim.remesh_state(state, 0.1)
+    assert new is not None and np.array_equal(new.faces, s0.faces) and sim.segment == 1
+    assert jacobian_ratio(new.points, new.faces).min() > 0.1
+    assert abs(curved_volume(new.points, new.faces) / curved_volume(x, s0.faces) - 1.0) < 1e-13
+    c0, c1 = state.fields["myosin"], new.fields["myosin"]
+    m0, m1 = curved_masses(x, s0.faces), curved_masses(new.points, new.faces)
+    assert abs(float(c1 @ m1) / float(c0 @ m0) - 1.0) < 1e-13
+    assert sim.remesh_state(new, 0.1) is None  # nothing folds any more, the corners meet the trigger
