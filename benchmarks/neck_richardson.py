@@ -35,14 +35,23 @@ import numpy as np
 TIMES = (0.25, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0)
 
 
-def necks(path: Path) -> tuple[int, np.ndarray, np.ndarray]:
-    """(initial node count, frame times, neck radius per frame) of a trajectory (or its .partial)."""
+def necks(path: Path, curved: bool = False) -> tuple[int, np.ndarray, np.ndarray]:
+    """(initial node count, frame times, neck radius per frame) of a trajectory (or its .partial);
+    ``curved``: the neck cut on the curved cells of a rayleigh_p2 run
+    (:func:`cortex_ti.analysis.curved_measures.curved_neck_radius`; its file's furrow radius is the
+    curved cells' already), not on their flat sub-triangles."""
+    from cortex_ti.analysis.curved_measures import curved_neck_radius
     from cortex_ti.io.trajectory import Trajectory
     from cortex_ti.studies.constriction import neck_or_furrow
     from cortex_ti.studies.stores import neck_series
 
     with Trajectory(path) as tr:
-        neck = neck_or_furrow(neck_series(tr), tr.ds["furrow_radius"].values)
+        if curved:
+            axis = tr.settings.pattern_axis
+            found = [curved_neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(tr.ds.sizes["time"])]
+        else:
+            found = neck_series(tr)
+        neck = neck_or_furrow(np.asarray(found), tr.ds["furrow_radius"].values)
         return len(tr.mesh(0)[0]), tr.ds["time"].values.astype(float), neck
 
 
@@ -86,6 +95,7 @@ def main(argv=None) -> int:
     ap.add_argument("--amplitude", type=float, default=6.0, help="the ring's amplitude (the twin's)")
     ap.add_argument("--scene", default="constriction_p4")
     ap.add_argument("--times", type=float, nargs="+", default=list(TIMES))
+    ap.add_argument("--curved", action="store_true", help="necks cut on the curved cells (rayleigh_p2 runs)")
     ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     logging.getLogger("cortex_ti").setLevel(logging.ERROR)
@@ -94,15 +104,15 @@ def main(argv=None) -> int:
         sets = ["mesh.remesh.min_angle=null", "time.save_every=0.05"]
         args.files = [_bench.tiny_run(args.scene, 0.05, n, where, sets, name=f"n{n}") for n in (162, 642)]
         args.times = [0.05]
-    if len(args.files) < 2:
-        ap.error("give trajectories at two or more node counts")
+    if len(args.files) < (1 if args.curved else 2):
+        ap.error("give trajectories at two or more node counts (one with --curved)")
     from _bench import twin  # the axisymmetric twin of the same ring
 
-    t_end = max(float(necks(f)[1][-1]) for f in args.files)
+    runs = [necks(f, args.curved) for f in args.files]
+    t_end = max(float(r[1][-1]) for r in runs)
     where = _bench.folder()
     tw = twin(args.amplitude, t_end, where, args.scene)
     tw["neck"] = tw["furrow"]  # the symmetric ring's neck is its equator's radius
-    runs = [necks(f) for f in args.files]
     print(f"# {args.scene}, amplitude {args.amplitude:g}: the neck against the axisymmetric twin\n")
     print("Files: " + ", ".join(f"`{f}` (to t = {r[1][-1]:.3g})" for f, r in zip(args.files, runs, strict=True)))
     print(f"\nThe twin stopped: {tw['stopped']}; its label map is resolved to t = {tw['resolved_until']:.3g}.\n")

@@ -15,7 +15,9 @@ error. Here every measure is taken on the curved cells:
 * ``pole_radius``: half the distance between the outermost crossings of the axis line, each found on
   the flat sub-triangle it hits and then on its curved cell by Newton's method on the cell's map.
 
-The long-axis radii use the curved second moment's long axis.
+The long-axis radii use the curved second moment's long axis. :func:`curved_neck_radius` is the
+neck of :func:`cortex_ti.analysis.sections.neck_radius` (the smallest interior local minimum of the
+section radius over the planes along the axis) with the sections cut on the curved cells.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 
 from ..surface.curved import p2_cells, p2_shape, triangle_rule
 
-__all__ = ["curved_measures"]
+__all__ = ["curved_measures", "curved_neck_radius"]
 
 #: reference coordinates of a cell's six nodes, and each of its four flat sub-triangles' local nodes
 _REF = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])
@@ -170,3 +172,46 @@ def curved_measures(points, faces, axis=(0.0, 0.0, 1.0)) -> dict[str, float]:
             except (ValueError, np.linalg.LinAlgError):
                 out[name + suffix] = float("nan")
     return out
+
+
+def curved_neck_radius(points, faces, axis=(0.0, 0.0, 1.0), planes: int = 64) -> tuple[float, float]:
+    """The neck on the curved cells: the smallest interior local minimum, over the planes
+    perpendicular to ``axis``, of the curved section radius (the furrow radius of
+    :func:`curved_measures` in each plane), refined by a bounded scalar minimisation between the
+    neighbouring planes. Returns ``(radius, height)``, the height from the curved area centroid;
+    ``(nan, nan)`` without an interior minimum (a convex body).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> bool(np.isnan(curved_neck_radius(m.points, m.faces)[0]))
+    True
+    """
+    from scipy.optimize import minimize_scalar  # only a neck search needs it
+
+    points = np.asarray(points, dtype=float)
+    faces = np.asarray(faces)
+    cells = p2_cells(faces)
+    ax = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    x, nda = _quadrature(points, cells)
+    da = np.linalg.norm(nda, axis=-1)
+    centre = np.einsum("tq,tqc->c", da, x) / da.sum()
+    height = (points - centre) @ ax
+    lo, hi = float(height.min()), float(height.max())
+    pad = 1e-9 * max(hi - lo, 1e-300)
+    zs = np.linspace(lo + pad, hi - pad, int(planes) + 2)[1:-1]
+
+    def radius(z: float) -> float:
+        try:
+            return _furrow(points, faces, cells, ax, centre + z * ax)
+        except ValueError:
+            return float("inf")
+
+    r = np.array([radius(z) for z in zs])
+    interior = np.flatnonzero((r[1:-1] <= r[:-2]) & (r[1:-1] <= r[2:]) & np.isfinite(r[1:-1])) + 1
+    if interior.size == 0:
+        return float("nan"), float("nan")
+    k = int(interior[np.argmin(r[interior])])
+    best = minimize_scalar(radius, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
+    if best.fun <= r[k]:
+        return float(best.fun), float(best.x)
+    return float(r[k]), float(zs[k])

@@ -13,6 +13,15 @@ mesh: :meth:`~cortex_ti.scene.settings.RemeshSettings.sized`):
   smallest angle (only when that is below ``min_angle``) and :data:`COARSE_RETRIGGER` times its
   coarseness.
 
+On a surface of curved cells (``rayleigh_p2``) the angle trigger judges the corner triangles
+(``angle_view``), not the four flat sub-triangles of each cell: the remesher makes and repairs the
+corner triangles, while the sub-triangles of a well-shaped cell across a strongly curved neck are
+distorted by the curvature itself (the cell's midpoints lie off its chords on the surface), which no
+remeshing removes: judged on them, amplitude 12's neck at 2562 nodes came out of the remesher with
+sub-triangles at 21.5 - 26.5 deg where the corners were at 34 deg, was remeshed again soon, and the run failed
+(docs/validation/remesh_constriction.md, "Curved cells"). A corner triangle sheared by the flow shears
+its sub-triangles alike, so the trigger still sees the flow's distortion.
+
 The policy holds no mesh: it is asked with points and triangles and keeps only its triggers.
 """
 
@@ -45,7 +54,8 @@ class RemeshPolicy:
     size defaults resolved. :attr:`below` and :attr:`coarse_below` are the triggers of the current mesh.
     """
 
-    def __init__(self, min_angle: float, options: RemeshOptions, coarser: float | None = None):
+    def __init__(self, min_angle: float, options: RemeshOptions, coarser: float | None = None, angle_view=None):
+        self.angle_view = angle_view  # (points, faces) -> the triangles whose angles are judged (None: these)
         self.min_angle = float(min_angle)
         self.coarser = coarser
         self.options = options
@@ -56,7 +66,7 @@ class RemeshPolicy:
     def due(self, points: np.ndarray, faces: np.ndarray) -> str | None:
         """Why the mesh ``(points, faces)`` is remeshed now (a sentence for the log), or None. Asked
         once per accepted step (the resolution is checked every :data:`COARSE_EVERY` askings)."""
-        angle = float(min_angles(points, faces).min())
+        angle = self.smallest_angle(points, faces)
         if angle < self.below:
             return f"smallest angle {angle:.2f} deg < {self.below:.3g}"
         coarse = self.coarseness(points, faces)
@@ -67,12 +77,19 @@ class RemeshPolicy:
     def judge(self, points: np.ndarray, faces: np.ndarray) -> float:
         """Set the triggers of a new mesh (module docstring; the run's min_angle_deg shows them).
         Returns its smallest angle."""
-        after = float(min_angles(points, faces).min())
+        after = self.smallest_angle(points, faces)
         self.below = self.min_angle if after >= self.min_angle else RETRIGGER * after
         if self.coarse_below is not None:
             own = self.coarseness(points, faces, now=True)
             self.coarse_below = max(self.coarser, COARSE_RETRIGGER * own)
         return after
+
+    def smallest_angle(self, points: np.ndarray, faces: np.ndarray) -> float:
+        """The smallest angle (deg) of the triangles the angle trigger judges: the mesh's own, or those
+        of ``angle_view`` (a surface of curved cells: its corner triangles,
+        :func:`cortex_ti.surface.curved_remesh.corner_mesh`)."""
+        mesh = (points, faces) if self.angle_view is None else self.angle_view(points, faces)
+        return float(min_angles(*mesh).min())
 
     def coarseness(self, points: np.ndarray, faces: np.ndarray, now: bool = False) -> float | None:
         """How much coarser than its size field the mesh is where it is coarsest (the largest ratio

@@ -126,8 +126,8 @@ def _check_motion(data: dict) -> None:
 
 def _check_curved(data: dict) -> None:
     """A formulation on curved cells (``rayleigh_p2``) needs a mesh of at least one split: an icosphere
-    of 42 nodes or more, or a mesh file (split when the run starts); remeshing is not implemented for
-    it; its pressure is ``petrov`` or ``exact``."""
+    of 42 nodes or more, or a mesh file (split when the run starts); its pressure is ``petrov`` or
+    ``exact``. Its remeshing remeshes the corner mesh (:mod:`cortex_ti.surface.curved_remesh`)."""
     formulation = data["numerics"]["formulation"]
     if data["model"] != "3d" or not FORMULATIONS[formulation].curved:
         return
@@ -136,12 +136,6 @@ def _check_curved(data: dict) -> None:
         raise SceneError(
             f"mesh.nodes = {fmt_value(mesh['nodes'])} with numerics.formulation = {formulation}: its curved cells are "
             "made of four triangles of the icosphere one level finer, so it needs at least 42 nodes"
-        )
-    if (mesh.get("remesh") or {}).get("min_angle") is not None:
-        raise SceneError(
-            f"mesh.remesh with numerics.formulation = {formulation}: remeshing a surface of curved cells is not "
-            "implemented (the new cells' midpoints would have to be placed on the curved surface); use "
-            "numerics.formulation: rayleigh_p1 for a remeshed run"
         )
     if data["numerics"]["pressure_weights"] == "area":
         raise SceneError(

@@ -27,6 +27,7 @@ from ..physics.fields import tension_of
 from ..scene.loader import Scene
 from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
+from ..surface import curved_remesh
 from ..surface.curved_transport import cell_quadrature, curved_advective_rate
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
@@ -106,7 +107,8 @@ class Simulation:
         self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
             mean = mean_edge_length(self.mesh.points, self.mesh.faces)
-            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser)
+            view = curved_remesh.corner_mesh if self.curved else None  # the curved cells' corners (remesh_policy)
+            self.remesh_policy = RemeshPolicy(rem.min_angle, rem.sized(mean, self.mesh.n_nodes), rem.coarser, view)
 
     @property
     def remesh_options(self):
@@ -151,6 +153,8 @@ class Simulation:
         if policy is None:
             return None
         why = policy.due(state.points, state.faces)
+        if why is None and self.curved:
+            return self._unfolded(state, t)
         if why is None:
             return None
         kinds = {spec.name: spec.kind for spec in self.fields}
@@ -158,7 +162,8 @@ class Simulation:
         if rem.settle_steps > 0:  # the old mesh's flow, before the solver turns to the new mesh
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
-        res = remesh(state.points, state.faces, dict(state.fields), kinds, policy.options)
+        how = curved_remesh.remesh_curved if self.curved else remesh
+        res = how(state.points, state.faces, dict(state.fields), kinds, policy.options)
         after = policy.judge(res.points, res.faces)
         log.info(
             "t = %.4g: %s: remeshed %d -> %d nodes (size scale %.3g, predicted %.0f nodes; smallest angle %.1f deg, "
@@ -192,6 +197,29 @@ class Simulation:
         self.segment += 1
         return State(self.mesh.points, fields, self.mesh.faces)
 
+    def _unfolded(self, state: State, t: float) -> State | None:
+        """A surface of curved cells whose flow folded a cell over a crease sharper than itself (its
+        area element below :data:`~cortex_ti.surface.curved_remesh.FOLD_RATIO` of its corner
+        triangle's): those cells' midpoints put on their chords (:func:`~cortex_ti.surface.curved_remesh.unfold`),
+        the curved volume restored and the densities' totals over the cells kept, on the same
+        triangles; None when no cell folds. A remeshing would not help: the new cells across the
+        same crease fold again within a step (measured at amplitude 12's neck, t = 2.26, 2562 nodes)."""
+        points, count = curved_remesh.unfold(state.points, state.faces)
+        if count == 0:
+            return None
+        faces = state.faces
+        points, _ = curved_remesh.restore_curved_volume(points, faces, curved_remesh.curved_volume(state.points, faces))
+        fields = dict(state.fields)
+        before, after = curved_remesh.curved_masses(state.points, faces), curved_remesh.curved_masses(points, faces)
+        for spec in self.fields:
+            if spec.kind == DENSITY and spec.name in fields:
+                values = fields[spec.name]
+                fields[spec.name] = keep_amount(values, float(np.dot(values, before)), after)
+        log.info("t = %.4g: %d curved cells folded over a crease: their midpoints put on their chords", t, count)
+        self.use_mesh(points, faces)
+        self.segment += 1
+        return State(self.mesh.points, fields, self.mesh.faces)
+
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
 
@@ -212,8 +240,11 @@ class Simulation:
         docs/validation/remesh_constriction.md). Then the volume is
         restored as the remeshing restores it, the densities' amounts rescaled. Returns the points,
         the fields, the largest move and the pseudo-steps taken."""
-        tri, bary = closest_points(state.points, state.faces, points)
-        old = np.einsum("qk,qkc->qc", bary, flow[state.faces[tri]])
+        if self.curved:  # the old cells' quadratic flow at the feet on the old curved surface
+            old = curved_remesh.interpolate_at(state.points, state.faces, flow, points)
+        else:
+            tri, bary = closest_points(state.points, state.faces, points)
+            old = np.einsum("qk,qkc->qc", bary, flow[state.faces[tri]])
         zeta = tension_of(fields, len(points), self.settings)
         x = np.array(points, dtype=float)
         last, taken = math.inf, 0
@@ -228,9 +259,14 @@ class Simulation:
                 break
             last, taken = largest, k + 1
             x = x + rem.settle_dt * excess[:, None] * sol.normal
-        x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
+        if self.curved:  # the curved cells' volume and the densities' totals over them
+            x, _ = curved_remesh.unfold(x, faces)  # the settling may fold a cell across a crease again
+            x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
+            before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
+        else:
+            x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
+            before, after = dual_areas(points, faces), dual_areas(x, faces)
         out = dict(fields)
-        before, after = dual_areas(points, faces), dual_areas(x, faces)
         for name, values in fields.items():
             if kinds.get(name) == DENSITY:
                 out[name] = keep_amount(values, float(np.dot(values, before)), after)
@@ -255,6 +291,12 @@ class Simulation:
     def state_at(self, points: np.ndarray) -> State:
         """The initial state's fields on the shape ``points``."""
         return self.state0.with_points(points)
+
+    @property
+    def curved(self) -> bool:
+        """Whether the surface is made of curved six-node cells (``rayleigh_p2``): remeshed by
+        :func:`cortex_ti.surface.curved_remesh.remesh_curved`, its volume and amounts those of the cells."""
+        return self.settings.numerics.formulation_entry.curved
 
     @property
     def formulation(self) -> str:

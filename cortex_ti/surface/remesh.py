@@ -46,6 +46,7 @@ __all__ = [
     "RemeshResult",
     "remesh",
     "remesh_available",
+    "triangulate",
     "min_angles",
     "edge_curvature",
     "grade",
@@ -395,16 +396,48 @@ def remesh(
     ``volume``: the enclosed volume to restore (None: the volume of the input); ``kinds``: field
     name -> ``density`` or ``property`` (an intensive field; the default).
     """
+    options = options or RemeshOptions()
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    faces = np.ascontiguousarray(faces, dtype=np.int32)
+    target = enclosed_volume(points, faces) if volume is None else float(volume)
+    new = triangulate(points, faces, options)
+    new_points, delta = restore_volume(new.points, new.faces, target)
+    new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new.faces)
+    return RemeshResult(
+        new_points,
+        new.faces,
+        new_fields,
+        delta,
+        points.shape[0],
+        new_points.shape[0],
+        new.scale,
+        new.predicted,
+        new.passes,
+    )
+
+
+def triangulate(
+    points: np.ndarray,
+    faces: np.ndarray,
+    options: RemeshOptions | None = None,
+    kappa: np.ndarray | None = None,
+    hausd_scale: float = 1.0,
+) -> RemeshResult:
+    """The new triangulation of :func:`remesh` alone: MMG to the size field (its node budget
+    corrected by MMG's count), the repair and the retries of ``options.min_angle``; the nodes where
+    MMG and the repair left them (no volume restored, no fields: ``fields`` empty, ``offset`` 0).
+    The curved cells' remeshing (:mod:`cortex_ti.surface.curved_remesh`) starts from it, with the
+    curvature ``kappa`` (N,) of its finer mesh (None: :func:`edge_curvature` of this one) and the
+    default ``hausd`` times ``hausd_scale``."""
     if not remesh_available():
         raise CortexError(REMESH_EXTRA_HINT)
     options = options or RemeshOptions()
     points = np.ascontiguousarray(points, dtype=np.float64)
     faces = np.ascontiguousarray(faces, dtype=np.int32)
-    target = enclosed_volume(points, faces) if volume is None else float(volume)
     mean = mean_edge_length(points, faces)
     h_max = mean if options.h_max is None else float(options.h_max)
     h_min = mean / H_MIN_DIVISOR if options.h_min is None else float(options.h_min)
-    kappa = edge_curvature(points, faces)
+    kappa = edge_curvature(points, faces) if kappa is None else np.asarray(kappa, dtype=float)
     area = dual_areas(points, faces)
     scale = options.edge_angle
     if options.nodes is not None:
@@ -414,7 +447,9 @@ def remesh(
         return grade(points, faces, sizes(kappa, scale, h_min, h_max), options.hgrad)
 
     def hausd(scale):
-        return options.hausd if options.hausd is not None else max(0.05, 0.15 * min(scale, 1.0)) * h_max
+        if options.hausd is not None:
+            return options.hausd
+        return hausd_scale * max(0.05, 0.15 * min(scale, 1.0)) * h_max
 
     def mmg(scale):
         h = field(scale)
@@ -437,11 +472,7 @@ def remesh(
     new_points, new_faces, passes = _meet_angle(
         points, faces, field(scale), hausd(scale), options, new_points, new_faces
     )
-    new_points, delta = restore_volume(new_points, new_faces, target)
-    new_fields = transfer_fields(points, faces, dict(fields or {}), dict(kinds or {}), new_points, new_faces)
-    return RemeshResult(
-        new_points, new_faces, new_fields, delta, points.shape[0], new_points.shape[0], scale, predicted, passes
-    )
+    return RemeshResult(new_points, new_faces, {}, 0.0, points.shape[0], new_points.shape[0], scale, predicted, passes)
 
 
 def _mmg(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hausd: float, hgrad: float):

@@ -136,7 +136,6 @@ def test_a_mesh_file_is_split_into_curved_cells(tmp_path):
     "overrides, match",
     [
         (["mesh.nodes=12"], "at least 42 nodes"),
-        (["mesh.remesh.min_angle=20"], "remeshing a surface of curved cells"),
     ],
 )
 def test_what_curved_cells_cannot_run_is_refused_by_name(overrides, match):
