@@ -74,6 +74,7 @@ def fluid_operator(
     mu_in: float,
     mu_out: float,
     completion: float = 1.0,
+    measure: bool = True,
     **quadrature,
 ) -> FluidOperator:
     """The fluids' dissipation matrix on the shape ``points`` (module docstring); ``normals``
@@ -82,7 +83,8 @@ def fluid_operator(
     of the same area), ``quadrature`` the keywords of
     :func:`~cortex_ti.physics.stokes_bie.single_layer_matrix`. Equal viscosities need the single
     layer alone; a contrast adds the double layer (``D = A V^-1 A [mu_out (1/2 + Kd) + mu_in (1/2 -
-    Kd)]``, symmetrised; its smallest eigenvalue is kept in ``min_eigenvalue``)."""
+    Kd)]``, symmetrised; its smallest eigenvalue is kept in ``min_eigenvalue`` when ``measure``: the runs
+    skip it, their dense Cholesky factorisation of the whole dissipation refuses an indefinite one)."""
     import time
 
     if not (mu_in >= 0 and mu_out > 0):
@@ -112,7 +114,7 @@ def fluid_operator(
         mix = (0.5 * (mu_in + mu_out)) * np.eye(len(a3)) + (mu_out - mu_in) * kd
         d = d @ mix
     d = 0.5 * (d + d.T)
-    if mu_in != mu_out:
+    if mu_in != mu_out and measure:
         min_ev = float(sla.eigvalsh(d, subset_by_index=[0, 0])[0])
     return FluidOperator(
         dissipation=d,

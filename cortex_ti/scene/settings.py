@@ -21,7 +21,7 @@ import numpy as np
 
 from ..dynamics.schemes import SCHEMES
 from ..physics.formulations import FORMULATIONS
-from ..physics.model import Physics
+from ..physics.model import Fluid, Physics
 from ..physics.patterns import pattern_axis
 from ..solve.factorizations import choose_factorization
 from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
@@ -211,6 +211,7 @@ class RunSettings:
     time: TimeSettings
     axisymmetric: AxisymmetricSettings
     rigidity: RigiditySettings = RigiditySettings()
+    fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -292,6 +293,7 @@ class RunSettings:
                 float(data["rigidity"]["bending"]) if "bending_rigidity" in effects else 0.0,
                 float(data["rigidity"]["spontaneous_curvature"]),
             ),
+            fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
         )
 
     def has(self, effect: str) -> bool:
@@ -326,6 +328,7 @@ class RunSettings:
             eta_bar_b=v.bending_bulk,
             translation=self.translation,
             material_nodes=self.mesh.motion == "lagrangian",
+            fluid=self.fluid,
         )
 
     @property
@@ -347,6 +350,19 @@ class RunSettings:
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
             f"active force {num.active_force}{held}"
         )
+
+
+def _fluid_settings(data: dict) -> Fluid:
+    """``fluid`` resolved (the effect ``fluids`` on): floats, tuples, the far field's type and values."""
+    far = data["far_field"]
+    return Fluid(
+        inner=float(data["inner"]),
+        outer=float(data["outer"]),
+        body_force=tuple(float(b) for b in data["body_force"]),
+        far_field=far["type"],
+        velocity=tuple(float(u) for u in far["velocity"]),
+        rate=float(far["rate"]),
+    )
 
 
 def _remesh_settings(data: dict) -> RemeshSettings | None:
