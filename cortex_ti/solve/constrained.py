@@ -268,6 +268,7 @@ class ConstrainedSolver:
         self.rule = RefactorRule(self.factor_cls.refactor_cost)
         self.n_factorizations = 0
         self.n_iterations = 0  # GMRES iterations over all solves
+        self.dense_last = False  # whether the last solve was dense (solve/dense.py)
 
     @property
     def backend(self) -> str:
@@ -294,9 +295,10 @@ class ConstrainedSolver:
         with a dense part (the fluids') is solved densely (:mod:`cortex_ti.solve.dense`)."""
         if getattr(system, "dense", None) is not None:
             x, pressure, _, info = solve_dense(system)
-            self._last, self._pre = None, None
+            self._last, self._pre, self.dense_last = None, None, True
             self.n_factorizations += 1
             return x, pressure, info
+        self.dense_last = False
         t0 = time.perf_counter()
         bordered = self._bordered_system(system, points)
         t1 = time.perf_counter()
@@ -466,6 +468,8 @@ class ConstrainedSolver:
         (if the pressure is a separate unknown), then one entry per constraint row. ``b_x`` may
         have several columns. Needs the factorisation of that very system: the last solve must
         have factorised (``reuse=False``)."""
+        if self._last is None and self.dense_last:
+            raise SolverError("kkt_solve: the last solve was dense (the effect fluids), it keeps no factorisation")
         if self._last is None:
             raise SolverError("kkt_solve needs the factorisation of the last solve (solve with reuse=False)")
         b, _ = self._last
