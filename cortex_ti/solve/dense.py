@@ -47,7 +47,7 @@ def solve_dense(system: EnergySystem):
     f = system.rhs
     t1 = time.perf_counter()
     try:
-        chol = sla.cho_factor(a, lower=True, overwrite_a=False, check_finite=False)
+        chol = sla.cho_factor(a, lower=True, overwrite_a=True, check_finite=False)  # a is the factor now
     except np.linalg.LinAlgError as err:
         raise SolverError(
             f"the dense force balance with the fluids is not positive definite ({err}): check the fluids' "
@@ -55,13 +55,13 @@ def solve_dense(system: EnergySystem):
         ) from None
     x, lam = _kkt(chol, g, fr, f, np.zeros(g.shape[0]))
     # one step of iterative refinement on the bordered system
-    r1 = f - a @ x - fr.T @ lam
+    r1 = f - system.stiffness @ x - system.dense @ x - fr.T @ lam
     dx, dlam = _kkt(chol, g, fr, r1, -(g @ x))
     x, lam = x + dx, lam + dlam
     t2 = time.perf_counter()
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(lam))):
         raise SolverError("the dense solve with the fluids produced non-finite values: check the viscosities")
-    res = a @ x + fr.T @ lam - f
+    res = system.stiffness @ x + system.dense @ x + fr.T @ lam - f
     gx = g @ x
     fnorm = float(np.linalg.norm(f))
     xnorm = max(float(np.linalg.norm(x)), 1e-300)
