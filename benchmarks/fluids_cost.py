@@ -10,9 +10,16 @@ its refinement (:mod:`cortex_ti.solve.dense`). Memory: the peak of NumPy's alloc
 (``tracemalloc``: LAPACK's own workspace is not in it) and the process's peak resident size. Wall and
 CPU seconds (the machine is shared: CPU seconds are the steadier number on one thread).
 
+``--sediment``: instead, the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
+static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
+measure a run gives, the rate of the enclosed polyhedron's volume centroid as the nodes move along
+their normals by ``v_n``, against Boussinesq-Scriven; and the t = 0 flow's largest non-rigid normal
+speed.
+
 Usage::
 
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 162 642 2562
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --sediment --nodes 162 642 2562
     python benchmarks/fluids_cost.py --smoke
 """
 
@@ -79,6 +86,37 @@ def measure(nodes: int) -> dict:
     }
 
 
+def volume_centroid(x, tri):
+    """The centroid of the volume the triangles enclose (exact for the polyhedron)."""
+    import numpy as np
+
+    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
+    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    return (v[:, None] * (a + b + c) / 4.0).sum(0) / v.sum()
+
+
+def sediment(nodes: int) -> str:
+    """One row of ``--sediment`` (module docstring)."""
+    import numpy as np
+
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import fluid_sphere as fs
+
+    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}"]))
+    x, tri = sim.mesh.points, sim.mesh.faces
+    sol = sim.solve(x)
+    vn = np.einsum("nc,nc->n", sol.velocity, sol.normal)
+    eps = 1e-6
+    move = eps * vn[:, None] * sol.normal
+    rate = (volume_centroid(x + move, tri) - volume_centroid(x - move, tri)) / (2 * eps)
+    exact = fs.sedimentation_velocity(1.0, mu_in=1.0, mu_out=1.0, eta_s=1.0, eta_b=1.0)
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    vn = np.einsum("nc,nc->n", sol.velocity, n)
+    nonrigid = np.abs(vn - n @ np.linalg.lstsq(n, vn, rcond=None)[0]).max()
+    return f"| {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} |"
+
+
 def table(rows: list[dict]) -> str:
     out = [
         "| nodes | geometry (s) | operator (s, CPU s) | assembly incl. operator (s) | K + D dense (s) | "
@@ -97,11 +135,19 @@ def table(rows: list[dict]) -> str:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
+    parser.add_argument("--sediment", action="store_true", help="the run tests' static bound instead (docstring)")
     parser.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = parser.parse_args(argv)
     nodes = [162] if args.smoke else args.nodes
     threads = os.environ.get("OMP_NUM_THREADS", "unset")
     print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}"))
+    if args.sediment or args.smoke:
+        print("| nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed |")
+        print("|---|---|---|---|")
+        for n in nodes:
+            print(sediment(n), flush=True)
+        if args.sediment:
+            return
     rows = []
     for n in nodes:
         rows.append(measure(n))
