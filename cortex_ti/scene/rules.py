@@ -22,8 +22,8 @@ _NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigid
 
 #: The most nodes a scene with the effect ``fluids`` may have: its boundary-integral map is dense, (3N)^2
 #: doubles built and factorised on every solve. Measured (docs/validation/fluids.md, "Cost of a step"):
-#: at 2562 nodes ~1.5 GB and ~1 min per step on one thread; 10242 nodes would need 16 times the memory
-#: (~24 GB) and 64 times the time.
+#: at 2562 nodes 1.8 GB and 29 CPU seconds per step on one thread; 10242 nodes would need 16 times the
+#: memory (~28 GB, more than this 24 GB machine) and 64 times the time (~30 minutes a step).
 FLUIDS_MAX_NODES = 2562
 
 
@@ -145,8 +145,8 @@ def fluids_size_message(nodes: int) -> str:
     """Why a mesh of ``nodes`` nodes is refused with the effect ``fluids`` (also for a mesh file)."""
     return (
         f"mesh of {nodes} nodes with the effect 'fluids': the dense boundary-integral method holds at most "
-        f"{FLUIDS_MAX_NODES} nodes (its (3N)^2 matrices are built and factorised on every solve: ~1.5 GB and "
-        "~1 min per step at 2562 nodes, 16 times the memory at 10242; docs/guide/fluids.md)"
+        f"{FLUIDS_MAX_NODES} nodes (its (3N)^2 matrices are built and factorised on every solve: 1.8 GB and "
+        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242; docs/guide/fluids.md)"
     )
 
 
