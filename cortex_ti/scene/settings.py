@@ -346,9 +346,15 @@ class RunSettings:
         if num.formulation == "paper":
             w = num.fit_residual_weight
             return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}{held}"
+        fl = self.fluid
+        fluids = (
+            ""
+            if fl is None
+            else f"; fluids mu_in = {fl.inner:g}, mu_out = {fl.outer:g}, far field {fl.far_field} (dense, no gauge)"
+        )
         return (
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
-            f"active force {num.active_force}{held}"
+            f"active force {num.active_force}{held}{fluids}"
         )
 
 
