@@ -191,3 +191,19 @@ def test_every_refusal_is_one_line_through_the_cli_and_ct_run(tmp_path, capsys, 
     with pytest.raises(CortexError, match="^.*" + words.replace("(", r"\(").replace(")", r"\)")):
         ct.run("sedimenting_cell", output=tmp_path / "y.h5", overrides=overrides, threads=1)
     assert not (tmp_path / "y.h5").exists()
+
+
+def test_a_mesh_file_too_large_for_the_dense_method_is_refused(tmp_path, capsys):
+    """The node limit holds for a mesh file too (checked when the mesh is read, before any solve)."""
+    import meshio
+
+    from cortex_ti.surface.mesh import icosphere
+
+    m = icosphere(10242)
+    path = tmp_path / "big.obj"
+    meshio.write(str(path), meshio.Mesh(m.points, [("triangle", np.asarray(m.faces))]))
+    out = tmp_path / "x.h5"
+    rc = main(["run", "sedimenting_cell", "-o", str(out), "--set", "mesh.nodes=null", "--set", f"mesh.file={path}"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "mesh of 10242 nodes" in err and err.strip().count("\n") == 0, err
+    assert not out.exists()
