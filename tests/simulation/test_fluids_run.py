@@ -208,3 +208,29 @@ def test_a_mesh_file_too_large_for_the_dense_method_is_refused(tmp_path, capsys)
     err = capsys.readouterr().err
     assert rc == 2 and "mesh of 10242 nodes" in err and err.strip().count("\n") == 0, err
     assert not out.exists()
+
+
+def test_far_fields_through_the_scene_keys():
+    """One solve of a tension-free sphere (cell_in_shear's settings) through fluid.far_field: a
+    uniform far field carries the cell along at its velocity exactly (the whole system translates;
+    discretely the cortex's dissipation and the fluids' force vanish on v = U, measured 7e-16); the
+    uniaxial extension u = E (-x/2, -y/2, z) drives Lamb's degree-2 strain response (strain_response),
+    measured 8.74e-3 of its largest speed at 162 nodes, 3.03e-3 at 642 (second order), bound 1.0e-2."""
+    from cortex_ti.simulation import Simulation
+
+    base = ["mesh.nodes=162", "active_stress.0.zeta0=0", "fluid.far_field.rate=0"]
+    u = [0.3, -0.2, 0.1]
+    sim = Simulation(
+        ct.load_scene("cell_in_shear", [*base, "fluid.far_field.type=uniform", f"fluid.far_field.velocity={u}"])
+    )
+    assert np.abs(sim.solve().velocity - u).max() < 1e-13
+    sim = Simulation(
+        ct.load_scene("cell_in_shear", [*base, "fluid.far_field.type=extension", "fluid.far_field.rate=1"])
+    )
+    x = sim.mesh.points
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    e = np.diag([-0.5, -0.5, 1.0])
+    q = np.einsum("na,ab,nb->n", n, e, n)
+    sa, sb = fs.strain_response(mu_in=1.0, mu_out=1.0, **SHELL)
+    exact = sa * q[:, None] * n + sb * 2.0 * (n @ e - q[:, None] * n)
+    assert np.abs(sim.solve().velocity - exact).max() / np.abs(exact).max() < 1.0e-2
