@@ -23,6 +23,7 @@ from ..dynamics.schemes import SCHEMES
 from ..physics.formulations import FORMULATIONS
 from ..physics.model import Fluid, Physics
 from ..physics.patterns import pattern_axis
+from ..solve.dense import DENSE_BACKEND
 from ..solve.factorizations import choose_factorization
 from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
 
@@ -295,6 +296,12 @@ class RunSettings:
             ),
             fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
         )
+
+    @property
+    def solver_name(self) -> str:
+        """The solve that runs, as the outputs record it: the dense Cholesky of the fluids
+        (:data:`cortex_ti.solve.dense.DENSE_BACKEND`) with the effect ``fluids``, else the sparse backend."""
+        return DENSE_BACKEND if self.fluid is not None else self.solver.backend
 
     def has(self, effect: str) -> bool:
         """Whether ``effect`` is switched on."""

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 import cortex_ti as ct
 from cortex_ti.cli import main
@@ -41,7 +42,11 @@ def volume_centroid(x: np.ndarray, tri: np.ndarray) -> np.ndarray:
 
 def run(scene, **kw):
     ds = ct.run(scene, nodes=162, threads=1, **kw)
+    LAST.update(ds.attrs)
     return ds["time"].values, ds["points"].values, ds["velocity"].values, ds["triangles"].values
+
+
+LAST: dict = {}  # the attributes of the last run's trajectory
 
 
 @pytest.mark.slow
@@ -54,6 +59,9 @@ def test_sedimenting_cell_moves_at_the_boussinesq_scriven_velocity_and_stays_a_s
     second order, docs/validation/fluids.md), bound 6.3e-2, at every frame. It stays a sphere over
     the run (below: measured half the bound; the spread 6.3e-4 at t = 0.3)."""
     t, x, v, tri = run("sedimenting_cell", t_end=0.3, overrides=EXPLICIT)
+    # the trajectory records the fluids and the solve that ran
+    assert yaml.safe_load(LAST["scene"])["fluid"]["body_force"] == [0.0, 0.0, -1.0]
+    assert "fluids" in LAST["effects"].split(",") and LAST["solver_backend"] == "dense-cholesky"
     exact = fs.sedimentation_velocity(1.0, mu_in=1.0, mu_out=1.0, **SHELL)
     c = np.array([volume_centroid(p, tri) for p in x])
     u = np.diff(c, axis=0) / np.diff(t)[:, None]
