@@ -242,3 +242,18 @@ def test_far_fields_through_the_scene_keys():
     sa, sb = fs.strain_response(mu_in=1.0, mu_out=1.0, **SHELL)
     exact = sa * q[:, None] * n + sb * 2.0 * (n @ e - q[:, None] * n)
     assert np.abs(sim.solve().velocity - exact).max() / np.abs(exact).max() < 1.0e-2
+
+
+@pytest.mark.slow
+def test_a_run_with_fluids_resumes_to_the_uninterrupted_run_regression(tmp_path):
+    """Regression check (a run against another run of the same code): sedimenting_cell to t = 0.05,
+    extended with ``resume`` to t = 0.1, has the frames of the run straight to t = 0.1 (the operator
+    is rebuilt from the stored shape, nothing else is carried)."""
+    kw = dict(nodes=162, threads=1, overrides=[*EXPLICIT, "time.save_every=0.05"])
+    path = tmp_path / "r.h5"
+    ct.run("sedimenting_cell", output=path, t_end=0.05, **kw)
+    resumed = ct.run("sedimenting_cell", output=path, t_end=0.1, resume=True, **kw)
+    straight = ct.run("sedimenting_cell", t_end=0.1, **kw)
+    assert np.array_equal(resumed["time"].values, straight["time"].values)
+    for key in ("points", "velocity"):
+        assert np.abs(resumed[key].values - straight[key].values).max() < 1e-12
