@@ -161,7 +161,9 @@ def assemble_p1(
     if ctx.node_force is not None:
         f = f + ctx.node_force.ravel()
 
-    return energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    system = energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
+    system.dense = ctx.dense
+    return system
 
 
 def energy_system(kmat, f: np.ndarray, constraints: list, basis: np.ndarray, terms) -> EnergySystem:

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["EFFECTS", "Physics"]
+import numpy as np
+
+__all__ = ["EFFECTS", "FAR_FIELDS", "Fluid", "Physics"]
 
 #: The vocabulary of physical effects a scene can switch on (name -> description).
 EFFECTS: dict[str, str] = {
@@ -24,7 +26,53 @@ EFFECTS: dict[str, str] = {
     "fixed_normal_velocity": "impose zero normal velocity: tangential flow only, the shape stays fixed",
     "incompressibility": "conserve the enclosed volume with a pressure P = p_inside - p_outside",
     "shape_evolution": "move the nodes with the computed velocity and step in time (uses the time section)",
+    "fluids": "a cytoplasm and a medium as Stokes fluids (fluid.inner, fluid.outer; fluid.body_force, "
+    "fluid.far_field): their traction by a dense boundary-integral map; the medium fixes the rigid motions "
+    "(formulation rayleigh_p1 only, docs/guide/fluids.md)",
 }
+
+
+#: The far-field flows of ``fluid.far_field`` (type -> the flow at infinity, centred on the origin).
+FAR_FIELDS: dict[str, str] = {
+    "none": "the medium at rest at infinity",
+    "uniform": "u = U (fluid.far_field.velocity)",
+    "shear": "simple shear u = G y e_x (fluid.far_field.rate G; vorticity -G e_z)",
+    "extension": "uniaxial extension along z, u = E (-x / 2, -y / 2, z) (fluid.far_field.rate E)",
+}
+
+
+@dataclass(frozen=True)
+class Fluid:
+    """The cytoplasm and the medium of the effect ``fluids`` (scene section ``fluid``): viscosities
+    ``inner``, ``outer`` (eta_s / R0), the body force on the cytoplasm relative to the medium (force per
+    volume, eta_s / (R0 t_a)) and the far-field flow (:data:`FAR_FIELDS`: ``far_field`` its type,
+    ``velocity`` of ``uniform``, ``rate`` of ``shear`` and ``extension``)."""
+
+    inner: float = 1.0
+    outer: float = 1.0
+    body_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    far_field: str = "none"
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rate: float = 0.0
+
+    def far_velocity(self, points: np.ndarray) -> np.ndarray | None:
+        """The far-field flow at ``points`` (N, 3); None for a medium at rest at infinity.
+
+        >>> Fluid(far_field="shear", rate=2.0).far_velocity(np.array([[0.0, 1.0, 0.0]])).tolist()
+        [[2.0, 0.0, 0.0]]
+        """
+        x = np.asarray(points, float)
+        if self.far_field == "uniform":
+            return np.broadcast_to(np.asarray(self.velocity, float), x.shape).copy()
+        if self.far_field == "shear":
+            return np.stack([self.rate * x[:, 1], np.zeros(len(x)), np.zeros(len(x))], axis=1)
+        if self.far_field == "extension":
+            return self.rate * x * np.array([-0.5, -0.5, 1.0])
+        return None
+
+    @property
+    def has_body_force(self) -> bool:
+        return any(self.body_force)
 
 
 @dataclass(frozen=True)
@@ -40,6 +88,12 @@ class Physics:
     material_nodes: bool = False  # the nodes move with the full velocity (mesh.motion: lagrangian)
     kappa: float = 0.0  # Helfrich bending rigidity (rigidity.bending; 0 without the effect bending_rigidity)
     c0: float = 0.0  # spontaneous curvature (rigidity.spontaneous_curvature, C = 2/R on a sphere)
+    fluid: Fluid | None = None  # the fluids (effect ``fluids``); None without it
+
+    @property
+    def fluids(self) -> bool:
+        """Whether the cortex lies between two Stokes fluids (they then fix the rigid motions)."""
+        return "fluids" in self.effects
 
     @property
     def centroid_gauge(self) -> bool:

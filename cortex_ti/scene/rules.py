@@ -12,13 +12,19 @@ from ..physics.model import EFFECTS
 from ..surface.mesh import icosphere_sizes
 from .schema import current_schema, fmt_value
 
-__all__ = ["check_rules", "VALID_NODE_COUNTS"]
+__all__ = ["check_rules", "FLUIDS_MAX_NODES", "VALID_NODE_COUNTS", "fluids_size_message"]
 
 #: Icosphere node counts 10*4^k+2 accepted for mesh.nodes (k = 0..7).
 VALID_NODE_COUNTS: tuple[int, ...] = tuple(icosphere_sizes(7))
 
 #: Effects that need the normal force balance.
-_NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution")
+_NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution", "fluids")
+
+#: The most nodes a scene with the effect ``fluids`` may have: its boundary-integral map is dense, (3N)^2
+#: doubles built and factorised on every solve. Measured (docs/validation/fluids.md, "Cost of a step"):
+#: at 2562 nodes 1.8 GB and 29 CPU seconds per step on one thread; 10242 nodes would need 16 times the
+#: memory (~28 GB, more than this 24 GB machine) and 64 times the time (~30 minutes a step).
+FLUIDS_MAX_NODES = 2562
 
 
 def check_rules(data: dict) -> None:
@@ -39,6 +45,7 @@ def check_rules(data: dict) -> None:
     _check_motion(data)
     _check_remesh(data)
     _check_curved(data)
+    _check_fluids(data, effects)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
 
@@ -72,6 +79,78 @@ def _check_rigidity(data: dict, seen: set[str]) -> None:
             "on flat triangles converges, docs/validation/bending_rigidity.md): set numerics.formulation: rayleigh_p2 "
             "or model: axisymmetric"
         )
+
+
+def _check_fluids(data: dict, seen: set[str]) -> None:
+    """The effect ``fluids`` (docs/guide/fluids.md): its keys only with it; a positive medium and a
+    cytoplasm of viscosity >= 0; the far field's values only with their type; the 3D ``rayleigh_p1``
+    dynamics with its volume constraint, no gauge, no remeshing, a mesh the dense method can hold."""
+    fluid = data["fluid"]
+    far = fluid["far_field"]
+    if "fluids" not in seen:
+        changed = (
+            [f"fluid.{k} = {fmt_value(fluid[k])}" for k, d in (("inner", 1.0), ("outer", 1.0)) if fluid[k] != d]
+            + (["fluid.body_force"] if any(fluid["body_force"]) else [])
+            + ([f"fluid.far_field.type = {far['type']}"] if far["type"] != "none" else [])
+        )
+        if changed:
+            raise SceneError(f"{changed[0]} but the effect 'fluids' is off: add it to effects or remove the key")
+        return
+    if data["model"] == "axisymmetric":
+        raise SceneError(
+            "the effect 'fluids' with model = axisymmetric: the axisymmetric fluid coupling "
+            "(cortex_ti/axisymmetric/stokes.py) is static only, it has no dynamics yet; use model: 3d"
+        )
+    formulation = data["numerics"]["formulation"]
+    if formulation != "rayleigh_p1":
+        raise SceneError(
+            f"the effect 'fluids' with numerics.formulation = {formulation}: the fluids' dissipation is a term of "
+            "the Rayleighian on flat triangles only; use numerics.formulation: rayleigh_p1"
+        )
+    if not fluid["outer"] > 0:
+        raise SceneError(
+            f"fluid.outer = {fmt_value(fluid['outer'])} must be > 0: the medium's drag is what fixes the cell's "
+            "rigid motions (for a cortex in vacuum remove the effect 'fluids')"
+        )
+    if fluid["inner"] < 0:
+        raise SceneError(f"fluid.inner = {fmt_value(fluid['inner'])} must be >= 0 (a viscosity)")
+    if far["type"] != "uniform" and any(far["velocity"]):
+        raise SceneError(
+            f"fluid.far_field.velocity is the velocity of type uniform, not of type {far['type']}: remove it or set "
+            "fluid.far_field.type: uniform"
+        )
+    if far["type"] not in ("shear", "extension") and far["rate"] != 0:
+        raise SceneError(
+            f"fluid.far_field.rate = {fmt_value(far['rate'])} is the rate of type shear or extension, not of type "
+            f"{far['type']}: remove it or set fluid.far_field.type"
+        )
+    if "incompressibility" not in seen:
+        raise SceneError(
+            "the effect 'fluids' needs the effect 'incompressibility': the cytoplasm is an incompressible fluid, so "
+            "the enclosed volume is kept"
+        )
+    if data["translation"] == "centroid":
+        raise SceneError(
+            "translation = centroid with the effect 'fluids': the medium fixes the cell's translation and rotation, "
+            "a gauge would contradict it; remove translation (no gauge is applied with fluids)"
+        )
+    if (data["mesh"].get("remesh") or {}).get("min_angle") is not None:
+        raise SceneError(
+            "mesh.remesh with the effect 'fluids' is not implemented (the remeshing's settling steps and the "
+            "dense operator on a changing node count are untested): remove mesh.remesh"
+        )
+    nodes = data["mesh"].get("nodes")
+    if nodes is not None and nodes > FLUIDS_MAX_NODES:
+        raise SceneError(fluids_size_message(nodes))
+
+
+def fluids_size_message(nodes: int) -> str:
+    """Why a mesh of ``nodes`` nodes is refused with the effect ``fluids`` (also for a mesh file)."""
+    return (
+        f"mesh of {nodes} nodes with the effect 'fluids': the dense boundary-integral method holds at most "
+        f"{FLUIDS_MAX_NODES} nodes (its (3N)^2 matrices are built and factorised on every solve: 1.8 GB and "
+        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242; docs/guide/fluids.md)"
+    )
 
 
 def _check_formulation_keys(numerics: dict) -> None:

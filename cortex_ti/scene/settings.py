@@ -21,8 +21,9 @@ import numpy as np
 
 from ..dynamics.schemes import SCHEMES
 from ..physics.formulations import FORMULATIONS
-from ..physics.model import Physics
+from ..physics.model import Fluid, Physics
 from ..physics.patterns import pattern_axis
+from ..solve.dense import DENSE_BACKEND
 from ..solve.factorizations import choose_factorization
 from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
 
@@ -211,6 +212,7 @@ class RunSettings:
     time: TimeSettings
     axisymmetric: AxisymmetricSettings
     rigidity: RigiditySettings = RigiditySettings()
+    fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -292,7 +294,14 @@ class RunSettings:
                 float(data["rigidity"]["bending"]) if "bending_rigidity" in effects else 0.0,
                 float(data["rigidity"]["spontaneous_curvature"]),
             ),
+            fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
         )
+
+    @property
+    def solver_name(self) -> str:
+        """The solve that runs, as the outputs record it: the dense Cholesky of the fluids
+        (:data:`cortex_ti.solve.dense.DENSE_BACKEND`) with the effect ``fluids``, else the sparse backend."""
+        return DENSE_BACKEND if self.fluid is not None else self.solver.backend
 
     def has(self, effect: str) -> bool:
         """Whether ``effect`` is switched on."""
@@ -328,6 +337,7 @@ class RunSettings:
             material_nodes=self.mesh.motion == "lagrangian",
             kappa=self.rigidity.bending,
             c0=self.rigidity.spontaneous_curvature if self.rigidity.bending > 0 else 0.0,
+            fluid=self.fluid,
         )
 
     @property
@@ -345,10 +355,29 @@ class RunSettings:
         if num.formulation == "paper":
             w = num.fit_residual_weight
             return f"formulation paper, {num.fit} fit; fit-residual rows {'off' if not w else f'at {w:g}'}{held}"
+        fl = self.fluid
+        fluids = (
+            ""
+            if fl is None
+            else f"; fluids mu_in = {fl.inner:g}, mu_out = {fl.outer:g}, far field {fl.far_field} (dense, no gauge)"
+        )
         return (
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
-            f"active force {num.active_force}{held}"
+            f"active force {num.active_force}{held}{fluids}"
         )
+
+
+def _fluid_settings(data: dict) -> Fluid:
+    """``fluid`` resolved (the effect ``fluids`` on): floats, tuples, the far field's type and values."""
+    far = data["far_field"]
+    return Fluid(
+        inner=float(data["inner"]),
+        outer=float(data["outer"]),
+        body_force=tuple(float(b) for b in data["body_force"]),
+        far_field=far["type"],
+        velocity=tuple(float(u) for u in far["velocity"]),
+        rate=float(far["rate"]),
+    )
 
 
 def _remesh_settings(data: dict) -> RemeshSettings | None:

@@ -89,6 +89,12 @@ def frame_modes(
     if not os.path.exists(trajectory):
         raise CortexError(f"trajectory file '{trajectory}' does not exist")
     tr = Trajectory(trajectory)
+    if tr.scene.settings.fluid is not None:
+        raise CortexError(
+            f"'{trajectory}' is a run with the effect 'fluids': the modes of its frames are not implemented (the "
+            "linearisation has no shape derivative of the fluids' operator, and their dense solve keeps no "
+            "factorisation to linearise with)"
+        )
     t_all = np.asarray(tr.times, dtype=float)
     if times:
         half = 0.5 * float(np.max(np.diff(t_all))) if len(t_all) > 1 else 0.0

@@ -89,7 +89,7 @@ def run_summary(sim: Simulation) -> dict:
         "model": s.model,
         "n_nodes": sim.mesh.n_nodes,
         "fit": s.numerics.fit,
-        "solver_backend": s.solver.backend,
+        "solver_backend": s.solver_name,
         "effects": sorted(s.effects),
         "steps": st.steps if st is not None else 0,
         "rejected": st.rejected if st is not None else 0,

@@ -113,7 +113,7 @@ def output_attrs(sim: Simulation) -> dict:
         "scene": sim.scene.to_yaml(),
         "effects": ",".join(sorted(s.effects)),
         "fit_scheme": s.numerics.fit,
-        "solver_backend": s.solver.backend,
+        "solver_backend": s.solver_name,
         "n_nodes": sim.mesh.n_nodes,
         **provenance(),
     }

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import CortexError
+from ..errors import CortexError, SceneError
 from ..physics.fields import scene_fields
 from ..physics.patterns import evaluate_active_stress
+from ..scene.rules import FLUIDS_MAX_NODES, fluids_size_message
 from ..scene.settings import RunSettings
 from ..surface.mesh import Mesh, affine, icosphere
 from ..surface.reading import load_mesh
@@ -147,6 +148,8 @@ class SceneSetup:
         self.scene = scene
         self.settings = settings = scene.settings
         self.undeformed = mesh or initial_mesh(settings)
+        if settings.fluid is not None and self.undeformed.n_nodes > FLUIDS_MAX_NODES:  # a mesh file's size
+            raise SceneError(fluids_size_message(self.undeformed.n_nodes))
         self.topology = build_topology(self.undeformed)
         # the fields are assigned on the undeformed mesh, then the mesh is deformed
         values = initial_fields(self.undeformed, settings)

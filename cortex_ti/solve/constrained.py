@@ -55,7 +55,7 @@ from __future__ import annotations
 import logging
 import re
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -63,34 +63,16 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from ..errors import SolverError
+from .dense import solve_dense
 from .factorizations import choose_factorization
 from .krylov import gmres_right
-from .system import EnergySystem, LinearSystem, rigid_motion_rows
+from .system import EnergySystem, LinearSystem, SolveInfo, rigid_motion_rows
 
 System = LinearSystem | EnergySystem
 
 log = logging.getLogger(__name__)
 
 __all__ = ["ConstrainedSolver", "ConstrainedLeastSquares", "RefactorRule", "SolveInfo", "PIN_NODES", "pin_rows"]
-
-
-@dataclass
-class SolveInfo:
-    """What the solve achieved; all values are measured, none assumed."""
-
-    backend: str
-    force_residual: float  # the unbalanced force: |M x + p P - r| (least squares) or
-    # |K x + F^T lambda - f| (energy system)
-    rhs_norm: float  # |r| or |f|
-    constraint_violation: float  # max_j |G_j x| / (|G_j| |x|)
-    kkt_residual: float  # relative residual of the bordered normal equations
-    iterations: int = 0  # GMRES iterations (0: direct solve)
-    refactored: bool = True
-    seconds: dict = field(default_factory=dict)
-
-    @property
-    def relative_residual(self) -> float:
-        return self.force_residual / self.rhs_norm if self.rhs_norm > 0 else self.force_residual
 
 
 @dataclass
@@ -286,6 +268,7 @@ class ConstrainedSolver:
         self.rule = RefactorRule(self.factor_cls.refactor_cost)
         self.n_factorizations = 0
         self.n_iterations = 0  # GMRES iterations over all solves
+        self.dense_last = False  # whether the last solve was dense (solve/dense.py)
 
     @property
     def backend(self) -> str:
@@ -308,7 +291,14 @@ class ConstrainedSolver:
         self.rule = RefactorRule(self.factor_cls.refactor_cost)
 
     def solve(self, system: System, points: np.ndarray) -> tuple[np.ndarray, float, SolveInfo]:
-        """Return velocity unknowns ``x``, pressure ``P`` (0 without it) and diagnostics."""
+        """Return velocity unknowns ``x``, pressure ``P`` (0 without it) and diagnostics; a system
+        with a dense part (the fluids') is solved densely (:mod:`cortex_ti.solve.dense`)."""
+        if getattr(system, "dense", None) is not None:
+            x, pressure, _, info = solve_dense(system)
+            self._last, self._pre, self.dense_last = None, None, True
+            self.n_factorizations += 1
+            return x, pressure, info
+        self.dense_last = False
         t0 = time.perf_counter()
         bordered = self._bordered_system(system, points)
         t1 = time.perf_counter()
@@ -478,6 +468,8 @@ class ConstrainedSolver:
         (if the pressure is a separate unknown), then one entry per constraint row. ``b_x`` may
         have several columns. Needs the factorisation of that very system: the last solve must
         have factorised (``reuse=False``)."""
+        if self._last is None and self.dense_last:
+            raise SolverError("kkt_solve: the last solve was dense (the effect fluids), it keeps no factorisation")
         if self._last is None:
             raise SolverError("kkt_solve needs the factorisation of the last solve (solve with reuse=False)")
         b, _ = self._last

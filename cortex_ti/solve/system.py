@@ -24,7 +24,26 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["LinearSystem", "EnergySystem", "NormalEquations", "rigid_motion_rows"]
+__all__ = ["LinearSystem", "EnergySystem", "NormalEquations", "SolveInfo", "rigid_motion_rows"]
+
+
+@dataclass
+class SolveInfo:
+    """What the solve achieved; all values are measured, none assumed."""
+
+    backend: str
+    force_residual: float  # the unbalanced force: |M x + p P - r| (least squares) or
+    # |K x + F^T lambda - f| (energy system)
+    rhs_norm: float  # |r| or |f|
+    constraint_violation: float  # max_j |G_j x| / (|G_j| |x|)
+    kkt_residual: float  # relative residual of the bordered normal equations
+    iterations: int = 0  # GMRES iterations (0: direct solve)
+    refactored: bool = True
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def relative_residual(self) -> float:
+        return self.force_residual / self.rhs_norm if self.rhs_norm > 0 else self.force_residual
 
 
 @dataclass
@@ -140,6 +159,9 @@ class EnergySystem(_Unknowns):
     #: ``(U, V)`` (unknowns, k), a low-rank part of the matrix: ``K + U V^T`` (dense columns the
     #: solver borders with k extra unknowns ``y = V^T x``, so ``K`` stays sparse)
     low_rank: tuple[np.ndarray, np.ndarray] | None = None
+    #: (unknowns, unknowns) a dense symmetric part of the matrix, ``K + D`` (the fluids'): the solver
+    #: then factorises the whole matrix densely (:mod:`cortex_ti.solve.dense`)
+    dense: np.ndarray | None = None
     pressure_column = None  # the pressure is a multiplier, not a separate unknown
 
     @property
@@ -161,10 +183,13 @@ class EnergySystem(_Unknowns):
         out = self.stiffness @ x + rows.T @ multipliers - self.rhs
         if self.low_rank is not None:
             out = out + self.low_rank[0] @ (self.low_rank[1].T @ x)
+        if self.dense is not None:
+            out = out + self.dense @ x
         return out
 
     def unsquared_residual(self, x: np.ndarray, pressure: float) -> tuple[np.ndarray, float]:
-        return self.rhs - self.stiffness @ x, 0.0
+        out = self.rhs - self.stiffness @ x
+        return (out if self.dense is None else out - self.dense @ x), 0.0
 
     def measure(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[float, float]:
         """``(|K x + F^T lambda - f|, |f|)``: the force balance the solve leaves unbalanced."""

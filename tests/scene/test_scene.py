@@ -53,11 +53,13 @@ FURROWS = [
 ]
 #: issue 20's scenes: a myosin cortex that organises itself
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
+#: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
+FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
-    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN)
-    for name in SHIPPED + FURROWS + MYOSIN:
+    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN + FLUIDS)
+    for name in SHIPPED + FURROWS + MYOSIN + FLUIDS:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
         assert path.parent.parent.name == "scene"  # package data of cortex_ti.scene
@@ -185,6 +187,7 @@ def test_effects_vocabulary():
         "fixed_normal_velocity",
         "incompressibility",
         "shape_evolution",
+        "fluids",
     ]
     assert all(isinstance(d, str) and d for d in EFFECTS.values())
     assert VALID_NODE_COUNTS == (12, 42, 162, 642, 2562, 10242, 40962, 163842)
@@ -241,6 +244,7 @@ def test_defaults_and_canonical_numbers():
         "mesh",
         "viscosity",
         "rigidity",
+        "fluid",
         "active_stress",
         "fields",
         "effects",
@@ -324,7 +328,7 @@ def test_error_names_the_scene_file(tmp_path):
         (
             "foo=1",
             "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
-            "viscosity, rigidity, "
+            "viscosity, rigidity, fluid, "
             "active_stress, fields, effects, numerics, solver, time, axisymmetric)",
         ),
         # wrong types

@@ -7,7 +7,7 @@ loop over the terms of the enabled effects. Importing the registry starts no Tai
 """
 
 from ..model import Physics
-from . import active, bending, constraints, implicit_tension, rigidity, viscous  # noqa: F401  (registration)
+from . import active, bending, constraints, fluids, implicit_tension, rigidity, viscous  # noqa: F401  (registration)
 from .base import (
     TERMS,
     Constraint,

@@ -33,7 +33,8 @@ that formulation, taking that formulation's context:
     eta_b/2 (tr U_T)^2]``, a tensor ``B^cd`` (:meth:`P1Context.add_normal_form`) of
     ``1/2 int B^cd d_c v_n d_d v_n dA`` (clipped to its positive semidefinite part per
     triangle), a nodal drag ``normal_drag`` of ``1/2 sum_k A_k beta_k v_n,k^2``, raw per-triangle
-    9x9 blocks (:meth:`P1Context.add_blocks`), per-triangle forces
+    9x9 blocks (:meth:`P1Context.add_blocks`), a dense (3N, 3N) block (:meth:`P1Context.add_dense`,
+    the fluids'), per-triangle forces
     (:meth:`P1Context.add_triangle_force`, the power ``f . v``) and constraint rows with their
     multipliers.
 
@@ -181,6 +182,7 @@ class P1Context(Context):
     blocks: np.ndarray | None = None  # (T, 9, 9) second derivatives of further dissipation
     triangle_force: np.ndarray | None = None  # (T, 9): the power sum_T f_T . (v_a, v_b, v_c)
     node_force: np.ndarray | None = None  # (N, 3): the power sum_k f_k . v_k
+    dense: np.ndarray | None = None  # (3N, 3N) a dense symmetric dissipation (the fluids'), added to the sparse one
 
     formulation = "rayleigh_p1"
 
@@ -198,6 +200,11 @@ class P1Context(Context):
 
     def add_node_force(self, force: np.ndarray) -> None:
         self.node_force = _plus(self.node_force, force)
+
+    def add_dense(self, block: np.ndarray) -> None:
+        """A dense symmetric positive semidefinite (3N, 3N) dissipation: the system is then solved
+        densely (:mod:`cortex_ti.solve.dense`)."""
+        self.dense = _plus(self.dense, block)
 
 
 @dataclass

@@ -1,7 +1,8 @@
 r"""Pressure and the constraints of paper Sec. 3.2, each with a Lagrange multiplier.
 
-* Rigid-body gauge (always on: the force balance contains only derivatives of the
-  velocity, so a rigid motion can be added to any solution): zero total velocity
+* Rigid-body gauge (on unless the effect ``fluids`` is, whose medium fixes the rigid motions; the
+  cortex's force balance contains only derivatives of the velocity, so a rigid motion can be added
+  to any solution): zero total velocity
   ``sum_i A_i v_i = 0`` (Eq. 36; or, with the scene's ``translation: centroid``, the enclosed
   volume's centroid held, ``sum_i A_i (x_i - x_c) v_n,i = 0``) and zero angular momentum
   ``sum_i A_i (x_i - x_c) x v_i = 0`` (Eq. 37), ``A_i`` the Meyer mixed area, ``x_c``
@@ -77,6 +78,9 @@ def gauge_rows(geometry, physics) -> np.ndarray:
 class RigidBodyGauge(Term):
     effect = None
     name = "zero total velocity and angular momentum"
+
+    def applies(self, ctx: Context) -> bool:
+        return not ctx.physics.fluids  # the medium fixes the rigid motions (physics/terms/fluids.py)
 
     def paper(self, ctx: Context) -> None:
         ctx.constraints.append(Constraint("momentum", gauge_rows(ctx.geometry, ctx.physics)))

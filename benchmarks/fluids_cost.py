@@ -1,0 +1,159 @@
+"""What a step with the effect ``fluids`` costs (issue 36): the dense boundary-integral method per
+solve, by stage, and its memory, at several node counts.
+
+One solve is one step of the scenes' schemes (bdf2, Euler: one solve a step; Heun and the adaptive
+schemes: two). Stages of a solve of ``furrow_in_fluid`` on its initial shape: the geometry (fits,
+normals), the fluids' operator (:func:`cortex_ti.physics.fluids.fluid_operator`: the single layer's
+quadrature, its Cholesky factorisation and ``D = A V^-1 A``, timed on its own), the rest of the
+assembly (the sparse cortex terms), the densification of ``K + D`` and the dense Cholesky solve with
+its refinement (:mod:`cortex_ti.solve.dense`). Memory: the peak of NumPy's allocations over one solve
+(``tracemalloc``: LAPACK's own workspace is not in it) and the process's peak resident size. Wall and
+CPU seconds (the machine is shared: CPU seconds are the steadier number on one thread).
+
+``--sediment``: instead, the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
+static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
+measure a run gives, the rate of the enclosed polyhedron's volume centroid as the nodes move along
+their normals by ``v_n``, against Boussinesq-Scriven; and the t = 0 flow's largest non-rigid normal
+speed.
+
+Usage::
+
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 162 642 2562
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --sediment --nodes 162 642 2562
+    python benchmarks/fluids_cost.py --smoke
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import sys
+import time
+import tracemalloc
+
+import _bench  # benchmarks/_bench.py: what the scripts share
+
+
+def clocks():
+    return time.perf_counter(), time.process_time()
+
+
+def since(start) -> tuple[float, float]:
+    wall, cpu = clocks()
+    return wall - start[0], cpu - start[1]
+
+
+def measure(nodes: int) -> dict:
+    """The stages of one solve of furrow_in_fluid at ``nodes`` nodes (module docstring)."""
+    from cortex_ti.physics.fluids import fluid_operator
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sim = Simulation(load_scene("furrow_in_fluid", [f"mesh.nodes={nodes}"]))
+    fluid = sim.settings.fluid
+    x = sim.mesh.points
+    geo = sim.shape_geometry(x)  # compiles the kernels: not timed
+    if nodes <= 162:  # warm-up of the small case's code paths
+        sim.solve(x)
+    start = clocks()
+    geo = sim.shape_geometry(x)
+    geometry = since(start)
+    start = clocks()
+    fluid_operator(x, sim.mesh.faces, geo.normal, mu_in=fluid.inner, mu_out=fluid.outer, measure=False)
+    operator = since(start)
+    tracemalloc.start()
+    start = clocks()
+    sol = sim.solve(x)
+    whole = since(start)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    s = sol.info.seconds
+    return {
+        "nodes": nodes,
+        "unknowns": 3 * nodes,
+        "geometry": geometry[0],
+        "operator": operator[0],
+        "operator_cpu": operator[1],
+        "assembly": sol.seconds["assembly"],
+        "densify": s["normal_equations"],
+        "factor_solve": s["factor_solve"],
+        "solve_wall": whole[0],
+        "solve_cpu": whole[1],
+        "peak_numpy_gb": peak / 2**30,
+        "peak_rss_gb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+        "residual": sol.info.relative_residual,
+    }
+
+
+def volume_centroid(x, tri):
+    """The centroid of the volume the triangles enclose (exact for the polyhedron)."""
+    import numpy as np
+
+    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
+    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
+    return (v[:, None] * (a + b + c) / 4.0).sum(0) / v.sum()
+
+
+def sediment(nodes: int) -> str:
+    """One row of ``--sediment`` (module docstring)."""
+    import numpy as np
+
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+    from cortex_ti.truth import fluid_sphere as fs
+
+    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}"]))
+    x, tri = sim.mesh.points, sim.mesh.faces
+    sol = sim.solve(x)
+    vn = np.einsum("nc,nc->n", sol.velocity, sol.normal)
+    eps = 1e-6
+    move = eps * vn[:, None] * sol.normal
+    rate = (volume_centroid(x + move, tri) - volume_centroid(x - move, tri)) / (2 * eps)
+    exact = fs.sedimentation_velocity(1.0, mu_in=1.0, mu_out=1.0, eta_s=1.0, eta_b=1.0)
+    n = x / np.linalg.norm(x, axis=1)[:, None]
+    vn = np.einsum("nc,nc->n", sol.velocity, n)
+    nonrigid = np.abs(vn - n @ np.linalg.lstsq(n, vn, rcond=None)[0]).max()
+    return f"| {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} |"
+
+
+def table(rows: list[dict]) -> str:
+    out = [
+        "| nodes | geometry (s) | operator (s, CPU s) | assembly incl. operator (s) | K + D dense (s) | "
+        "Cholesky + solve (s) | one solve (s, CPU s) | peak NumPy memory (GB) | peak RSS (GB) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        out.append(
+            f"| {r['nodes']} | {r['geometry']:.2f} | {r['operator']:.2f} ({r['operator_cpu']:.2f}) | "
+            f"{r['assembly']:.2f} | {r['densify']:.2f} | {r['factor_solve']:.2f} | "
+            f"{r['solve_wall']:.2f} ({r['solve_cpu']:.2f}) | {r['peak_numpy_gb']:.3f} | {r['peak_rss_gb']:.2f} |"
+        )
+    return "\n".join(out) + "\n"
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
+    parser.add_argument("--sediment", action="store_true", help="the run tests' static bound instead (docstring)")
+    parser.add_argument("--smoke", action="store_true", help=_bench.HELP)
+    args = parser.parse_args(argv)
+    nodes = [162] if args.smoke else args.nodes
+    threads = os.environ.get("OMP_NUM_THREADS", "unset")
+    print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}"))
+    if args.sediment or args.smoke:
+        print("| nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed |")
+        print("|---|---|---|---|")
+        for n in nodes:
+            print(sediment(n), flush=True)
+        if args.sediment:
+            return
+    rows = []
+    for n in nodes:
+        rows.append(measure(n))
+        print(f"<!-- {n} nodes: relative residual {rows[-1]['residual']:.1e} -->", flush=True)
+    print(table(rows))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

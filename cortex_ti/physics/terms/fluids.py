@@ -1,0 +1,42 @@
+r"""A cytoplasm and a medium as Stokes fluids (the effect ``fluids``, issue 36): formulation
+``rayleigh_p1`` only.
+
+On every solve the fluids' dissipation ``D`` on the current shape
+(:func:`cortex_ti.physics.fluids.fluid_operator`: the boundary-integral map, rebuilt because it
+depends on the shape) is added to the Rayleighian as a dense block (:attr:`P1Context.dense`), and the
+forces from outside as nodal forces: the far field's ``mu_out A S^-1 A u_inf`` and the cytoplasm's
+hydrostatic pressure ``(b . x) n`` of a body force ``b`` (:func:`~cortex_ti.physics.fluids.body_force_nodes`).
+The medium fixes the rigid translation and rotation, so the rigid-body gauge does not apply with
+this effect (:class:`~cortex_ti.physics.terms.constraints.RigidBodyGauge`); the volume constraint
+stays (the scene rules ask for ``incompressibility``). The system is then solved densely
+(:mod:`cortex_ti.solve.dense`). The paper's strong form and the curved cells have no term: the scene
+rules refuse the effect there.
+"""
+
+from __future__ import annotations
+
+from .base import P1Context, Term, register
+
+
+@register
+class Fluids(Term):
+    effect = "fluids"
+    name = "inner and outer Stokes fluids"
+    paper = None
+    rayleigh_p2 = None
+
+    def rayleigh_p1(self, ctx: P1Context) -> None:
+        from ..fluids import body_force_nodes, fluid_operator
+
+        fluid, g = ctx.physics.fluid, ctx.geometry
+        if fluid is None:  # the effect on without its settings: resolved by RunSettings, never here
+            from ...errors import SolverError
+
+            raise SolverError("the effect 'fluids' needs its settings (Physics.fluid)")
+        op = fluid_operator(g.points, ctx.faces, g.normal, mu_in=fluid.inner, mu_out=fluid.outer, measure=False)
+        ctx.add_dense(op.dissipation)
+        far = fluid.far_velocity(g.points)
+        if far is not None:
+            ctx.add_node_force(op.far_force(far).reshape(-1, 3))
+        if fluid.has_body_force:
+            ctx.add_node_force(body_force_nodes(g.points, ctx.faces, fluid.body_force))
