@@ -37,10 +37,10 @@ def main(argv=None) -> int:
     p.add_argument("--out", type=Path, default=Path("docs/figures"))
     p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
-    if args.smoke:  # one fold and one shear scene, tiny, to t = 0.1
+    if args.smoke:  # one fold and one shear scene, tiny, to t = 0.04 (past two of the snapshot times)
         args.runs = args.out = _bench.folder()
         for name in ("fold_narrow", "shear_035"):
-            _bench.tiny_run(name, t_end=0.1, where=args.runs)
+            _bench.tiny_run(name, t_end=0.04, where=args.runs)
     if args.runs is None:
         p.error("--runs is required")
     args.out.mkdir(parents=True, exist_ok=True)

@@ -124,7 +124,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     sets = [f"mesh.nodes={args.nodes}"]
     if args.smoke:
-        args.nodes, sets = 162, ["mesh.nodes=162", "time.t_end=0.3"]
+        # three frames a run (two scenes save every 0.01): enough for every table and fit below
+        args.nodes, sets = 162, ["mesh.nodes=162", "time.t_end=0.1", "time.save_every=0.05"]
     where = _bench.folder() if args.smoke or args.keep is None else args.keep
     where.mkdir(parents=True, exist_ok=True)
     from cortex_ti.studies import self_organisation as so
