@@ -52,14 +52,15 @@ def totals(path: Path, cells: str = "flat"):
 
 def run(sim, out: Path):
     """Run ``sim`` to ``out``; the frames' times, totals and areas, and the steps (or, when the guard
-    stops the run, the time reached) and the guard's reason (empty if it ran to its end)."""
-    from cortex_ti.errors import StabilityError
+    or a mesh the fit cannot take stops the run, the time reached) and the reason (empty if it ran
+    to its end)."""
+    from cortex_ti.errors import MeshError, StabilityError
     from cortex_ti.io.trajectory import partial_path
 
     cells = sim.transport["myosin"].cells
     try:
         path = sim.run(out, progress=False)
-    except StabilityError as exc:
+    except (StabilityError, MeshError) as exc:  # the guard, or a fit the distorted mesh defeats
         t, m, a = totals(partial_path(out), cells)
         return t, m, a, f"t = {t[-1]:g}", str(exc).split(":")[0]
     return (*totals(path, cells), sim.summary()["steps"], "")
@@ -140,7 +141,10 @@ def main(argv=None) -> int:
                     if why
                 ]
     if stops:
-        print("\nRuns the guard stopped (their frames up to the stop are in the table; steps: t reached):\n")
+        print(
+            "\nRuns stopped early by the guard or the mesh (their frames up to the stop are in the table; "
+            "steps: t reached):\n"
+        )
         print("\n".join(f"- {s}" for s in stops))
     import shutil
 
