@@ -13,11 +13,17 @@ gauges differ), ``tension_transport: material``, ``mesh.motion: lagrangian``, no
 ``numerics.active_force`` from ``--force`` (default ``gradient``), ``bdf2`` with ``time.tol`` 1e-10
 (``solver.rtol`` 1e-12 so the tolerance is allowed). ``--set`` changes anything (a scheme, a step).
 
+``--keep DIR --gauges centroid`` runs one gauge into ``DIR/centroid.h5`` (so the two gauges can run
+as two processes), and ``--compare DIR`` compares the frames the two trajectories in ``DIR`` have in
+common, finished or still being written (``.partial``).
+
 Usage::
 
     python benchmarks/gauge_run.py                              # 642 nodes, t = 0.5, gradient
     python benchmarks/gauge_run.py --force balanced --nodes 2562
     python benchmarks/gauge_run.py --shift 0.3 -0.2 0.5 --t-end 0.05
+    python benchmarks/gauge_run.py --force balanced --nodes 2562 --keep d --gauges centroid   # and mean_velocity
+    python benchmarks/gauge_run.py --compare d
 
 Cost (one core): 642 nodes to t = 0.5 about 15 s a run (1650 steps), 2562 nodes about 2.5 min.
 """
@@ -56,6 +62,23 @@ def scene_data(nodes, t_end, frames, force, sets):
     return data
 
 
+def frames(path):
+    """Times and points of the committed frames of a trajectory, finished or being written."""
+    from cortex_ti.io.readers import load_trajectory
+
+    ds = load_trajectory(path)
+    return ds["time"].values.copy(), ds["points"].values.copy()
+
+
+def table(times, xa, xb, header: str) -> None:
+    print(f"\n{header}")
+    print("| t | centroid distance | largest difference, centred | after the best rotation |")
+    print("|---|---|---|---|")
+    for k in range(min(len(xa), len(xb))):
+        d, c, r = compare(xa[k], xb[k])
+        print(f"| {times[k]:.4g} | {d:.3e} | {c:.2e} | {r:.2e} |")
+
+
 def run(data, gauge, where, name, shift=None):
     """The frames (times, points) of one run and its steps."""
     from cortex_ti.dynamics.state import State
@@ -91,14 +114,32 @@ def main(argv=None) -> int:
     p.add_argument("--force", default="gradient", help="numerics.active_force")
     p.add_argument("--shift", type=float, nargs=3, default=None, help="compare with the start moved by this vector")
     p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE")
+    p.add_argument("--gauges", nargs="+", default=None, help="run only these gauges (with --keep)")
+    p.add_argument("--keep", default=None, help="write the trajectories into this folder and keep them")
+    p.add_argument("--compare", default=None, metavar="DIR", help="compare the two gauges' trajectories in DIR")
     p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = p.parse_args(argv)
+    if args.compare is not None:
+        from pathlib import Path
+
+        (ta, xa), (tb, xb) = (frames(Path(args.compare) / f"{g}.h5") for g in ("mean_velocity", "centroid"))
+        n = min(len(ta), len(tb))
+        if not np.allclose(ta[:n], tb[:n]):
+            raise SystemExit("the two trajectories' frame times differ")
+        table(ta[:n], xa, xb, f"gauges, {args.compare}: the frames both runs have reached")
+        return 0
     if args.smoke:
         args.nodes, args.t_end, args.frames = 162, 0.004, 2
-    where = _bench.folder()
+    if args.keep is not None:
+        from pathlib import Path
+
+        where = Path(args.keep)
+        where.mkdir(parents=True, exist_ok=True)
+    else:
+        where = _bench.folder()
     data = scene_data(args.nodes, args.t_end, args.frames, args.force, args.sets)
     if args.shift is None:
-        cases = [("mean_velocity", "mean_velocity", None), ("centroid", "centroid", None)]
+        cases = [(g, g, None) for g in (args.gauges or ["mean_velocity", "centroid"])]
     else:
         cases = [("mean_velocity", "here", None), ("mean_velocity", "shifted", np.array(args.shift))]
     out = []
@@ -106,14 +147,11 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         out.append(run(data, gauge, where, name, shift))
         print(f"{name}: {out[-1][2]} steps, {time.perf_counter() - t0:.0f} s", flush=True)
+    if len(out) != 2:
+        return 0
     (times, xa, _), (_, xb, _) = out
     what = "start moved" if args.shift is not None else "gauges"
-    print(f"\n{args.nodes} nodes, active_force {args.force}, {what}; {' '.join(args.sets)}")
-    print("| t | centroid distance | largest difference, centred | after the best rotation |")
-    print("|---|---|---|---|")
-    for k, t in enumerate(times):
-        d, c, r = compare(xa[k], xb[k])
-        print(f"| {t:.4g} | {d:.3e} | {c:.2e} | {r:.2e} |")
+    table(times, xa, xb, f"{args.nodes} nodes, active_force {args.force}, {what}; {' '.join(args.sets)}")
     return 0
 
 

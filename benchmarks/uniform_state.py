@@ -17,6 +17,8 @@ what they test):
 
     python benchmarks/uniform_state.py t0 --nodes 162 642 2562
     python benchmarks/uniform_state.py run --run-nodes 162 642 --t-end 20
+    python benchmarks/uniform_state.py run --run-nodes 642 --motions lagrangian --forces balanced \
+        --set numerics.formulation=rayleigh_p2 --set numerics.fit=quartic     # <c> on the curved cells
     python benchmarks/uniform_state.py axisym --axisym-nodes 642
     python benchmarks/uniform_state.py --smoke
     python benchmarks/page.py uniform_state --title "The uniform state" -- uniform_state all \
@@ -104,21 +106,30 @@ def t0_rows(nodes_list, forces=FORCES) -> list[dict]:
 
 
 def run_rows(
-    nodes_list, t_end: float, motions=MOTIONS, forces=FORCES, dt: float = 0.01, where=None, scheme: str = "euler"
+    nodes_list,
+    t_end: float,
+    motions=MOTIONS,
+    forces=FORCES,
+    dt: float = 0.01,
+    where=None,
+    scheme: str = "euler",
+    sets=(),
 ) -> list[dict]:
     """Uniform myosin to ``t_end`` with each mesh motion: its deviation from uniform over time
-    (``scheme``: ``time.scheme``; ``dt`` its step, bdf2's first step)."""
+    (``scheme``: ``time.scheme``; ``dt`` its step, bdf2's first step; ``sets`` further scene
+    overrides, e.g. ``numerics.formulation=rayleigh_p2``)."""
     import xarray as xr
 
+    from cortex_ti.dynamics.state import State
     from cortex_ti.simulation.core import Simulation
-    from cortex_ti.surface.transport import dual_areas
 
     rows = []
     with tempfile.TemporaryDirectory(dir=where) as tmp:
         for force in forces:
             for nodes in nodes_list:
                 for motion in motions:
-                    sets = [
+                    over = [
+                        *sets,
                         f"numerics.active_force={force}",
                         f"mesh.motion={motion}",
                         f"time.t_end={t_end}",
@@ -126,19 +137,21 @@ def run_rows(
                         f"time.scheme={scheme}",
                         f"time.save_every={max(dt, t_end / 200):g}",
                     ]
-                    sim = Simulation(_scene(nodes, sets))
+                    sim = Simulation(_scene(nodes, over))
                     ds = xr.load_dataset(sim.run(Path(tmp) / "run.h5", progress=False, force=True), engine="h5netcdf")
-                    faces = sim.mesh.faces
+                    faces, cells = sim.mesh.faces, sim.transport["myosin"].cells
                     dev = []
                     for k in range(ds.sizes["time"]):
                         c = ds.myosin.values[k]
-                        a = dual_areas(ds.points.values[k], faces)
-                        mean = float(np.sum(c * a) / np.sum(a))
+                        # <c> on the run's cells: flat dual areas, or int c_h dA / A on the curved cells
+                        st = State(ds.points.values[k], {"myosin": c, "one": np.ones_like(c)}, faces)
+                        mean = st.total("myosin", cells) / st.total("one", cells)
                         dev.append(float(np.abs(c - mean).max() / mean))
                     v = ds.velocity.values[-1]
                     rows.append(
                         {
                             "active_force": force,
+                            "formulation": sim.settings.numerics.formulation,
                             "nodes": nodes,
                             "motion": motion,
                             "scheme": scheme,
@@ -220,6 +233,9 @@ def main(argv=None) -> None:
     ap.add_argument("--schemes", nargs="+", default=["euler"], help="time.scheme of the runs (bdf2: dt its first step)")
     ap.add_argument("--motions", nargs="+", default=list(MOTIONS), choices=MOTIONS)
     ap.add_argument("--forces", nargs="+", default=list(FORCES), choices=FORCES)
+    ap.add_argument(
+        "--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="scene overrides (run)"
+    )
     ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
     where = None
@@ -244,9 +260,11 @@ def main(argv=None) -> None:
     if args.what in ("run", "all"):
         rows = []
         for scheme in args.schemes:
-            rows += run_rows(args.run_nodes, args.t_end, args.motions, args.forces, args.dt, where, scheme)
+            rows += run_rows(args.run_nodes, args.t_end, args.motions, args.forces, args.dt, where, scheme, args.sets)
             if args.final_nodes:
-                rows += run_rows(args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where, scheme)
+                rows += run_rows(
+                    args.final_nodes, args.t_end, ["normal"], args.forces, args.dt, where, scheme, args.sets
+                )
         rows.sort(key=lambda r: (r["active_force"] != "gradient", r["scheme"], r["motion"], r["nodes"]))
         print(f"## Uniform myosin to t = {args.t_end:g}\n")
         print(
