@@ -329,3 +329,19 @@ def test_a_trajectory_rewritten_by_xarray_reads_back(tmp_path):
     write_dataset(ds.isel(time=slice(0, 3)), tmp_path / "b.h5")
     again = load_trajectory(tmp_path / "b.h5")
     assert again.sizes["time"] == 3 and list(again.time.values) == [0.0, 0.1, 0.2]
+
+
+def test_a_partial_file_read_while_it_grows_shows_each_opens_frames(tmp_path):
+    """The readers keep an unlimited dimension's size per read-only open (``readers._read_only_dimension_sizes``):
+    a reader that opens the growing ``.partial`` file again sees the new frames, the writer's own
+    writable handle keeps counting, and every value is the one written."""
+    path = tmp_path / "run.h5"
+    w = TrajectoryWriter(path, TRI, N, attrs(), EXTRA)
+    for k in range(2):
+        write(w, k)
+    check_frames(cortex_ti.io.load_trajectory(partial_path(path)), 2)
+    write(w, 2)
+    assert w.n_frames == 3
+    check_frames(cortex_ti.io.load_trajectory(partial_path(path)), 3)
+    w.finish()
+    check_frames(cortex_ti.io.load_trajectory(path), 3)
