@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..surface.curved import p2_cells, p2_shape, triangle_rule
+from .sections import profile_minimum
 
 __all__ = ["curved_measures", "curved_neck_radius"]
 
@@ -186,8 +187,6 @@ def curved_neck_radius(points, faces, axis=(0.0, 0.0, 1.0), planes: int = 64) ->
     >>> bool(np.isnan(curved_neck_radius(m.points, m.faces)[0]))
     True
     """
-    from scipy.optimize import minimize_scalar  # only a neck search needs it
-
     points = np.asarray(points, dtype=float)
     faces = np.asarray(faces)
     cells = p2_cells(faces)
@@ -196,22 +195,8 @@ def curved_neck_radius(points, faces, axis=(0.0, 0.0, 1.0), planes: int = 64) ->
     da = np.linalg.norm(nda, axis=-1)
     centre = np.einsum("tq,tqc->c", da, x) / da.sum()
     height = (points - centre) @ ax
-    lo, hi = float(height.min()), float(height.max())
-    pad = 1e-9 * max(hi - lo, 1e-300)
-    zs = np.linspace(lo + pad, hi - pad, int(planes) + 2)[1:-1]
 
     def radius(z: float) -> float:
-        try:
-            return _furrow(points, faces, cells, ax, centre + z * ax)
-        except ValueError:
-            return float("inf")
+        return _furrow(points, faces, cells, ax, centre + z * ax)
 
-    r = np.array([radius(z) for z in zs])
-    interior = np.flatnonzero((r[1:-1] <= r[:-2]) & (r[1:-1] <= r[2:]) & np.isfinite(r[1:-1])) + 1
-    if interior.size == 0:
-        return float("nan"), float("nan")
-    k = int(interior[np.argmin(r[interior])])
-    best = minimize_scalar(radius, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
-    if best.fun <= r[k]:
-        return float(best.fun), float(best.x)
-    return float(r[k]), float(zs[k])
+    return profile_minimum(radius, height, planes)

@@ -253,28 +253,40 @@ def neck_radius(points, faces, axis=(0.0, 0.0, 1.0), center=None, planes: int = 
     >>> bool(np.isnan(neck_radius(m.points, m.faces)[0]))  # a sphere has no neck
     True
     """
-    from scipy.optimize import minimize_scalar  # only a neck search needs it
-
     ax = unit_vector(axis, "axis")
     surf = FlatSurface(points, faces)
     c = surf.center(center)
     height = ax @ (surf.pts - c[:, None])
-    lo, hi = float(height.min()), float(height.max())
+
+    def radius(z: float) -> float:
+        return furrow_on(surf, ax, c + z * ax)[0]
+
+    return profile_minimum(radius, height, planes)
+
+
+def profile_minimum(radius, height: np.ndarray, planes: int) -> tuple[float, float]:
+    """The smallest interior local minimum of a section profile ``radius(z)``: sampled on ``planes``
+    planes between the extreme ``height`` of the nodes, refined by a bounded scalar minimisation
+    between the neighbouring planes. A plane that only touches the surface (``radius`` raises
+    ValueError) counts as infinite. ``(radius, z)``, or ``(nan, nan)`` without an interior minimum."""
+    from scipy.optimize import minimize_scalar  # only a neck search needs it
+
+    lo, hi = float(np.min(height)), float(np.max(height))
     pad = 1e-9 * max(hi - lo, 1e-300)
     zs = np.linspace(lo + pad, hi - pad, int(planes) + 2)[1:-1]
 
-    def radius(z: float) -> float:
+    def safe(z: float) -> float:
         try:
-            return furrow_on(surf, ax, c + z * ax)[0]
+            return radius(z)
         except ValueError:  # the plane only touches the surface
             return float("inf")
 
-    r = np.array([radius(z) for z in zs])
+    r = np.array([safe(z) for z in zs])
     interior = np.flatnonzero((r[1:-1] <= r[:-2]) & (r[1:-1] <= r[2:]) & np.isfinite(r[1:-1])) + 1
     if interior.size == 0:
         return float("nan"), float("nan")
     k = int(interior[np.argmin(r[interior])])
-    best = minimize_scalar(radius, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
+    best = minimize_scalar(safe, bounds=(zs[k - 1], zs[k + 1]), method="bounded", options={"xatol": 1e-6})
     if best.fun <= r[k]:
         return float(best.fun), float(best.x)
     return float(r[k]), float(zs[k])
