@@ -31,11 +31,10 @@ import logging
 
 import numpy as np
 
-from ..errors import CortexError
 from .closest import closest_points
 from .curved import CELL_EDGES, p2_cells, p2_shape, triangle_rule
-from .mesh import split_faces, vertex_normals
-from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, triangulate
+from .mesh import split_faces
+from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, offset_to_volume, triangulate
 from .transport import DENSITY
 
 log = logging.getLogger(__name__)
@@ -244,16 +243,11 @@ def restore_curved_volume(points, faces, volume: float, rtol: float = 1e-14, max
     """Offset every node by the same distance ``delta`` along its (fixed, area-weighted vertex) normal
     so that the curved cells enclose ``volume``: Newton's method, ``dV/ddelta = sum_i n_i . int N_i
     n dA``. Returns ``(points, delta)``."""
-    points = np.asarray(points, dtype=float)
-    normal = vertex_normals(points, faces)
-    delta = 0.0
-    for _ in range(max_iter):
-        p = points + delta * normal
-        v = curved_volume(p, faces)
-        if abs(v - volume) <= rtol * abs(volume):
-            return p, delta
-        delta -= (v - volume) / float(np.einsum("nc,nc->", _volume_rows(p, faces), normal))
-    raise CortexError(f"remeshing could not restore the curved cells' volume {volume:.6g} (Newton did not converge)")
+
+    def measure(p: np.ndarray, normal: np.ndarray) -> tuple[float, float]:
+        return curved_volume(p, faces), float(np.einsum("nc,nc->", _volume_rows(p, faces), normal))
+
+    return offset_to_volume(points, faces, volume, measure, "the curved cells' volume", rtol, max_iter)
 
 
 def remesh_curved(

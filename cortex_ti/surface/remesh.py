@@ -318,13 +318,8 @@ def restore_volume(points: np.ndarray, faces: np.ndarray, volume: float, rtol: f
     >>> bool(abs(enclosed_volume(p, m.faces) / (4.0 * np.pi / 3.0) - 1.0) < 1e-13)
     True
     """
-    n = vertex_normals(points, faces)
-    delta = 0.0
-    for _ in range(max_iter):
-        p = points + delta * n
-        v = enclosed_volume(p, faces)
-        if abs(v - volume) <= rtol * abs(volume):
-            return p, delta
+
+    def measure(p: np.ndarray, n: np.ndarray) -> tuple[float, float]:
         x = p[faces]
         nf = n[faces]
         # dV/ddelta = sum_T (n_a . x_b x x_c + x_a . n_b x x_c + x_a . x_b x n_c) / 6
@@ -333,8 +328,25 @@ def restore_volume(points: np.ndarray, faces: np.ndarray, volume: float, rtol: f
             + np.einsum("tc,tc->", x[:, 0], np.cross(nf[:, 1], x[:, 2]))
             + np.einsum("tc,tc->", x[:, 0], np.cross(x[:, 1], nf[:, 2]))
         ) / 6.0
+        return enclosed_volume(p, faces), dv
+
+    return offset_to_volume(points, faces, volume, measure, "the enclosed volume", rtol, max_iter)
+
+
+def offset_to_volume(points, faces, volume: float, measure, what: str, rtol: float, max_iter: int):
+    """Newton's method for the one offset ``delta`` along the nodes' (fixed) vertex normals ``n`` that
+    makes a surface enclose ``volume``; ``measure(p, n)`` gives the volume of ``p`` and its derivative
+    in ``delta``, ``what`` names the volume in the error. Returns ``(points, delta)``."""
+    points = np.asarray(points, dtype=float)
+    n = vertex_normals(points, faces)
+    delta = 0.0
+    for _ in range(max_iter):
+        p = points + delta * n
+        v, dv = measure(p, n)
+        if abs(v - volume) <= rtol * abs(volume):
+            return p, delta
         delta -= (v - volume) / dv
-    raise CortexError(f"remeshing could not restore the enclosed volume {volume:.6g} (Newton did not converge)")
+    raise CortexError(f"remeshing could not restore {what} {volume:.6g} (Newton did not converge)")
 
 
 # ---------------------------------------------------------------------------
