@@ -3,8 +3,13 @@ from a folder of its own, with today's code. The documentation build executes th
 makes a broken example fail the test command, and checks the numbers an example prints against
 their truths where it prints one.
 
-The slow test builds the whole documentation site with warnings as errors (examples not executed:
-they are the fast tests above), skipped with one line when Sphinx is not installed.
+The slow test reads the whole documentation site and resolves every reference with warnings as
+errors (Sphinx's ``dummy`` builder: every page parsed, every API page generated and imported, every
+link and cross-reference resolved, nothing rendered; examples not executed: they are the fast tests
+above), skipped with one line when Sphinx is not installed. Rendering the HTML pages as well (the
+theme's navigation on every page and the highlighted sources) took 86 CPU s against 25 on the 2-core
+machine and adds no warning of its own that the reading misses (a broken link and an unknown label
+fail both: checked by hand on 2026-12-07); the docs' own command renders them.
 """
 
 from __future__ import annotations
@@ -61,11 +66,11 @@ def test_the_documentation_builds_without_warnings(tmp_path):
             "--keep-going",
             "-q",
             "-b",
-            "html",
+            "dummy",
             "-d",
             str(tmp_path / "doctrees"),
             str(ROOT / "docs"),
-            str(tmp_path / "html"),
+            str(tmp_path / "out"),
         ],
         cwd=ROOT,
         env=env,
@@ -74,4 +79,4 @@ def test_the_documentation_builds_without_warnings(tmp_path):
         timeout=900,
     )
     assert res.returncode == 0, res.stderr[-3000:]
-    assert (tmp_path / "html" / "index.html").exists()
+    assert (tmp_path / "doctrees" / "index.doctree").exists()
