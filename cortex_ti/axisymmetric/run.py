@@ -233,6 +233,14 @@ class AxisymmetricRun:
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
+    def _fluids(self):
+        """The axisymmetric fluids of the effect ``fluids`` (None without it)."""
+        if self.settings.fluid is None:
+            return None
+        from .fluids import axisymmetric_fluids
+
+        return axisymmetric_fluids(self.settings.fluid)
+
     def simulate(self, on_save=None, start=None):
         """The shape evolution to ``time.t_end`` with frames every ``time.save_every`` and at
         ``time.save_times`` (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`); ``on_save``
@@ -255,6 +263,7 @@ class AxisymmetricRun:
                 myosin=self.myosin,
                 on_save=on_save,
                 start=start,
+                fluids=self._fluids(),
                 **evolution_options(s),
                 **rigidity(s),
             )
