@@ -147,7 +147,9 @@ def _check_axisymmetric_fluids(fluid: dict, seen: set[str]) -> None:
     the axis only, and a shape evolution (the static meridian solve has no fluids)."""
     far = fluid["far_field"]
     if far["type"] == "shear":
-        raise SceneError("fluid.far_field.type = shear with model = axisymmetric: a shear is not axisymmetric (model: 3d)")
+        raise SceneError(
+            "fluid.far_field.type = shear with model = axisymmetric: a shear is not axisymmetric, use model: 3d"
+        )
     if any(fluid["body_force"][:2]):
         raise SceneError(
             f"fluid.body_force = {fmt_value(fluid['body_force'])} with model = axisymmetric: it must point along z"
