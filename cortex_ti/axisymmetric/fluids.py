@@ -93,7 +93,8 @@ def axisymmetric_fluids(fluid) -> AxisymmetricFluids:
 class FluidDynamics(Dynamics):
     """:class:`~cortex_ti.axisymmetric.dynamics.Dynamics` with the fluids: the solve is the cortex's
     balance coupled to the boundary-integral map (unknowns ``[v_s, v_n, P(, lam), Δf_r, Δf_z]``,
-    ``P = lam = 0``: the fluids carry the pressure and fix the translation)."""
+    ``P`` the mean pressure jump, ``oint Δf . n dA = 0`` in the place of the volume's row, ``lam = 0``:
+    the medium fixes the translation)."""
 
     def __init__(self, *args, fluids: AxisymmetricFluids, **kw):
         super().__init__(*args, **kw)
@@ -117,6 +118,14 @@ class FluidDynamics(Dynamics):
             far_field=f.far(g["r"], g["z"]),
             layer_matrices=(S, D),
         )
+        # the mean pressure jump stays the cortex's unknown P, the traction jump has no mean normal part
+        # (S n = 0 holds only to the quadrature's accuracy: a pressure carried by Δf would leak volume at
+        # that accuracy divided by the viscosity)
+        n, w = self.n, self.sp.wR * g["r"] * g["h"]
+        A2[n : 2 * n, 2 * n] = -1.0
+        A2[2 * n, :] = 0.0
+        A2[2 * n, self.system.nx : self.system.nx + n] = -w * g["zs"]
+        A2[2 * n, self.system.nx + n :] = w * g["rs"]
         lu = lu_checked(A2)
         x = sla.lu_solve(lu, b2, check_finite=False)
         return g, x, lu
@@ -127,7 +136,7 @@ class FluidDynamics(Dynamics):
         sp, n, f = self.sp, self.n, self.fluids
         nx = self.system.nx
         xc = x[..., :nx].copy()
-        xc[..., 2 * n :] = 0.0  # P (and lam) are not the cortex's unknowns here
+        xc[..., 2 * n + 1 :] = 0.0  # lam is not the cortex's unknown here (the medium fixes the translation)
         res = self.system.residual(xc, g)
         fr, fz = x[..., nx : nx + n], x[..., nx + n :]
         r, z, rs, zs = g["r"], g["z"], g["rs"], g["zs"]
@@ -135,7 +144,8 @@ class FluidDynamics(Dynamics):
         tan[..., -1] = 0.0
         res[..., :n] = res[..., :n] + tan
         res[..., n : 2 * n] = res[..., n : 2 * n] + zs * fr - rs * fz - f.body_force * z
-        res[..., 2 * n :] = x[..., 2 * n : nx]
+        res[..., 2 * n + 1 :] = x[..., 2 * n + 1 : nx]
+        res[..., 2 * n] = ((rs * fz - zs * fr) * r * g["h"]) @ sp.wR
         vs, vn = x[..., :n], x[..., n : 2 * n]
         v = np.concatenate([rs * vs - zs * vn, zs * vs + rs * vn], axis=-1)
         S, D = self._layers
