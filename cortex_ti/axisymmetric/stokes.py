@@ -27,8 +27,9 @@ The density and the shape are evaluated between the nodes by the Fourier bases o
 ``z``: class ``'Z'``). The cost is ``n`` targets times ``n_theta n_phi / 2`` points (the integrand
 is even in ``phi'``) times ``n`` basis functions, O(n^4): 0.03 s at n = 16, 0.55 s at 32, 3.2 s
 at 48 (this machine, loaded). The default ``n_theta = 2n``, ``n_phi = 4n`` resolves the density's
-highest mode at every target. Used so far as a static solver (:func:`with_fluids`); a dynamic run
-would want the basis evaluated by recurrence and the geometry-independent parts cached.
+highest mode at every target. Static here (:func:`with_fluids`); the runs with fluids rebuild it on
+every shape (:mod:`cortex_ti.axisymmetric.fluids`), where the basis evaluated by recurrence and the
+geometry-independent parts cached would pay.
 """
 
 from __future__ import annotations

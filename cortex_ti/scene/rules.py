@@ -84,7 +84,8 @@ def _check_rigidity(data: dict, seen: set[str]) -> None:
 def _check_fluids(data: dict, seen: set[str]) -> None:
     """The effect ``fluids`` (docs/guide/fluids.md): its keys only with it; a positive medium and a
     cytoplasm of viscosity >= 0; the far field's values only with their type; the 3D ``rayleigh_p1``
-    dynamics with its volume constraint, no gauge, no remeshing, a mesh the dense method can hold."""
+    dynamics (or the axisymmetric model's, forces along the axis) with its volume constraint, no gauge,
+    no remeshing, a mesh the dense method can hold."""
     fluid = data["fluid"]
     far = fluid["far_field"]
     if "fluids" not in seen:
