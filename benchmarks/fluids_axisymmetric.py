@@ -60,7 +60,6 @@ def swim_speed(nodes: int) -> tuple[float, float]:
     polyhedron's volume centroid as the nodes move along their normals by ``v_n``, as
     ``fluids_cost.py --sediment`` measures the sedimentation) and the CPU seconds of its solve."""
     import numpy as np
-    from fluids_cost import volume_centroid
 
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
@@ -71,17 +70,17 @@ def swim_speed(nodes: int) -> tuple[float, float]:
     sol = sim.solve(x)
     cpu = time.process_time() - t0
     move = 1e-6 * np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal
-    return float((volume_centroid(x + move, tri) - volume_centroid(x - move, tri))[2] / 2e-6), cpu
+    return float((_bench.volume_centroid(x + move, tri) - _bench.volume_centroid(x - move, tri))[2] / 2e-6), cpu
 
 
 def centroid_speed(path: Path) -> float:
     """The mean speed along z of a trajectory's volume centroid (polyhedral) over the run."""
     import h5py
-    from fluids_cost import volume_centroid
 
     with h5py.File(path, "r") as f:
         t, pts, tri = f["time"][:], f["points"], f["triangles"][:]
-        return float((volume_centroid(pts[-1], tri)[2] - volume_centroid(pts[0], tri)[2]) / (t[-1] - t[0]))
+        z0, z1 = _bench.volume_centroid(pts[0], tri)[2], _bench.volume_centroid(pts[-1], tri)[2]
+    return float((z1 - z0) / (t[-1] - t[0]))
 
 
 def swimmer(args, where: Path, extra: list[str]) -> None:
