@@ -88,3 +88,26 @@ def test_scene_fluids_become_axisymmetric_or_are_refused():
     for bad in (Fluid(far_field="shear", rate=1.0), Fluid(body_force=(1.0, 0.0, 0.0))):
         with pytest.raises(ValueError, match="axis"):
             axisymmetric_fluids(bad)
+
+
+def test_polarised_swimmer_scene_swims_at_lambs_speed(tmp_path):
+    """The scene through ct.run with model = axisymmetric: at t = 0 the sphere's normal velocity is the
+    rigid translation U n_z with U Lamb's degree-1 flow of the tension 0.5 Y_10 (flow_coefficients(1)),
+    exact in the discretisation (degree 1): round-off times the system's size."""
+    import h5py
+
+    import cortex_ti as ct
+
+    out = tmp_path / "sw.h5"
+    ct.run(
+        "polarised_swimmer",
+        output=out,
+        overrides=["model=axisymmetric", "axisymmetric.n=8", "time.t_end=0.1", "time.save_every=0.1"],
+        threads=1,
+    )
+    _, beta = fs.flow_coefficients(1, mu_in=1.0, mu_out=1.0, eta_s=1.0, eta_b=1.0)
+    speed = 0.5 * beta * np.sqrt(3.0 / (4.0 * np.pi))
+    with h5py.File(out, "r") as f:
+        v, n = f["velocity"][0], f["normal"][0]
+    vn = np.einsum("ij,ij->i", v, n)
+    assert speed < -0.02 and np.abs(vn - speed * n[:, 2]).max() <= 1e-10
