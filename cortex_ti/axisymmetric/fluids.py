@@ -71,10 +71,12 @@ class AxisymmetricFluids:
         return asdict(self)
 
 
-def axisymmetric_fluids(fluid) -> AxisymmetricFluids:
+def axisymmetric_fluids(fluid) -> AxisymmetricFluids | None:
     """The axisymmetric fluids of a scene's :class:`~cortex_ti.physics.model.Fluid` (anything with its
-    attributes); ``ValueError`` in one line for what is not axisymmetric: a shear, a body force or a
-    uniform flow with a component across the axis."""
+    attributes; None without the effect: None); ``ValueError`` in one line for what is not
+    axisymmetric: a shear, a body force or a uniform flow with a component across the axis."""
+    if fluid is None:
+        return None
     bx, by, bz = (float(c) for c in fluid.body_force)
     if bx or by:
         raise ValueError(f"fluid.body_force = {[bx, by, bz]} is not along the axis z: the axisymmetric model needs it")

@@ -32,6 +32,7 @@ from ..scene.settings import RunSettings
 from .balance import static_flow
 from .dynamics import STRETCH_LIMIT, STRETCH_LIMITS, first_unresolved, label_matters
 from .evolve import StepFailed, simulate
+from .fluids import axisymmetric_fluids
 from .myosin import Myosin
 from .result import revolve
 from .rigidity import rigidity
@@ -233,14 +234,6 @@ class AxisymmetricRun:
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
 
-    def _fluids(self):
-        """The axisymmetric fluids of the effect ``fluids`` (None without it)."""
-        if self.settings.fluid is None:
-            return None
-        from .fluids import axisymmetric_fluids
-
-        return axisymmetric_fluids(self.settings.fluid)
-
     def simulate(self, on_save=None, start=None):
         """The shape evolution to ``time.t_end`` with frames every ``time.save_every`` and at
         ``time.save_times`` (:class:`~cortex_ti.axisymmetric.evolve.SimulationResult`); ``on_save``
@@ -263,7 +256,7 @@ class AxisymmetricRun:
                 myosin=self.myosin,
                 on_save=on_save,
                 start=start,
-                fluids=self._fluids(),
+                fluids=axisymmetric_fluids(s.fluid),
                 **evolution_options(s),
                 **rigidity(s),
             )
