@@ -86,15 +86,6 @@ def measure(nodes: int) -> dict:
     }
 
 
-def volume_centroid(x, tri):
-    """The centroid of the volume the triangles enclose (exact for the polyhedron)."""
-    import numpy as np
-
-    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
-    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
-    return (v[:, None] * (a + b + c) / 4.0).sum(0) / v.sum()
-
-
 def sediment(nodes: int) -> str:
     """One row of ``--sediment`` (module docstring)."""
     import numpy as np
@@ -109,7 +100,7 @@ def sediment(nodes: int) -> str:
     vn = np.einsum("nc,nc->n", sol.velocity, sol.normal)
     eps = 1e-6
     move = eps * vn[:, None] * sol.normal
-    rate = (volume_centroid(x + move, tri) - volume_centroid(x - move, tri)) / (2 * eps)
+    rate = (_bench.volume_centroid(x + move, tri) - _bench.volume_centroid(x - move, tri)) / (2 * eps)
     exact = fs.sedimentation_velocity(1.0, mu_in=1.0, mu_out=1.0, eta_s=1.0, eta_b=1.0)
     n = x / np.linalg.norm(x, axis=1)[:, None]
     vn = np.einsum("nc,nc->n", sol.velocity, n)

@@ -17,6 +17,7 @@ from ..errors import CortexError
 from ..io.trajectory import Trajectory
 from ..scene import scene_from_dict
 from .evolve import simulate
+from .fluids import axisymmetric_fluids
 from .run import AxisymmetricRun, evolution_options, viscosities
 
 __all__ = ["PROFILE_TIMES", "twin_of", "compare", "twin_report"]
@@ -37,6 +38,7 @@ def twin_of(tr: Trajectory):
         n=s.axisymmetric.n,
         rtol=s.axisymmetric.rtol,
         interpolate=True,
+        fluids=axisymmetric_fluids(s.fluid),
         **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False),
     )
 

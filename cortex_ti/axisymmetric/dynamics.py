@@ -243,6 +243,10 @@ class Dynamics:
             out[0] = out[0] @ sp.FR.T
         return np.concatenate(out, axis=-1)
 
+    def residual(self, x: ArrayF, g: dict) -> ArrayF:
+        """The residual ``A(y) x - b(y)`` of :meth:`solve`'s system, batched (the fluids extend it)."""
+        return self.system.residual(x, g)
+
     def rhs(self, t: float, y: ArrayF) -> ArrayF:
         self.nrhs += 1
         g, x, _ = self.solve(y)
@@ -260,7 +264,7 @@ class Dynamics:
         eps = 1e-30
         yc = y[None, :] + 1j * eps * np.eye(m)
         gc = self.geometry(yc)
-        res = self.system.residual(np.repeat(x0[None, :], m, axis=0).astype(complex), gc)
+        res = self.residual(np.repeat(x0[None, :], m, axis=0).astype(complex), gc)
         dx = sla.lu_solve(lu, res.imag.T / eps, check_finite=False).T  # A^-1 dR/dy
         xc = x0[None, :] - 1j * eps * dx
         vel = self.velocity(gc, xc)

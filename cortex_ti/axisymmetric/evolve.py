@@ -88,6 +88,7 @@ def simulate(
     spontaneous_curvature: float = 0.0,
     on_save=None,
     start: tuple[float, ArrayF] | None = None,
+    fluids=None,
 ) -> SimulationResult:
     """Evolve the cortex from the sphere of radius ``radius`` with ``dX/dt = v_n n``.
 
@@ -169,6 +170,9 @@ def simulate(
         sphere at t = 0; only the save times after ``t`` are saved. The integrator starts afresh
         there, so the continued run agrees with the uninterrupted one to its tolerance, not to
         round-off.
+    fluids : AxisymmetricFluids or None
+        A cytoplasm and a medium as Stokes fluids (:mod:`cortex_ti.axisymmetric.fluids`); they fix
+        the translation, so ``gauge`` is not used.
 
     Returns
     -------
@@ -202,12 +206,13 @@ def simulate(
         raise ValueError(f"myosin must be a Myosin or None, got {type(myosin).__name__}")
     if symmetric is None:
         symmetric = is_symmetric(zeta) and (myosin is None or myosin.symmetric())
+        symmetric = symmetric and (fluids is None or fluids.symmetric)
     if parametrization == "auto":
         parametrization = "lagrangian" if symmetric else "arclength"
     if monitor and parametrization != "arclength":
         raise ValueError("monitor needs parametrization = 'arclength' (the nodes must be free to move tangentially)")
     sp = Spectral(n, symmetric)
-    dyn = Dynamics(
+    dyn = (Dynamics if fluids is None else _fluid_dynamics(fluids))(
         sp,
         ForceBalance(sp, phys, check_gauge(gauge)),
         zeta,
@@ -254,6 +259,8 @@ def simulate(
         stop_ill_posed=stop_ill_posed,
         myosin=None if myosin is None else {k: v for k, v in vars(myosin).items() if k != "initial"},
     )
+    if fluids is not None:
+        params["fluids"] = fluids.as_dict()
     if phys.kappa:
         params.update(kappa=phys.kappa, spontaneous_curvature=phys.c0)
 
@@ -288,6 +295,15 @@ def simulate(
     if failure is not None:
         raise StepFailed(failure, out)
     return out
+
+
+def _fluid_dynamics(fluids):
+    """The dynamics class with the fluids bound (:class:`~cortex_ti.axisymmetric.fluids.FluidDynamics`)."""
+    from functools import partial
+
+    from .fluids import FluidDynamics
+
+    return partial(FluidDynamics, fluids=fluids)
 
 
 class StepFailed(ValueError):

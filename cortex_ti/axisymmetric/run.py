@@ -32,6 +32,7 @@ from ..scene.settings import RunSettings
 from .balance import static_flow
 from .dynamics import STRETCH_LIMIT, STRETCH_LIMITS, first_unresolved, label_matters
 from .evolve import StepFailed, simulate
+from .fluids import axisymmetric_fluids
 from .myosin import Myosin
 from .result import revolve
 from .rigidity import rigidity
@@ -255,6 +256,7 @@ class AxisymmetricRun:
                 myosin=self.myosin,
                 on_save=on_save,
                 start=start,
+                fluids=axisymmetric_fluids(s.fluid),
                 **evolution_options(s),
                 **rigidity(s),
             )

@@ -27,8 +27,9 @@ The density and the shape are evaluated between the nodes by the Fourier bases o
 ``z``: class ``'Z'``). The cost is ``n`` targets times ``n_theta n_phi / 2`` points (the integrand
 is even in ``phi'``) times ``n`` basis functions, O(n^4): 0.03 s at n = 16, 0.55 s at 32, 3.2 s
 at 48 (this machine, loaded). The default ``n_theta = 2n``, ``n_phi = 4n`` resolves the density's
-highest mode at every target. Used so far as a static solver (:func:`with_fluids`); a dynamic run
-would want the basis evaluated by recurrence and the geometry-independent parts cached.
+highest mode at every target. Static here (:func:`with_fluids`); the runs with fluids rebuild it on
+every shape (:mod:`cortex_ti.axisymmetric.fluids`), where the basis evaluated by recurrence and the
+geometry-independent parts cached would pay.
 """
 
 from __future__ import annotations
@@ -115,7 +116,16 @@ def _basis(sp: Spectral, cls: str, u: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def with_fluids(
-    A: np.ndarray, b: np.ndarray, sp: Spectral, g: dict, *, mu_in: float, mu_out: float, body_force=0.0, far_field=None
+    A: np.ndarray,
+    b: np.ndarray,
+    sp: Spectral,
+    g: dict,
+    *,
+    mu_in: float,
+    mu_out: float,
+    body_force=0.0,
+    far_field=None,
+    layer_matrices=None,
 ):
     """The axisymmetric force balance ``A x = b`` (:meth:`~cortex_ti.axisymmetric.balance.ForceBalance.assemble`,
     ``x = [v_s, v_n, P(, lam)]``) coupled to a cytoplasm (viscosity ``mu_in``) and a medium (``mu_out``).
@@ -134,13 +144,15 @@ def with_fluids(
     ``u_inf = (S f_inf / mu_out + D u_inf) / 4 pi`` turns the medium's into
     ``u = 2 u_inf - (S f_out / mu_out + D u) / 4 pi``.
 
+    ``layer_matrices``: ``(S, D)`` of :func:`layers` on this shape, if already built.
+
     The pressure jump is now the fluids' (``P = 0``) and the medium fixes the translation
     (``lam = 0``); the enclosed volume is kept by the inner flow, to the quadrature's accuracy.
     """
     n = sp.n
     nx = A.shape[0]
     r, z, rs, zs = g["r"], g["z"], g["rs"], g["zs"]
-    S, D = layers(sp, r, z, double=mu_in != mu_out)
+    S, D = layers(sp, r, z, double=mu_in != mu_out) if layer_matrices is None else layer_matrices
     out = np.zeros((nx + 2 * n, nx + 2 * n))
     rhs = np.zeros(nx + 2 * n)
     out[:nx, :nx] = A

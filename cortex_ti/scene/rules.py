@@ -84,7 +84,8 @@ def _check_rigidity(data: dict, seen: set[str]) -> None:
 def _check_fluids(data: dict, seen: set[str]) -> None:
     """The effect ``fluids`` (docs/guide/fluids.md): its keys only with it; a positive medium and a
     cytoplasm of viscosity >= 0; the far field's values only with their type; the 3D ``rayleigh_p1``
-    dynamics with its volume constraint, no gauge, no remeshing, a mesh the dense method can hold."""
+    dynamics (or the axisymmetric model's, forces along the axis) with its volume constraint, no gauge,
+    no remeshing, a mesh the dense method can hold."""
     fluid = data["fluid"]
     far = fluid["far_field"]
     if "fluids" not in seen:
@@ -96,13 +97,11 @@ def _check_fluids(data: dict, seen: set[str]) -> None:
         if changed:
             raise SceneError(f"{changed[0]} but the effect 'fluids' is off: add it to effects or remove the key")
         return
-    if data["model"] == "axisymmetric":
-        raise SceneError(
-            "the effect 'fluids' with model = axisymmetric: the axisymmetric fluid coupling "
-            "(cortex_ti/axisymmetric/stokes.py) is static only, it has no dynamics yet; use model: 3d"
-        )
+    axisymmetric = data["model"] == "axisymmetric"
+    if axisymmetric:
+        _check_axisymmetric_fluids(fluid, seen)
     formulation = data["numerics"]["formulation"]
-    if formulation != "rayleigh_p1":
+    if formulation != "rayleigh_p1" and not axisymmetric:
         raise SceneError(
             f"the effect 'fluids' with numerics.formulation = {formulation}: the fluids' dissipation is a term of "
             "the Rayleighian on flat triangles only; use numerics.formulation: rayleigh_p1"
@@ -140,8 +139,31 @@ def _check_fluids(data: dict, seen: set[str]) -> None:
             "dense operator on a changing node count are untested): remove mesh.remesh"
         )
     nodes = data["mesh"].get("nodes")
-    if nodes is not None and nodes > FLUIDS_MAX_NODES:
+    if nodes is not None and nodes > FLUIDS_MAX_NODES and not axisymmetric:
         raise SceneError(fluids_size_message(nodes))
+
+
+def _check_axisymmetric_fluids(fluid: dict, seen: set[str]) -> None:
+    """The fluids of ``model: axisymmetric`` (cortex_ti/axisymmetric/fluids.py): forces from outside along
+    the axis only, and a shape evolution (the static meridian solve has no fluids)."""
+    far = fluid["far_field"]
+    if far["type"] == "shear":
+        raise SceneError(
+            "fluid.far_field.type = shear with model = axisymmetric: a shear is not axisymmetric, use model: 3d"
+        )
+    if any(fluid["body_force"][:2]):
+        raise SceneError(
+            f"fluid.body_force = {fmt_value(fluid['body_force'])} with model = axisymmetric: it must point along z"
+        )
+    if far["type"] == "uniform" and any(far["velocity"][:2]):
+        raise SceneError(
+            f"fluid.far_field.velocity = {fmt_value(far['velocity'])} with model = axisymmetric: it must point along z"
+        )
+    if "shape_evolution" not in seen:
+        raise SceneError(
+            "the effect 'fluids' with model = axisymmetric needs the effect 'shape_evolution' (the static meridian "
+            "solve has no fluids; cortex_ti.axisymmetric.stokes.with_fluids is the static coupling)"
+        )
 
 
 def fluids_size_message(nodes: int) -> str:

@@ -54,7 +54,7 @@ FURROWS = [
 #: issue 20's scenes: a myosin cortex that organises itself
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
 #: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
-FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid"]
+FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid", "polarised_swimmer"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():

@@ -175,7 +175,16 @@ REFUSED = [
     (["fluid.inner=-0.5"], "fluid.inner = -0.5 must be >= 0"),
     (["numerics.formulation=paper"], "numerics.formulation = paper"),
     (["numerics.formulation=rayleigh_p2"], "use numerics.formulation: rayleigh_p1"),
-    (["model=axisymmetric"], "static only"),
+    (["model=axisymmetric", "fluid.body_force=[1,0,0]"], "with model = axisymmetric: it must point along z"),
+    (["model=axisymmetric", "fluid.far_field.type=shear", "fluid.far_field.rate=1"], "a shear is not axisymmetric"),
+    (["model=axisymmetric", "fluid.far_field.type=uniform", "fluid.far_field.velocity=[0,1,0]"], "along z"),
+    (
+        [
+            "model=axisymmetric",
+            "effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,incompressibility,fluids]",
+        ],
+        "needs the effect 'shape_evolution'",
+    ),
     (["translation=centroid"], "the medium fixes the cell's translation"),
     (["mesh.remesh.min_angle=20"], "mesh.remesh with the effect 'fluids'"),
     (["mesh.nodes=10242"], "at most 2562 nodes"),
