@@ -174,7 +174,9 @@ def curved_measures(points, faces, axis=(0.0, 0.0, 1.0)) -> dict[str, float]:
     out = {"volume": float(x.ravel() @ nda.ravel() / 3.0), "area": area}
     for suffix, ax in (("", axis), ("_long_axis", long_ax)):
         for name, func in (("pole_radius", _pole), ("furrow_radius", _furrow)):
-            if suffix and np.abs(ax - axis).max() <= 1e-13:  # the same axis (to rounding): the same radii
+            if suffix and np.abs(ax - axis).max() <= 1e-9:
+                # the same axis: the radii would differ by at most 1e-9 (an axisymmetric shape's long axis is
+                # the pattern axis to 1e-10, which changes its radii by O(1e-20))
                 out[name + suffix] = out[name]
                 continue
             try:

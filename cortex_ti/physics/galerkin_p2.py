@@ -80,7 +80,7 @@ def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     :mod:`.galerkin_p2_kernel`, contracted over the points by one batched matrix product; the normal
     forms summed, then clipped to their positive semidefinite part at each quadrature point; a centred
     form's force from its own clipped tensor, as in ``rayleigh_p1``)."""
-    from .galerkin_p2_kernel import cell_strain_kernel, centred_force_kernel  # starts Taichi
+    from .galerkin_p2_kernel import cell_strain_kernel, centred_force_kernel, finish_blocks_kernel  # starts Taichi
 
     surf = ctx.surface
     ncell, nq = surf.weight.shape
@@ -94,34 +94,39 @@ def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             beta0 = beta0 + b0
     force = np.empty((ncell, 18))
     area_rate = np.empty((ncell, 18))
-    strain = _scratch("strain", (ncell, 18, nq, 7))
-    weighted = _scratch("weighted", (ncell, 18, nq, 7))
     pair = np.empty((ncell, 6, 6))
+    blocks = np.empty((ncell, 18, 18))
+    zeta_q, form = np.ascontiguousarray(zeta_q), np.ascontiguousarray(form)
     common = (surf.weight, surf.grads, surf.qnormal)
-    cell_strain_kernel(
-        *common,
-        surf.qcurvature,
-        surf.normal,
-        cells,
-        surf.shape,
-        float(ctx.shear),
-        float(ctx.bulk),
-        np.ascontiguousarray(zeta_q),
-        np.ascontiguousarray(form),
-        beta0,
-        strain,
-        weighted,
-        pair,
-        force,
-        area_rate,
-    )
-    # sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd], then made exactly symmetric
-    blocks = np.matmul(strain.reshape(ncell, 18, -1), weighted.reshape(ncell, 18, -1).transpose(0, 2, 1))
-    # + sum_q w (g_i . B g_j + beta_0 N_i N_j) n_ic n_jd
-    nn = surf.normal[surf.cells].reshape(ncell, 18)
-    blocks += np.repeat(np.repeat(pair, 3, axis=1), 3, axis=2) * nn[:, :, None] * nn[:, None, :]
-    blocks += blocks.transpose(0, 2, 1)
-    blocks *= 0.5
+    # in chunks of cells whose strains stay in the cache (at 10242 nodes all of them would be 2 x 36 MB)
+    for lo in range(0, ncell, CHUNK):
+        hi = min(lo + CHUNK, ncell)
+        strain = _scratch("strain", (CHUNK, 18, nq, 7))[: hi - lo]
+        weighted = _scratch("weighted", (CHUNK, 18, nq, 7))[: hi - lo]
+        part = slice(lo, hi)
+        cell_strain_kernel(
+            *(a[part] for a in common),
+            surf.qcurvature[part],
+            surf.normal,
+            cells[part],
+            surf.shape,
+            float(ctx.shear),
+            float(ctx.bulk),
+            zeta_q[part],
+            form[part],
+            beta0[part],
+            strain,
+            weighted,
+            pair[part],
+            force[part],
+            area_rate[part],
+        )
+        # sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd]
+        np.matmul(
+            strain.reshape(hi - lo, 18, -1), weighted.reshape(hi - lo, 18, -1).transpose(0, 2, 1), out=blocks[part]
+        )
+    # made exactly symmetric, plus sum_q w (g_i . B g_j + beta_0 N_i N_j) n_ic n_jd
+    finish_blocks_kernel(blocks, pair, surf.normal, cells)
     for b, b0, centre in ctx.normal_forms:
         if centre is None:
             continue
@@ -135,11 +140,13 @@ def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 _SCRATCH: dict = {}
+#: cells per call of the strain kernel: 2 x 3.6 MB of strains with 7 quadrature points
+CHUNK = 512
 
 
 def _scratch(name: str, shape: tuple) -> np.ndarray:
-    """A work array of the strain kernel, kept between calls of the same shape (a fresh one per step
-    would fault its pages in again: 2 x 36 MB at 10242 nodes)."""
+    """A work array of the strain kernel, kept between calls of the same shape (a fresh one per chunk
+    would fault its pages in again)."""
     buf = _SCRATCH.get(name)
     if buf is None or buf.shape != shape:
         buf = _SCRATCH[name] = np.empty(shape)

@@ -156,3 +156,18 @@ def centred_force_kernel(
                 val = w * (gi.dot(bgr) + beta0[t, q] * shape[q, i] * rn)
                 for c in range(3):
                     force[t, 3 * i + c] += val * normal[v, c]
+
+
+@kernel
+def finish_blocks_kernel(blocks: f64_3, pair: f64_3, normal: f64_2, cells: i32_2):
+    """In place, per cell: the viscous block ``blocks[t]`` made exactly symmetric (the mean of it and its
+    transpose), plus the normal forms ``pair[t, i, j] n_ic n_jd``."""
+    for t in range(blocks.shape[0]):
+        for r in range(18):
+            i, c = r // 3, r % 3
+            nic = normal[cells[t, i], c]
+            for s in range(r, 18):
+                j, d = s // 3, s % 3
+                k = 0.5 * (blocks[t, r, s] + blocks[t, s, r]) + pair[t, i, j] * nic * normal[cells[t, j], d]
+                blocks[t, r, s] = k
+                blocks[t, s, r] = k
