@@ -188,6 +188,7 @@ def _height_coef_kernel(
     frame: f64_3,
     design: f64_3,
     chol: f64_3,
+    height: f64_2,
     coef: f64_2,
     quality: f64_1,
     qmin: float,
@@ -203,10 +204,12 @@ def _height_coef_kernel(
         if quality[i] > qmin:
             xi = _vec(x, i)
             n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
+            for j in range(s):
+                height[i, j] = (_vec(x, stencil[i, j]) - xi).dot(n)
             for a in range(p):  # L y = D^T h
                 acc = 0.0
                 for j in range(s):
-                    acc += design[i, j, a] * (_vec(x, stencil[i, j]) - xi).dot(n)
+                    acc += design[i, j, a] * height[i, j]
                 for k in range(a):
                     acc -= chol[i, a, k] * coef[i, k]
                 coef[i, a] = acc / chol[i, a, a]
@@ -466,7 +469,8 @@ def compute_geometry(
         else:
             coef, quality = np.zeros((n, scheme.n_terms)), np.zeros(n)
             chol = np.zeros((n, scheme.n_terms, scheme.n_terms))
-            _height_coef_kernel(x, stencil, ssize, frame, design, chol, coef, quality, FIT_QUALITY_MIN)
+            height = np.zeros((n, stencil.shape[1]))
+            _height_coef_kernel(x, stencil, ssize, frame, design, chol, height, coef, quality, FIT_QUALITY_MIN)
         bad = np.flatnonzero(~(quality > FIT_QUALITY_MIN))
         if bad.size == 0:
             break
