@@ -272,30 +272,8 @@ def _patch_kernel(
     ssize: i32_1,
     frame: f64_3,
     fit: f64_3,
-    tangents: f64_3,
-    nfit: f64_2,
-    metric: f64_3,
-    metric_inv: f64_3,
-    curv: f64_3,
-    gamma: f64_4,
-    hfit: f64_2,
-):
-    """The fitted Monge patch X = x_i + xi e_xi + eta e_eta + h(xi, eta) n of every node."""
-    for i in range(x.shape[0]):
-        xi = _vec(x, i)
-        n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
-        h = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
-        for j in range(ssize[i]):
-            hj = (_vec(x, stencil[i, j]) - xi).dot(n)
-            for k in ti.static(range(5)):
-                h[k] += fit[i, k, j] * hj
-        _patch_at(i, h, frame, tangents, nfit, metric, metric_inv, curv, gamma, hfit)
-
-
-@kernel
-def _patch_of_heights_kernel(
     height: f64_2,
-    frame: f64_3,
+    from_fit: ti.template(),
     tangents: f64_3,
     nfit: f64_2,
     metric: f64_3,
@@ -304,9 +282,21 @@ def _patch_of_heights_kernel(
     gamma: f64_4,
     hfit: f64_2,
 ):
-    """The patch of :func:`_patch_kernel` from the fitted derivatives ``height`` (N, 5) themselves."""
-    for i in range(height.shape[0]):
-        h = ti.Vector([height[i, 0], height[i, 1], height[i, 2], height[i, 3], height[i, 4]])
+    """The fitted Monge patch X = x_i + xi e_xi + eta e_eta + h(xi, eta) n of every node, its height's
+    five fitted derivatives the fit operator ``fit`` applied to the stencil heights (``from_fit``), or
+    ``height`` (N, 5) as given."""
+    for i in range(x.shape[0]):
+        h = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
+        if ti.static(from_fit):
+            xi = _vec(x, i)
+            n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
+            for j in range(ssize[i]):
+                hj = (_vec(x, stencil[i, j]) - xi).dot(n)
+                for k in ti.static(range(5)):
+                    h[k] += fit[i, k, j] * hj
+        else:
+            for k in ti.static(range(5)):
+                h[k] = height[i, k]
         _patch_at(i, h, frame, tangents, nfit, metric, metric_inv, curv, gamma, hfit)
 
 
@@ -491,12 +481,13 @@ def compute_geometry(
     if operators:
         degree = powers[:5].sum(axis=1)
         fit = np.ascontiguousarray(fit_full[:, :5, :] / scale[:, None, None] ** degree[None, :, None])
-        _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
+        _patch_kernel(x, stencil, ssize, frame, fit, np.zeros((0, 5)), True, *arrays.values())
         height_poly = _height_poly(x, stencil, ssize, frame, fit_full, scale, powers)
     else:
         fit = None
         height_poly = coef / scale[:, None] ** powers.sum(axis=1)[None, :]
-        _patch_of_heights_kernel(np.ascontiguousarray(height_poly[:, :5]), frame, *arrays.values())
+        heights = np.ascontiguousarray(height_poly[:, :5])
+        _patch_kernel(x, stencil, ssize, frame, np.zeros((0, 5, 0)), heights, False, *arrays.values())
     return Geometry(
         height_poly=height_poly,
         fit_powers=powers,
