@@ -440,6 +440,9 @@ def compute_geometry(
     if not np.all(np.isfinite(x)):
         bad = np.flatnonzero(~np.isfinite(x).all(axis=1))
         raise MeshError(f"{bad.size} node positions are not finite (first: node {bad[0]})")
+    if x.ndim != 2 or x.shape[1] != 3 or n != len(topo.valence):
+        # the kernels would read past the arrays (a segmentation fault) on another mesh's connectivity
+        raise MeshError(f"{x.shape} node positions for a mesh of {len(topo.valence)} nodes")
     stencils = stencils or StencilChooser(topo)
     operators = operators or residual
     scheme = stencils.scheme

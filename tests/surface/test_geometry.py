@@ -164,6 +164,9 @@ def test_patch_without_operators_is_the_operators_patch(lab, scheme):
     assert d.fit is None
     with pytest.raises(ValueError, match="without its fit operators"):
         d.fit_scalar(mesh.points[:, 0])
+    # positions of another mesh on this connectivity: refused in one line, not read past the arrays
+    with pytest.raises(MeshError, match="node positions for a mesh of 642 nodes"):
+        compute_geometry(mesh.points[:600], topo, StencilChooser(topo, scheme), operators=False)
 
 
 @pytest.mark.parametrize("scheme", SCHEMES)
