@@ -20,9 +20,14 @@ Usage::
     python benchmarks/furrow_cost.py --nodes 10242 --scenes furrow_p4_a1
     python benchmarks/furrow_cost.py --smoke                    # furrow_p8_a1, 162 nodes, t_end = 0.02
     python benchmarks/furrow_cost.py --write docs/validation/speed.md
+    python benchmarks/furrow_cost.py --scenes furrow_p4_a1 --nodes 642 2562 10242 \
+        --set numerics.formulation=rayleigh_p2 --set numerics.fit=quartic --write docs/validation/curved_cost.md \
+        --block curved_cost                                   # the curved cells (docs/validation/curved_cost.md)
 
+``--set KEY=VALUE`` (repeatable) is passed to every run (the formulation and fit are in the table).
 ``--write`` replaces the block between ``<!-- furrow_cost:begin -->`` and
-``<!-- furrow_cost:end -->`` of that page with the table (date, commit, machine in its header).
+``<!-- furrow_cost:end -->`` (``--block NAME``: ``<!-- NAME:begin -->`` ...) of that page with the
+table (date, commit, machine in its header).
 Expected cost on a 2-core machine: ~1 min per furrow at 642 nodes and ~1-2 min at 2562 nodes,
 with Euler at dt = 5e-3 (600 steps); minutes per furrow at 10242.
 """
@@ -45,7 +50,7 @@ from _bench import header, reference_seconds, write_block
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
 
 
-def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
+def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path, sets=()) -> dict:
     """One ``cortex-ti run`` in a child process, its summary, CPU time and radius error."""
     out = workdir / f"{scene}_{nodes}.h5"
     summary = workdir / f"{scene}_{nodes}.json"
@@ -64,6 +69,8 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     ]
     if t_end is not None:
         cmd += ["--set", f"time.t_end={t_end}"]
+    for kv in sets:
+        cmd += ["--set", kv]
     env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
@@ -79,6 +86,7 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     return dict(
         scene=scene,
         nodes=nodes,
+        formulation=f"{s.get('formulation', '?')}, {s.get('fit', '?')}",
         wall_s=wall,
         cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
         steps=s["steps"],
@@ -93,23 +101,24 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path) -> dict:
     )
 
 
-def table(rows: list[dict], ref: float, t_end: float | None) -> str:
+def table(rows: list[dict], ref: float, t_end: float | None, sets=()) -> str:
     load = os.getloadavg()
     head = (
         f"{header()}\nOne thread (`--threads 1`, MKL/OpenBLAS 1 thread); "
         f"t_end = {t_end if t_end is not None else 'scene (3)'}; "
-        f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
+        + "".join(f"`--set {kv}`; " for kv in sets)
+        + f"reference SciPy workload {ref * 1e3:.0f} ms; load average at the end {load[0]:.1f} "
         f"(`python benchmarks/furrow_cost.py{' --smoke' if t_end is not None else ''}`).\n\n"
     )
     lines = [
-        "| scene | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
+        "| scene | formulation, fit | N | wall s | CPU s | wall / ref | steps | solves | factorisations | GMRES it. | "
         "ms geometry / assembly / solve per solve | max radius error (pole, furrow) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         g, a, s = r["ms"]
         lines.append(
-            f"| {r['scene']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
+            f"| {r['scene']} | {r['formulation']} | {r['nodes']} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | "
             f"{r['wall_s'] / ref:.0f} | "
             f"{r['steps']} | {r['solves']} | {r['factorizations']} | {r['iterations']} | "
             f"{g:.1f} / {a:.1f} / {s:.1f} | {r['err']:.2e} ({r['err_pole']:.1e}, {r['err_furrow']:.1e}) |"
@@ -125,6 +134,8 @@ def main(argv=None) -> int:
     p.add_argument("--smoke", action="store_true", help=_bench.HELP)
     p.add_argument("--write", type=Path, default=None, help="markdown page whose furrow_cost block gets the table")
     p.add_argument("--keep", type=Path, default=None, help="keep the trajectories in this folder")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE", help="passed to every run")
+    p.add_argument("--block", default="furrow_cost", help="the block of the --write page that gets the table")
     args = p.parse_args(argv)
     nodes, t_end = ([162], 0.02) if args.smoke else (args.nodes, args.t_end)
     if args.smoke:  # one run: the others take the same code path
@@ -136,12 +147,12 @@ def main(argv=None) -> int:
         work.mkdir(parents=True, exist_ok=True)
         for n in nodes:
             for scene in args.scenes:
-                rows.append(run_one(scene, n, t_end, work))
+                rows.append(run_one(scene, n, t_end, work, args.sets))
                 print(f"{scene} {n}: {rows[-1]['wall_s']:.1f} s", file=sys.stderr, flush=True)
-    text = table(rows, ref, t_end)
+    text = table(rows, ref, t_end, args.sets)
     print(text)
     if args.write:
-        write_block(args.write, text, "furrow_cost")
+        write_block(args.write, text, args.block)
     return 0
 
 

@@ -346,7 +346,9 @@ def _guarded(name: str, func, *args) -> float:
         return float("nan")
 
 
-def frame_diagnostics(points, faces, velocity, normals, axis=(0.0, 0.0, 1.0)) -> dict[str, float]:
+def frame_diagnostics(
+    points, faces, velocity, normals, axis=(0.0, 0.0, 1.0), measures: bool = True
+) -> dict[str, float]:
     """All shape diagnostics of one frame (keys and meanings in :data:`DIAGNOSTIC_ATTRS`).
 
     Parameters
@@ -361,6 +363,9 @@ def frame_diagnostics(points, faces, velocity, normals, axis=(0.0, 0.0, 1.0)) ->
         Outward node normals (normalised here); ``None`` gives NaN speeds.
     axis : array_like, shape (3,)
         The pattern axis (e.g. the axis of the furrow ring).
+    measures : bool
+        False: the volume, area and the four radii are NaN, not measured on the flat triangles (a run
+        on curved cells measures them on its cells, :mod:`cortex_ti.analysis.curved_measures`).
 
     Returns
     -------
@@ -403,16 +408,19 @@ def frame_diagnostics(points, faces, velocity, normals, axis=(0.0, 0.0, 1.0)) ->
     def furrow_mean(ax):
         return furrow_on(surf, ax, c)[0]
 
+    def measured(func, *args):
+        return func(*args) if measures else float("nan")
+
     return {
-        "volume": volume_about(surf, c),
-        "area": float(surf.areas.sum()),
-        "pole_radius": _guarded("pole_radius", pole_radius_on, surf, pattern, c),
-        "furrow_radius": _guarded("furrow_radius", furrow_mean, pattern),
+        "volume": measured(volume_about, surf, c),
+        "area": measured(lambda: float(surf.areas.sum())),
+        "pole_radius": measured(_guarded, "pole_radius", pole_radius_on, surf, pattern, c),
+        "furrow_radius": measured(_guarded, "furrow_radius", furrow_mean, pattern),
         "max_normal_speed": vn_max,
         "max_tangential_speed": vt_max,
         "min_angle_deg": quality["min_angle_deg"],
         "max_edge_ratio": quality["max_edge_ratio"],
         "orientation_angle": angle,
-        "pole_radius_long_axis": _guarded("pole_radius_long_axis", pole_radius_on, surf, long_ax, c),
-        "furrow_radius_long_axis": _guarded("furrow_radius_long_axis", furrow_mean, long_ax),
+        "pole_radius_long_axis": measured(_guarded, "pole_radius_long_axis", pole_radius_on, surf, long_ax, c),
+        "furrow_radius_long_axis": measured(_guarded, "furrow_radius_long_axis", furrow_mean, long_ax),
     }

@@ -76,11 +76,11 @@ __all__ = ["assemble_p2", "cell_blocks", "rigid_projection"]
 
 def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per curved cell the (18, 18) second derivative of the dissipation, the (18,) force and the (18,)
-    rate of the area (one
-    Taichi kernel, :mod:`.galerkin_p2_kernel`; the normal forms summed, then clipped to their
-    positive semidefinite part at each quadrature point; a centred form's force from its own clipped
-    tensor, as in ``rayleigh_p1``)."""
-    from .galerkin_p2_kernel import cell_blocks_kernel, centred_force_kernel  # starts Taichi
+    rate of the area (the strains at the quadrature points from one Taichi kernel,
+    :mod:`.galerkin_p2_kernel`, contracted over the points by one batched matrix product; the normal
+    forms summed, then clipped to their positive semidefinite part at each quadrature point; a centred
+    form's force from its own clipped tensor, as in ``rayleigh_p1``)."""
+    from .galerkin_p2_kernel import cell_strain_kernel, centred_force_kernel, finish_blocks_kernel  # starts Taichi
 
     surf = ctx.surface
     ncell, nq = surf.weight.shape
@@ -92,27 +92,41 @@ def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         form = form + b
         if b0 is not None:
             beta0 = beta0 + b0
-    blocks = np.empty((ncell, 18, 18))
     force = np.empty((ncell, 18))
     area_rate = np.empty((ncell, 18))
+    pair = np.empty((ncell, 6, 6))
+    blocks = np.empty((ncell, 18, 18))
+    zeta_q, form = np.ascontiguousarray(zeta_q), np.ascontiguousarray(form)
     common = (surf.weight, surf.grads, surf.qnormal)
-    cell_blocks_kernel(
-        *common,
-        surf.qcurvature,
-        surf.normal,
-        cells,
-        surf.shape,
-        float(ctx.shear),
-        float(ctx.bulk),
-        np.ascontiguousarray(zeta_q),
-        np.ascontiguousarray(form),
-        beta0,
-        np.empty((ncell, 18, 7)),
-        np.empty((ncell, 6, 6)),
-        blocks,
-        force,
-        area_rate,
-    )
+    # in chunks of cells whose strains stay in the cache (at 10242 nodes all of them would be 2 x 36 MB)
+    for lo in range(0, ncell, CHUNK):
+        hi = min(lo + CHUNK, ncell)
+        strain = _scratch("strain", (CHUNK, 18, nq, 7))[: hi - lo]
+        weighted = _scratch("weighted", (CHUNK, 18, nq, 7))[: hi - lo]
+        part = slice(lo, hi)
+        cell_strain_kernel(
+            *(a[part] for a in common),
+            surf.qcurvature[part],
+            surf.normal,
+            cells[part],
+            surf.shape,
+            float(ctx.shear),
+            float(ctx.bulk),
+            zeta_q[part],
+            form[part],
+            beta0[part],
+            strain,
+            weighted,
+            pair[part],
+            force[part],
+            area_rate[part],
+        )
+        # sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd]
+        np.matmul(
+            strain.reshape(hi - lo, 18, -1), weighted.reshape(hi - lo, 18, -1).transpose(0, 2, 1), out=blocks[part]
+        )
+    # made exactly symmetric, plus sum_q w (g_i . B g_j + beta_0 N_i N_j) n_ic n_jd
+    finish_blocks_kernel(blocks, pair, surf.normal, cells)
     for b, b0, centre in ctx.normal_forms:
         if centre is None:
             continue
@@ -123,6 +137,20 @@ def cell_blocks(ctx: P2Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         )
         force += part
     return blocks, force, area_rate
+
+
+_SCRATCH: dict = {}
+#: cells per call of the strain kernel: 2 x 3.6 MB of strains with 7 quadrature points
+CHUNK = 512
+
+
+def _scratch(name: str, shape: tuple) -> np.ndarray:
+    """A work array of the strain kernel, kept between calls of the same shape (a fresh one per chunk
+    would fault its pages in again)."""
+    buf = _SCRATCH.get(name)
+    if buf is None or buf.shape != shape:
+        buf = _SCRATCH[name] = np.empty(shape)
+    return buf
 
 
 def assemble_p2(

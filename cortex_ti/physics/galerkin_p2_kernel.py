@@ -41,7 +41,7 @@ def _clipped(b: ti.template(), t, q, n):
 
 
 @kernel
-def cell_blocks_kernel(
+def cell_strain_kernel(
     weight: f64_2,
     grads: f64_4,
     qnormal: f64_3,
@@ -54,24 +54,26 @@ def cell_blocks_kernel(
     zeta: f64_2,
     form: f64_4,
     beta0: f64_2,
-    scratch: f64_3,
+    strain: f64_4,
+    weighted: f64_4,
     pair: f64_3,
-    blocks: f64_3,
     force: f64_2,
     area_rate: f64_2,
 ):
-    """Cell t's (18, 18) ``blocks[t]`` (columns: node i, component c at 3 i + c)
-    ``sum_q w [2 eta_s U_ic : U_jd + (eta_b - eta_s) tr U_ic tr U_jd + (g_i . B g_j + beta_0 N_i N_j) n_ic n_jd]``,
-    its force ``force[t] = -sum_q w zeta tr U_ic`` and the area's rate ``area_rate[t] = sum_q w tr U_ic``,
-    with ``U_ic = sym((P P_i e_c) g_i^T) + N_i n_ic C`` (B clipped to its positive semidefinite part).
-    ``scratch`` (T, 18, 7) holds U's six components and its trace, ``pair`` (T, 6, 6) the normal form's
-    ``g_i . B g_j + beta_0 N_i N_j``."""
+    """Per cell t what its (18, 18) block is made of (columns: node i, component c at r = 3 i + c):
+    ``strain[t, r, q]`` (T, 18, Q, 7) the six components of ``U_ic = sym((P P_i e_c) g_i^T) + N_i n_ic C``
+    and its trace at point q, ``weighted`` the same times ``w`` and the viscosities' weights
+    (``2 eta_s`` on the diagonal components, ``4 eta_s`` on the three off-diagonal ones, ``eta_b - eta_s``
+    on the trace), so that the viscous block is ``strain[t] . weighted[t]^T`` over (q, component);
+    ``pair[t]`` (6, 6) the normal forms' ``sum_q w (g_i . B g_j + beta_0 N_i N_j)`` (B clipped to its
+    positive semidefinite part; the nodal normals ``n_ic n_jd`` that multiply it do not depend on q);
+    the force ``force[t] = -sum_q w zeta tr U_ic`` and the area's rate ``area_rate[t] = sum_q w tr U_ic``."""
     for t in range(cells.shape[0]):
-        for r, s in ti.ndrange(18, 18):
-            blocks[t, r, s] = 0.0
         for r in range(18):
             force[t, r] = 0.0
             area_rate[t, r] = 0.0
+        for i, j in ti.ndrange(6, 6):
+            pair[t, i, j] = 0.0
         for q in range(shape.shape[0]):
             w = weight[t, q]
             n = ti.Vector([qnormal[t, q, 0], qnormal[t, q, 1], qnormal[t, q, 2]])
@@ -86,44 +88,36 @@ def cell_blocks_kernel(
                     a -= a.dot(n) * n
                     s = shape[q, i] * ni[c]
                     r = 3 * i + c
-                    scratch[t, r, 0] = a[0] * g[0] + s * qcurv[t, q, 0, 0]
-                    scratch[t, r, 1] = a[1] * g[1] + s * qcurv[t, q, 1, 1]
-                    scratch[t, r, 2] = a[2] * g[2] + s * qcurv[t, q, 2, 2]
-                    scratch[t, r, 3] = 0.5 * (a[0] * g[1] + a[1] * g[0]) + s * qcurv[t, q, 0, 1]
-                    scratch[t, r, 4] = 0.5 * (a[0] * g[2] + a[2] * g[0]) + s * qcurv[t, q, 0, 2]
-                    scratch[t, r, 5] = 0.5 * (a[1] * g[2] + a[2] * g[1]) + s * qcurv[t, q, 1, 2]
-                    scratch[t, r, 6] = scratch[t, r, 0] + scratch[t, r, 1] + scratch[t, r, 2]
+                    u0 = a[0] * g[0] + s * qcurv[t, q, 0, 0]
+                    u1 = a[1] * g[1] + s * qcurv[t, q, 1, 1]
+                    u2 = a[2] * g[2] + s * qcurv[t, q, 2, 2]
+                    u3 = 0.5 * (a[0] * g[1] + a[1] * g[0]) + s * qcurv[t, q, 0, 1]
+                    u4 = 0.5 * (a[0] * g[2] + a[2] * g[0]) + s * qcurv[t, q, 0, 2]
+                    u5 = 0.5 * (a[1] * g[2] + a[2] * g[1]) + s * qcurv[t, q, 1, 2]
+                    tr = u0 + u1 + u2
+                    strain[t, r, q, 0] = u0
+                    strain[t, r, q, 1] = u1
+                    strain[t, r, q, 2] = u2
+                    strain[t, r, q, 3] = u3
+                    strain[t, r, q, 4] = u4
+                    strain[t, r, q, 5] = u5
+                    strain[t, r, q, 6] = tr
+                    weighted[t, r, q, 0] = 2.0 * shear * w * u0
+                    weighted[t, r, q, 1] = 2.0 * shear * w * u1
+                    weighted[t, r, q, 2] = 2.0 * shear * w * u2
+                    weighted[t, r, q, 3] = 4.0 * shear * w * u3
+                    weighted[t, r, q, 4] = 4.0 * shear * w * u4
+                    weighted[t, r, q, 5] = 4.0 * shear * w * u5
+                    weighted[t, r, q, 6] = (bulk - shear) * w * tr
+                    force[t, r] -= w * zeta[t, q] * tr
+                    area_rate[t, r] += w * tr
             bc = _clipped(form, t, q, n)
             for i, j in ti.ndrange(6, 6):
                 gbg = 0.0
                 for a in ti.static(range(3)):
                     for b in ti.static(range(3)):
                         gbg += grads[t, q, i, a] * bc[a, b] * grads[t, q, j, b]
-                pair[t, i, j] = gbg + beta0[t, q] * shape[q, i] * shape[q, j]
-            for r in range(18):
-                force[t, r] -= w * zeta[t, q] * scratch[t, r, 6]
-                area_rate[t, r] += w * scratch[t, r, 6]
-                i, c = r // 3, r % 3
-                nic = normal[cells[t, i], c]
-                for s in range(r, 18):
-                    uu = (
-                        scratch[t, r, 0] * scratch[t, s, 0]
-                        + scratch[t, r, 1] * scratch[t, s, 1]
-                        + scratch[t, r, 2] * scratch[t, s, 2]
-                        + 2.0
-                        * (
-                            scratch[t, r, 3] * scratch[t, s, 3]
-                            + scratch[t, r, 4] * scratch[t, s, 4]
-                            + scratch[t, r, 5] * scratch[t, s, 5]
-                        )
-                    )
-                    j, d = s // 3, s % 3
-                    k = 2.0 * shear * uu + (bulk - shear) * scratch[t, r, 6] * scratch[t, s, 6]
-                    k += pair[t, i, j] * nic * normal[cells[t, j], d]
-                    blocks[t, r, s] += w * k
-        for r in range(18):
-            for s in range(r + 1, 18):
-                blocks[t, s, r] = blocks[t, r, s]
+                pair[t, i, j] += w * (gbg + beta0[t, q] * shape[q, i] * shape[q, j])
 
 
 @kernel
@@ -162,3 +156,18 @@ def centred_force_kernel(
                 val = w * (gi.dot(bgr) + beta0[t, q] * shape[q, i] * rn)
                 for c in range(3):
                     force[t, 3 * i + c] += val * normal[v, c]
+
+
+@kernel
+def finish_blocks_kernel(blocks: f64_3, pair: f64_3, normal: f64_2, cells: i32_2):
+    """In place, per cell: the viscous block ``blocks[t]`` made exactly symmetric (the mean of it and its
+    transpose), plus the normal forms ``pair[t, i, j] n_ic n_jd``."""
+    for t in range(blocks.shape[0]):
+        for r in range(18):
+            i, c = r // 3, r % 3
+            nic = normal[cells[t, i], c]
+            for s in range(r, 18):
+                j, d = s // 3, s % 3
+                k = 0.5 * (blocks[t, r, s] + blocks[t, s, r]) + pair[t, i, j] * nic * normal[cells[t, j], d]
+                blocks[t, r, s] = k
+                blocks[t, s, r] = k

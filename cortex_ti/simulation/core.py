@@ -309,8 +309,15 @@ class Simulation:
         return None if self.report is None else self.report.stats
 
     def shape_geometry(self, points: np.ndarray):
-        """Frames, areas and fit operators of the shape ``points`` (what the formulation needs)."""
-        return compute_geometry(points, self.topology, self.stencils, residual=self.settings.numerics.uses_fit_residual)
+        """Frames, areas and fit operators of the shape ``points`` (what the formulation needs: the curved
+        cells only the fitted patch, without the operators)."""
+        return compute_geometry(
+            points,
+            self.topology,
+            self.stencils,
+            residual=self.settings.numerics.uses_fit_residual,
+            operators=not self.curved,
+        )
 
     def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None, implicit_rate=None):
         """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step, centred on

@@ -273,7 +273,9 @@ class FileHooks(RunHooks):
 
     def frame(self, t, ev, dt_next, final=False):
         sim = self.sim
-        diag = frame_diagnostics(ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=self.axis)
+        diag = frame_diagnostics(
+            ev.points, sim.mesh.faces, ev.velocity, ev.normal, axis=self.axis, measures=not self.curved
+        )
         if self.curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
             diag.update(curved_measures(ev.points, sim.mesh.faces, axis=self.axis))
         if self.stop_neck is not None:

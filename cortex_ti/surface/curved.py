@@ -36,14 +36,16 @@ __all__ = [
     "node_curvature",
     "p2_cells",
     "p2_shape",
+    "radon_rule",
     "split_mesh",
     "triangle_rule",
 ]
 
-#: Gauss points per direction of the collapsed square on which the cells are integrated: n^2 points,
-#: exact for polynomials of degree 2n - 1 on a flat cell. 3 (degree 5) gives the t = 0 ring flows of
-#: benchmarks/t0_accuracy.py to the same three digits as 4 at 642-10242 nodes; 2 (degree 3) loses up
-#: to 3x (docs/validation/curved.md)
+#: Gauss points per direction of the collapsed square on which the cells' fields (transport, bending
+#: rigidity) are integrated: n^2 points, exact for polynomials of degree 2n - 2 on a flat cell (the
+#: collapse adds one degree). For the dissipation, 3 gave the t = 0 ring flows of
+#: benchmarks/t0_accuracy.py to the same three digits as 4 at 642-10242 nodes, 2 lost up to 3x
+#: (docs/validation/curved.md); :func:`radon_rule` (degree 5 in 7 points) replaced it there
 GAUSS_POINTS = 3
 
 
@@ -61,6 +63,24 @@ def triangle_rule(n: int = GAUSS_POINTS) -> tuple[np.ndarray, np.ndarray]:
     wu, wv = np.meshgrid(w, w, indexing="ij")
     points = np.stack([u.ravel(), (v * (1.0 - u)).ravel()], axis=1)
     return points, (wu * wv * (1.0 - u)).ravel()
+
+
+def radon_rule() -> tuple[np.ndarray, np.ndarray]:
+    """Radon's seven-point rule on the reference triangle (Stroud T2:5-1), exact for polynomials of
+    degree 5 (the 3 x 3 collapsed rule of :func:`triangle_rule` is exact to degree 4 only, in 9 points):
+    the rule of the cells' dissipation (:func:`curved_surface`). Points (7, 2), weights summing to 1/2.
+    On the t = 0 rings of ``furrow_p8_a1`` / ``furrow_p4_a3`` it gives the 3 x 3 rule's errors to
+    1 % at 642 nodes and to 3 digits at 2562 (docs/validation/curved_cost.md).
+
+    >>> q, w = radon_rule()
+    >>> round(float(w.sum()), 15), round(float(w @ (q[:, 0] ** 3 * q[:, 1] ** 2)) * 420, 13)  # 1/2 and 1/420
+    (0.5, 1.0)
+    """
+    r = np.sqrt(15.0)
+    a, b = (6.0 - r) / 21.0, (6.0 + r) / 21.0
+    points = np.array([[1 / 3, 1 / 3], [a, a], [1 - 2 * a, a], [a, 1 - 2 * a], [b, b], [1 - 2 * b, b], [b, 1 - 2 * b]])
+    weights = np.array([9 / 40] + [(155.0 - r) / 1200.0] * 3 + [(155.0 + r) / 1200.0] * 3) / 2.0
+    return points, weights
 
 
 #: the cell's local edges, in the order of its nodes 3, 4, 5
@@ -185,11 +205,19 @@ class CurvedSurface:
     def node_integral(self, integrand: np.ndarray | None = None) -> np.ndarray:
         """``int N_i f dA`` for every node (M, ...), ``f`` given at the quadrature points (T, Q, ...)
         (none: ``f = 1``)."""
-        f = np.ones(self.weight.shape) if integrand is None else integrand
-        part = np.einsum("tq,qi,tq...->ti...", self.weight, self.shape, f)
-        out = np.zeros((self.n_nodes,) + part.shape[2:])
-        np.add.at(out, self.cells.ravel(), part.reshape((-1,) + part.shape[2:]))
-        return out
+        t, nq = self.weight.shape
+        if integrand is None:
+            wf = self.weight[:, :, None]
+        else:
+            wf = (self.weight.reshape(t, nq, *([1] * (integrand.ndim - 2))) * integrand).reshape(t, nq, -1)
+        part = np.matmul(self.shape.T, wf)  # (T, 6, K): sum_q N_i(q) w f
+        rest = () if integrand is None else integrand.shape[2:]
+        idx = self.cells.ravel()
+        out = np.stack(
+            [np.bincount(idx, weights=part[:, :, k].ravel(), minlength=self.n_nodes) for k in range(part.shape[2])],
+            axis=-1,
+        )
+        return out.reshape((self.n_nodes,) + rest)
 
     @property
     def area(self) -> float:
@@ -260,20 +288,22 @@ def node_curvature(geometry) -> np.ndarray:
     """The fitted curvature tensor of every node as a 3x3 tangential tensor ``C^ab e_a (x) e_b``
     (M, 3, 3) (``P / R`` on a sphere)."""
     gi = geometry.metric_inv
-    cup = np.einsum("nac,ncd,ndb->nab", gi, geometry.curvature, gi)
-    return np.einsum("nab,nac,nbd->ncd", cup, geometry.tangents, geometry.tangents)
+    cup = gi @ geometry.curvature @ gi
+    e = geometry.tangents
+    return np.ascontiguousarray(e.transpose(0, 2, 1) @ cup @ e)
 
 
-def curved_surface(geometry, faces: np.ndarray, gauss_points: int = GAUSS_POINTS) -> CurvedSurface:
+def curved_surface(geometry, faces: np.ndarray, rule: tuple[np.ndarray, np.ndarray] | None = None) -> CurvedSurface:
     """The curved six-node cells of the shape ``geometry`` on the split triangulation ``faces`` (one
-    Taichi kernel, :mod:`.curved_kernel`)."""
+    Taichi kernel, :mod:`.curved_kernel`), integrated with ``rule`` (points, weights on the reference
+    triangle; default :func:`radon_rule`)."""
     from .curved_kernel import curved_quadrature_kernel  # starts Taichi
 
     cells = p2_cells(faces)
     nodes = np.ascontiguousarray(geometry.points, dtype=float)
     normal = np.ascontiguousarray(geometry.normal, dtype=float)
     curvature = np.ascontiguousarray(node_curvature(geometry))
-    q, w = triangle_rule(gauss_points)
+    q, w = radon_rule() if rule is None else rule
     shape, dshape = p2_shape(q)
     t, nq = len(cells), len(w)
     out = dict(

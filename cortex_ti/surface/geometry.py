@@ -121,6 +121,39 @@ def _design_kernel(
                 design[i, j, t] = u ** powers[t, 0] * w ** powers[t, 1] * inv_fact[t]
 
 
+@ti.func
+def _normal_cholesky(design: ti.template(), s, chol: ti.template(), i):
+    """Node i's normal matrix ``N = D^T D`` of its first ``s`` design rows, factorised in place in
+    ``chol[i]`` (lower triangle); returns the quality ``min_a L_aa^2 / max_a N_aa`` (<= 0 where a pivot
+    is not positive)."""
+    p = design.shape[2]
+    dmax = 0.0
+    for a in range(p):
+        for b in range(a + 1):
+            acc = 0.0
+            for j in range(s):
+                acc += design[i, j, a] * design[i, j, b]
+            chol[i, a, b] = acc
+        dmax = ti.max(dmax, chol[i, a, a])
+    pmin = 1e300
+    ok = 1
+    for a in range(p):
+        if ok == 1:
+            for b in range(a + 1):
+                acc = chol[i, a, b]
+                for k in range(b):
+                    acc -= chol[i, a, k] * chol[i, b, k]
+                if b < a:
+                    chol[i, a, b] = acc / chol[i, b, b]
+                elif acc > 0.0:
+                    chol[i, a, a] = ti.sqrt(acc)
+                    pmin = ti.min(pmin, acc)
+                else:
+                    pmin = acc
+                    ok = 0
+    return pmin / dmax
+
+
 @kernel
 def _fit_kernel(design: f64_3, ssize: i32_1, chol: f64_3, fit: f64_3, quality: f64_1, qmin: float):
     """Per node the least-squares fit operator of the design rows ``D`` (stencil x monomials):
@@ -131,31 +164,7 @@ def _fit_kernel(design: f64_3, ssize: i32_1, chol: f64_3, fit: f64_3, quality: f
     for i in range(design.shape[0]):
         p = design.shape[2]
         s = ssize[i]
-        dmax = 0.0
-        for a in range(p):
-            for b in range(a + 1):
-                acc = 0.0
-                for j in range(s):
-                    acc += design[i, j, a] * design[i, j, b]
-                chol[i, a, b] = acc
-            dmax = ti.max(dmax, chol[i, a, a])
-        pmin = 1e300
-        ok = 1
-        for a in range(p):
-            if ok == 1:
-                for b in range(a + 1):
-                    acc = chol[i, a, b]
-                    for k in range(b):
-                        acc -= chol[i, a, k] * chol[i, b, k]
-                    if b < a:
-                        chol[i, a, b] = acc / chol[i, b, b]
-                    elif acc > 0.0:
-                        chol[i, a, a] = ti.sqrt(acc)
-                        pmin = ti.min(pmin, acc)
-                    else:
-                        pmin = acc
-                        ok = 0
-        quality[i] = pmin / dmax
+        quality[i] = _normal_cholesky(design, s, chol, i)
         if quality[i] > qmin:
             for j in range(s):
                 for a in range(p):  # L y = D[j]^T
@@ -172,12 +181,99 @@ def _fit_kernel(design: f64_3, ssize: i32_1, chol: f64_3, fit: f64_3, quality: f
 
 
 @kernel
+def _height_coef_kernel(
+    x: f64_2,
+    stencil: i32_2,
+    ssize: i32_1,
+    frame: f64_3,
+    design: f64_3,
+    chol: f64_3,
+    height: f64_2,
+    coef: f64_2,
+    quality: f64_1,
+    qmin: float,
+):
+    """Per node the fitted coefficients ``N^{-1} D^T h`` of the stencil heights ``h_j = (x_j - x_i) . n``
+    over its frame (the fit operator of :func:`_fit_kernel` applied to ``h``, without forming it: one
+    right-hand side instead of one per stencil node), in the scaled coordinates of the design;
+    rank-deficient nodes (quality at most ``qmin``) stay zero."""
+    for i in range(design.shape[0]):
+        p = design.shape[2]
+        s = ssize[i]
+        quality[i] = _normal_cholesky(design, s, chol, i)
+        if quality[i] > qmin:
+            xi = _vec(x, i)
+            n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
+            for j in range(s):
+                height[i, j] = (_vec(x, stencil[i, j]) - xi).dot(n)
+            for a in range(p):  # L y = D^T h
+                acc = 0.0
+                for j in range(s):
+                    acc += design[i, j, a] * height[i, j]
+                for k in range(a):
+                    acc -= chol[i, a, k] * coef[i, k]
+                coef[i, a] = acc / chol[i, a, a]
+            for q in range(p):  # L^T c = y
+                a = p - 1 - q
+                acc = coef[i, a]
+                for k in range(a + 1, p):
+                    acc -= chol[i, k, a] * coef[i, k]
+                coef[i, a] = acc / chol[i, a, a]
+
+
+@ti.func
+def _patch_at(
+    i,
+    h,
+    frame: ti.template(),
+    tangents: ti.template(),
+    nfit: ti.template(),
+    metric: ti.template(),
+    metric_inv: ti.template(),
+    curv: ti.template(),
+    gamma: ti.template(),
+    hfit: ti.template(),
+):
+    """Node i's fitted Monge patch from its height's five fitted derivatives ``h`` (A..E)."""
+    exi = ti.Vector([frame[i, 0, 0], frame[i, 0, 1], frame[i, 0, 2]])
+    eeta = ti.Vector([frame[i, 1, 0], frame[i, 1, 1], frame[i, 1, 2]])
+    n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
+    for k in ti.static(range(5)):
+        hfit[i, k] = h[k]
+    hx = h[0]
+    hy = h[1]
+    e1 = exi + hx * n
+    e2 = eeta + hy * n
+    w = 1.0 + hx * hx + hy * hy
+    nf = (n - hx * exi - hy * eeta) / ti.sqrt(w)
+    g = ti.Matrix([[1.0 + hx * hx, hx * hy], [hx * hy, 1.0 + hy * hy]])
+    gi = ti.Matrix([[1.0 + hy * hy, -hx * hy], [-hx * hy, 1.0 + hx * hx]]) / w
+    hab = ti.Matrix([[h[2], h[4]], [h[4], h[3]]])
+    cab = -hab / ti.sqrt(w)
+    hd = ti.Vector([hx, hy])
+    for c in ti.static(range(3)):
+        tangents[i, 0, c] = e1[c]
+        tangents[i, 1, c] = e2[c]
+        nfit[i, c] = nf[c]
+    for a in ti.static(range(2)):
+        for b in ti.static(range(2)):
+            metric[i, a, b] = g[a, b]
+            metric_inv[i, a, b] = gi[a, b]
+            curv[i, a, b] = cab[a, b]
+            for c in ti.static(range(2)):
+                # Gamma^c_ab = g^cd e_d . X_ab, with X_ab = h_ab n and e_d . n = h_d
+                gamma[i, c, a, b] = (gi[c, 0] * hd[0] + gi[c, 1] * hd[1]) * hab[a, b]
+
+
+@kernel
 def _patch_kernel(
     x: f64_2,
     stencil: i32_2,
     ssize: i32_1,
     frame: f64_3,
     fit: f64_3,
+    height: f64_2,
+    from_fit: ti.template(),
     tangents: f64_3,
     nfit: f64_2,
     metric: f64_3,
@@ -186,42 +282,22 @@ def _patch_kernel(
     gamma: f64_4,
     hfit: f64_2,
 ):
-    """The fitted Monge patch X = x_i + xi e_xi + eta e_eta + h(xi, eta) n of every node."""
+    """The fitted Monge patch X = x_i + xi e_xi + eta e_eta + h(xi, eta) n of every node, its height's
+    five fitted derivatives the fit operator ``fit`` applied to the stencil heights (``from_fit``), or
+    ``height`` (N, 5) as given."""
     for i in range(x.shape[0]):
-        xi = _vec(x, i)
-        exi = ti.Vector([frame[i, 0, 0], frame[i, 0, 1], frame[i, 0, 2]])
-        eeta = ti.Vector([frame[i, 1, 0], frame[i, 1, 1], frame[i, 1, 2]])
-        n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
         h = ti.Vector([0.0, 0.0, 0.0, 0.0, 0.0])
-        for j in range(ssize[i]):
-            hj = (_vec(x, stencil[i, j]) - xi).dot(n)
+        if ti.static(from_fit):
+            xi = _vec(x, i)
+            n = ti.Vector([frame[i, 2, 0], frame[i, 2, 1], frame[i, 2, 2]])
+            for j in range(ssize[i]):
+                hj = (_vec(x, stencil[i, j]) - xi).dot(n)
+                for k in ti.static(range(5)):
+                    h[k] += fit[i, k, j] * hj
+        else:
             for k in ti.static(range(5)):
-                h[k] += fit[i, k, j] * hj
-        for k in ti.static(range(5)):
-            hfit[i, k] = h[k]
-        hx = h[0]
-        hy = h[1]
-        e1 = exi + hx * n
-        e2 = eeta + hy * n
-        w = 1.0 + hx * hx + hy * hy
-        nf = (n - hx * exi - hy * eeta) / ti.sqrt(w)
-        g = ti.Matrix([[1.0 + hx * hx, hx * hy], [hx * hy, 1.0 + hy * hy]])
-        gi = ti.Matrix([[1.0 + hy * hy, -hx * hy], [-hx * hy, 1.0 + hx * hx]]) / w
-        hab = ti.Matrix([[h[2], h[4]], [h[4], h[3]]])
-        cab = -hab / ti.sqrt(w)
-        hd = ti.Vector([hx, hy])
-        for c in ti.static(range(3)):
-            tangents[i, 0, c] = e1[c]
-            tangents[i, 1, c] = e2[c]
-            nfit[i, c] = nf[c]
-        for a in ti.static(range(2)):
-            for b in ti.static(range(2)):
-                metric[i, a, b] = g[a, b]
-                metric_inv[i, a, b] = gi[a, b]
-                curv[i, a, b] = cab[a, b]
-                for c in ti.static(range(2)):
-                    # Gamma^c_ab = g^cd e_d . X_ab, with X_ab = h_ab n and e_d . n = h_d
-                    gamma[i, c, a, b] = (gi[c, 0] * hd[0] + gi[c, 1] * hd[1]) * hab[a, b]
+                h[k] = height[i, k]
+        _patch_at(i, h, frame, tangents, nfit, metric, metric_inv, curv, gamma, hfit)
 
 
 @kernel
@@ -248,7 +324,7 @@ class Geometry:
     volume_gradient: np.ndarray  # (N, 3) dV/dx_i of the enclosed volume
     stencil: np.ndarray  # (N, S) int32 fit stencil, padded with -1
     stencil_size: np.ndarray  # (N,) int32
-    fit: np.ndarray  # (N, 5, S) fit operator F
+    fit: np.ndarray | None  # (N, 5, S) fit operator F (None: computed without, compute_geometry)
     fit_quality: np.ndarray  # (N,) smallest scaled Cholesky pivot of the fit
     tangents: np.ndarray  # (N, 2, 3) e_1, e_2 of the fitted patch
     normal_fit: np.ndarray  # (N, 3) unit normal of the fitted patch
@@ -314,6 +390,8 @@ class Geometry:
 
     def fit_scalar(self, values: np.ndarray) -> np.ndarray:
         """Fitted derivatives ``(N, 5)`` of a nodal scalar field (order :data:`FIT_TERMS`)."""
+        if self.fit is None:
+            raise ValueError("this geometry was computed without its fit operators (compute_geometry(operators=False))")
         out = np.zeros((self.n_nodes, 5))
         _fit_scalar_kernel(
             np.ascontiguousarray(values, dtype=np.float64), self.stencil, self.stencil_size, self.fit, out
@@ -343,16 +421,30 @@ def _solve_fits(design: np.ndarray, ssize: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def compute_geometry(
-    points: np.ndarray, topo: Topology, stencils: StencilChooser | None = None, residual: bool = False
+    points: np.ndarray,
+    topo: Topology,
+    stencils: StencilChooser | None = None,
+    residual: bool = False,
+    operators: bool = True,
 ) -> Geometry:
     """Frames, areas, fit operators and the fitted surface patch of every node
-    (and, with ``residual``, the fit-residual operators ``I - D F``)."""
+    (and, with ``residual``, the fit-residual operators ``I - D F``).
+
+    ``operators=False``: the fitted patch only (normal, curvature, ``height_poly``: what the curved
+    cells of ``rayleigh_p2`` read), its coefficients solved for directly from the heights instead of
+    through the fit operator (one right-hand side per node instead of one per stencil node); ``fit``
+    is then None (:meth:`Geometry.fit_scalar` refuses) and the patch agrees with the operator's to
+    rounding."""
     x = np.ascontiguousarray(points, dtype=np.float64)
     n = x.shape[0]
     if not np.all(np.isfinite(x)):
         bad = np.flatnonzero(~np.isfinite(x).all(axis=1))
         raise MeshError(f"{bad.size} node positions are not finite (first: node {bad[0]})")
+    if x.ndim != 2 or x.shape[1] != 3 or n != len(topo.valence):
+        # the kernels would read past the arrays (a segmentation fault) on another mesh's connectivity
+        raise MeshError(f"{x.shape} node positions for a mesh of {len(topo.valence)} nodes")
     stencils = stencils or StencilChooser(topo)
+    operators = operators or residual
     scheme = stencils.scheme
     powers = scheme.powers
     inv_fact = 1.0 / np.array([factorial(a) * factorial(b) for a, b in powers], dtype=np.float64)
@@ -365,7 +457,13 @@ def compute_geometry(
         design = np.zeros((n, stencil.shape[1], scheme.n_terms))
         scale = np.zeros(n)
         _design_kernel(x, stencil, ssize, frame, powers, inv_fact, design, scale)
-        fit_full, quality = _solve_fits(design, ssize)
+        if operators:
+            fit_full, quality = _solve_fits(design, ssize)
+        else:
+            coef, quality = np.zeros((n, scheme.n_terms)), np.zeros(n)
+            chol = np.zeros((n, scheme.n_terms, scheme.n_terms))
+            height = np.zeros((n, stencil.shape[1]))
+            _height_coef_kernel(x, stencil, ssize, frame, design, chol, height, coef, quality, FIT_QUALITY_MIN)
         bad = np.flatnonzero(~(quality > FIT_QUALITY_MIN))
         if bad.size == 0:
             break
@@ -374,8 +472,6 @@ def compute_geometry(
                 f"the {scheme.name} fit is rank deficient at {bad.size} node(s) even on the widest stencil "
                 f"(first: node {bad[0]}, scaled pivot {quality[bad[0]]:.2e}): the mesh is too distorted there"
             )
-    degree = powers[:5].sum(axis=1)
-    fit = np.ascontiguousarray(fit_full[:, :5, :] / scale[:, None, None] ** degree[None, :, None])
     arrays = dict(
         tangents=np.zeros((n, 2, 3)),
         normal_fit=np.zeros((n, 3)),
@@ -385,9 +481,18 @@ def compute_geometry(
         christoffel=np.zeros((n, 2, 2, 2)),
         height_fit=np.zeros((n, 5)),
     )
-    _patch_kernel(x, stencil, ssize, frame, fit, *arrays.values())
+    if operators:
+        degree = powers[:5].sum(axis=1)
+        fit = np.ascontiguousarray(fit_full[:, :5, :] / scale[:, None, None] ** degree[None, :, None])
+        _patch_kernel(x, stencil, ssize, frame, fit, np.zeros((0, 5)), True, *arrays.values())
+        height_poly = _height_poly(x, stencil, ssize, frame, fit_full, scale, powers)
+    else:
+        fit = None
+        height_poly = coef / scale[:, None] ** powers.sum(axis=1)[None, :]
+        heights = np.ascontiguousarray(height_poly[:, :5])
+        _patch_kernel(x, stencil, ssize, frame, np.zeros((0, 5, 0)), heights, False, *arrays.values())
     return Geometry(
-        height_poly=_height_poly(x, stencil, ssize, frame, fit_full, scale, powers),
+        height_poly=height_poly,
         fit_powers=powers,
         points=x,
         frame=frame,

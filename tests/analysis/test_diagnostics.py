@@ -373,6 +373,11 @@ def test_frame_diagnostics_sphere_speeds(sphere):
     assert d["furrow_radius_long_axis"] == d["furrow_radius"]
     none = frame_diagnostics(p, f, None, None)
     assert math.isnan(none["max_normal_speed"]) and math.isnan(none["max_tangential_speed"])
+    # without the flat measures (a run on curved cells measures them on its cells): NaN, the rest alike
+    bare = frame_diagnostics(p, f, vel, 2.0 * n, measures=False)
+    flat = ("volume", "area", "pole_radius", "furrow_radius", "pole_radius_long_axis", "furrow_radius_long_axis")
+    assert list(bare) == list(d) and all(math.isnan(bare[k]) for k in flat)
+    assert all(bare[k] == d[k] or (math.isnan(bare[k]) and math.isnan(d[k])) for k in d if k not in flat)
 
 
 def test_frame_diagnostics_rotated_ellipsoid(sphere):

@@ -159,7 +159,7 @@ def test_the_numpy_cells_are_the_curved_surface_cells():
     shape at 642 nodes; measured 1.7e-17 (weights up to 1.1e-2) and 7.4e-14 (gradients up to 18).
     Bounds: round-off of the area element and of the gradients' recovery through the smooth normal,
     with margin."""
-    from cortex_ti.surface.curved import curved_surface
+    from cortex_ti.surface.curved import GAUSS_POINTS, curved_surface, triangle_rule
     from cortex_ti.surface.fits import StencilChooser
     from cortex_ti.surface.geometry import compute_geometry
     from cortex_ti.surface.mesh import Mesh
@@ -168,7 +168,8 @@ def test_the_numpy_cells_are_the_curved_surface_cells():
     m = icosphere(642)
     x = m.points * np.array([1.0, 1.1, 0.8]) + 0.05 * m.points[:, :1] ** 2
     topo = build_topology(Mesh(x, m.faces))
-    surf = curved_surface(compute_geometry(x, topo, StencilChooser(topo, "quartic")), m.faces)
+    geometry = compute_geometry(x, topo, StencilChooser(topo, "quartic"))
+    surf = curved_surface(geometry, m.faces, rule=triangle_rule(GAUSS_POINTS))  # the transport's rule
     _, _, weight, grads = cell_quadrature(x, m.faces)
     assert np.abs(surf.weight - weight).max() < 1e-15
     assert np.abs(surf.cell_grads() - grads).max() < 1e-11 * np.abs(grads).max()

@@ -110,8 +110,9 @@ class BendingViscosity(Term):
         n = ctx.surface.qnormal
         proj = np.eye(3) - n[..., :, None] * n[..., None, :]
         c1 = np.trace(c, axis1=-2, axis2=-1)
-        c2 = np.einsum("tqab,tqba->tq", c, c)
-        c3 = np.einsum("tqab,tqbc,tqca->tq", c, c, c)
+        cc = c @ c
+        c2 = np.trace(cc, axis1=-2, axis2=-1)
+        c3 = np.einsum("tqab,tqba->tq", cc, c)
         bform = 2.0 * eta * c + (eta_b - eta) * c1[..., None, None] * proj
         beta0 = 2.0 * eta * (c1 * c2 - c3) - (eta_b - eta) * c1 * c2
         ctx.add_normal_form(bform, beta0)
