@@ -1,0 +1,239 @@
+r"""Several bodies on one triangulation, and the cut of one closed surface into two at a neck.
+
+**Bodies** (:func:`body_labels`): the connected components of the triangulation (nodes joined by
+the triangles' edges), labelled ``0, 1, ...`` in the order of their smallest node index; a
+triangle's label is its nodes'. Without a surrounding fluid the bodies do not interact: each has its
+own volume constraint and rigid-motion gauge (the simulation solves them one by one).
+
+**The cut** (:func:`cut_at_plane`): a closed surface with a neck is split by the plane through the
+neck perpendicular to the axis, ``s(x) = (x - p0) . a``:
+
+1. the **volume of each side** is that of the surface clipped by the plane and closed by the plane's
+   section: with the origin on the plane, the section's tetrahedra have no volume, so
+   ``V_+ = sum over the clipped triangles' fans of x_a . (x_b x x_c) / 6`` (about ``p0``), and
+   ``V_+ + V_- = V`` to round-off (:func:`side_volumes`);
+2. the **amount of each density on each side** is the sum of ``c_i A_i`` (barycentric dual areas)
+   over the nodes with ``s_i >= 0`` and ``s_i < 0``: the two add to the total to round-off;
+3. the **neck band** (every triangle with a node within ``band`` of the plane) is removed, each of
+   the two sides left is closed by a fan of triangles from the centroid of its boundary loop (the
+   cap), and **remeshed** by MMG (:func:`cortex_ti.surface.remesh.triangulate`: the usual size
+   field, repair and angle retries; a node budget shared by the sides' areas); each daughter's
+   enclosed volume is then set to its side's volume by the uniform normal offset
+   (:func:`~cortex_ti.surface.remesh.restore_volume`), its fields interpolated from the old surface's
+   triangles on its side and each density scaled to its side's amount
+   (:func:`~cortex_ti.surface.remesh.keep_amount`).
+
+The daughters' volumes therefore add to the volume at the cut, and every density's total is kept, to
+round-off. What the cut changes is the shape near the neck: a band of width ``~2 band`` and a cap of
+the neck's radius, a volume of order ``r_neck^2 band`` moved by the offset (docs/guide/division.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from ..errors import CortexError
+from .measures import min_angles
+from .remesh import RemeshOptions, keep_amount, restore_volume, transfer_fields, triangulate
+from .transport import DENSITY, dual_areas
+
+__all__ = ["body_labels", "face_labels", "euler_characteristic", "side_volumes", "CutResult", "cut_at_plane"]
+
+
+def body_labels(faces: np.ndarray, n_nodes: int) -> tuple[int, np.ndarray]:
+    """``(n_bodies, labels)``: the connected components of the triangulation, one label per node
+    (numbered in the order of their smallest node; a node in no triangle is a body of its own).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> n, lab = body_labels(np.concatenate([m.faces, m.faces + 162]), 324)
+    >>> n, int(lab[0]), int(lab[200])
+    (2, 0, 1)
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    rows = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    cols = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    graph = sp.coo_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)), shape=(n_nodes, n_nodes))
+    n, lab = connected_components(graph, directed=False)
+    return int(n), lab.astype(np.int64)  # scipy numbers them in the order of their first node
+
+
+def face_labels(faces: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """The body label of each triangle (its first node's)."""
+    return np.asarray(labels)[np.asarray(faces)[:, 0]]
+
+
+def euler_characteristic(faces: np.ndarray) -> int:
+    """``V - E + F`` of the triangulation (2 for one closed surface of genus 0)."""
+    f = np.asarray(faces, dtype=np.int64)
+    e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    return int(np.unique(f).size - e.shape[0] + f.shape[0])
+
+
+def _tet(a, b, c) -> np.ndarray:
+    return np.einsum("tc,tc->t", a, np.cross(b, c)) / 6.0
+
+
+def side_volumes(points: np.ndarray, faces: np.ndarray, p0, axis) -> tuple[float, float]:
+    r"""``(V_minus, V_plus)``: the volumes of the closed surface on either side of the plane
+    ``(x - p0) . axis = 0`` (module docstring, step 1), each clipped piece closed by the plane.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> lo, hi = side_volumes(m.points, m.faces, (0, 0, 0), (0, 0, 1))
+    >>> bool(abs(lo - hi) < 1e-12 * hi)  # the icosphere is symmetric about z = 0
+    True
+    """
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    x = np.asarray(points, dtype=float)[np.asarray(faces)] - np.asarray(p0, dtype=float)  # (T, 3, 3)
+    s = x @ a  # (T, 3)
+    out = [0.0, 0.0]
+    for side, sign in ((0, -1.0), (1, 1.0)):
+        inside = sign * s >= 0.0  # a node on the plane counts on both sides: its tetrahedra have no volume there
+        whole = inside.all(axis=1)
+        out[side] += float(_tet(x[whole, 0], x[whole, 1], x[whole, 2]).sum())
+        for t in np.flatnonzero(inside.any(axis=1) & ~whole):
+            poly = _clip(x[t], sign * s[t])
+            for k in range(1, len(poly) - 1):
+                out[side] += float(_tet(poly[None, 0], poly[None, k], poly[None, k + 1])[0])
+    return out[0], out[1]
+
+
+def _clip(tri: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """The part ``s >= 0`` of one triangle (its corners ``tri`` (3, 3), their signed distances ``s``),
+    a convex polygon in the triangle's orientation."""
+    poly = []
+    for k in range(3):
+        j = (k + 1) % 3
+        if s[k] >= 0.0:
+            poly.append(tri[k])
+        if (s[k] >= 0.0) != (s[j] >= 0.0):
+            w = s[k] / (s[k] - s[j])
+            poly.append(tri[k] + w * (tri[j] - tri[k]))
+    return np.array(poly)
+
+
+@dataclass(frozen=True)
+class CutResult:
+    """Two daughters on one triangulation: the points, triangles and fields, the body label of each
+    node, the volumes of the two sides at the cut (the daughters', in label order), each density's
+    amounts on the two sides, and the smallest angle (deg) of the new triangles."""
+
+    points: np.ndarray
+    faces: np.ndarray
+    fields: dict
+    labels: np.ndarray
+    volumes: tuple
+    amounts: dict
+    min_angle: float
+
+
+def _cap(faces: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Close a surface with one boundary loop by a fan from the loop's centroid (a new last node)."""
+    f = np.asarray(faces, dtype=np.int64)
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    key = np.sort(directed, axis=1)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    boundary = directed[counts[inverse.ravel()] == 1]
+    if boundary.shape[0] < 3:
+        raise CortexError("the cut left a side without a boundary loop to cap")
+    nxt = dict(zip(boundary[:, 0].tolist(), boundary[:, 1].tolist(), strict=True))
+    if len(nxt) != boundary.shape[0]:
+        raise CortexError("the cut left a side whose boundary is not one simple loop")
+    start = int(boundary[0, 0])
+    loop = [start]
+    while nxt[loop[-1]] != start:
+        loop.append(nxt[loop[-1]])
+        if len(loop) > len(nxt):
+            break
+    if len(loop) != len(nxt):
+        raise CortexError(f"the cut left a side with {len(nxt)} boundary edges in more than one loop")
+    centre = len(points)
+    new_points = np.vstack([points, points[loop].mean(axis=0)])
+    loop = np.array(loop)
+    cap = np.stack([np.roll(loop, -1), loop, np.full(loop.size, centre)], axis=1)  # reversed boundary edges
+    return new_points, np.concatenate([f, cap])
+
+
+def cut_at_plane(
+    points: np.ndarray,
+    faces: np.ndarray,
+    p0,
+    axis,
+    band: float,
+    fields: dict | None = None,
+    kinds: dict | None = None,
+    options: RemeshOptions | None = None,
+) -> CutResult:
+    """Cut the closed surface ``(points, faces)`` into two at the plane through ``p0`` perpendicular
+    to ``axis``, removing the triangles within ``band`` of it (module docstring). ``options``: how the
+    daughters are remeshed (a node budget is shared by the sides' areas). The daughter on the
+    ``axis``' negative side is body 0. Raises :class:`~cortex_ti.errors.CortexError` when the plane
+    does not split the surface into two pieces each with one boundary loop."""
+    options = options or RemeshOptions()
+    points = np.ascontiguousarray(points, dtype=float)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    fields, kinds = dict(fields or {}), dict(kinds or {})
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    s = (points - np.asarray(p0, dtype=float)) @ a
+    volumes = side_volumes(points, faces, p0, a)
+    area = dual_areas(points, faces)
+    plus_node = s >= 0.0
+    amounts = {
+        name: (float(np.dot(v[~plus_node], area[~plus_node])), float(np.dot(v[plus_node], area[plus_node])))
+        for name, v in fields.items()
+        if kinds.get(name) == DENSITY
+    }
+    near = np.abs(s) < band
+    keep = ~near[faces].any(axis=1)
+    face_side = s[faces].mean(axis=1) >= 0.0
+    share = np.array([area[~plus_node].sum(), area[plus_node].sum()]) / area.sum()
+    out_p, out_f, out_lab, parts = [], [], [], {name: [] for name in fields}
+    offset, smallest = 0, math.inf
+    for side in (0, 1):
+        mine = keep & (face_side == bool(side))
+        sub = faces[mine]
+        used = np.unique(sub)
+        if used.size == 0:
+            raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
+        local = np.full(len(points), -1, dtype=np.int64)
+        local[used] = np.arange(used.size)
+        if body_labels(local[sub], used.size)[0] != 1:
+            raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
+        p, f = _cap(local[sub], points[used])
+        opts = (
+            options
+            if options.nodes is None
+            else replace(options, nodes=max(int(round(options.nodes * share[side])), 12))
+        )
+        new = triangulate(p, f.astype(np.int32), opts)
+        new_points, _ = restore_volume(new.points, new.faces, volumes[side])
+        old_faces = faces[face_side == bool(side)]  # the old surface on this side, band included
+        moved = transfer_fields(points, old_faces, fields, {}, new_points, new.faces)
+        new_area = dual_areas(new_points, new.faces)
+        for name in fields:
+            v = moved[name]
+            if name in amounts:
+                v = keep_amount(v, amounts[name][side], new_area)
+            parts[name].append(v)
+        smallest = min(smallest, float(min_angles(new_points, new.faces).min()))
+        out_p.append(new_points)
+        out_f.append(new.faces.astype(np.int64) + offset)
+        out_lab.append(np.full(len(new_points), side, dtype=np.int64))
+        offset += len(new_points)
+    return CutResult(
+        np.vstack(out_p),
+        np.ascontiguousarray(np.vstack(out_f), dtype=np.int32),
+        {name: np.concatenate(v) for name, v in parts.items()},
+        np.concatenate(out_lab),
+        volumes,
+        amounts,
+        smallest,
+    )
