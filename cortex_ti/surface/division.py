@@ -39,10 +39,27 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import CortexError
 from .measures import min_angles
-from .remesh import RemeshOptions, keep_amount, restore_volume, transfer_fields, triangulate
+from .remesh import (
+    RemeshOptions,
+    RemeshResult,
+    enclosed_volume,
+    keep_amount,
+    remesh,
+    restore_volume,
+    transfer_fields,
+    triangulate,
+)
 from .transport import DENSITY, dual_areas
 
-__all__ = ["body_labels", "face_labels", "euler_characteristic", "side_volumes", "CutResult", "cut_at_plane"]
+__all__ = [
+    "remesh_bodies",
+    "body_labels",
+    "face_labels",
+    "euler_characteristic",
+    "side_volumes",
+    "CutResult",
+    "cut_at_plane",
+]
 
 
 def body_labels(faces: np.ndarray, n_nodes: int) -> tuple[int, np.ndarray]:
@@ -134,8 +151,15 @@ class CutResult:
     min_angle: float
 
 
-def _cap(faces: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Close a surface with one boundary loop by a fan from the loop's centroid (a new last node)."""
+#: the rings of nodes between a cap's rim and its pole (the cap is a dome, :func:`_cap`)
+CAP_RINGS = 4
+
+
+def _cap(faces: np.ndarray, points: np.ndarray, outward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Close a surface with one boundary loop by a dome: its rim the loop, its pole at the loop's
+    centroid plus the loop's mean radius ``r`` along ``outward``; :data:`CAP_RINGS` rings between,
+    ``x = c + sin(phi) (x_rim - c) + r cos(phi) outward``. On a neck whose surface runs along the
+    axis the dome meets it without a crease (a flat cap's right-angled rim starts a stiff transient)."""
     f = np.asarray(faces, dtype=np.int64)
     directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     key = np.sort(directed, axis=1)
@@ -148,17 +172,27 @@ def _cap(faces: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]
         raise CortexError("the cut left a side whose boundary is not one simple loop")
     start = int(boundary[0, 0])
     loop = [start]
-    while nxt[loop[-1]] != start:
+    while nxt[loop[-1]] != start and len(loop) <= len(nxt):
         loop.append(nxt[loop[-1]])
-        if len(loop) > len(nxt):
-            break
     if len(loop) != len(nxt):
         raise CortexError(f"the cut left a side with {len(nxt)} boundary edges in more than one loop")
-    centre = len(points)
-    new_points = np.vstack([points, points[loop].mean(axis=0)])
     loop = np.array(loop)
-    cap = np.stack([np.roll(loop, -1), loop, np.full(loop.size, centre)], axis=1)  # reversed boundary edges
-    return new_points, np.concatenate([f, cap])
+    rim = points[loop]
+    c = rim.mean(axis=0)
+    r = float(np.linalg.norm(rim - c, axis=1).mean())
+    new_points, new_faces, prev = [points], [f], loop
+    n = len(points)
+    for k in range(1, CAP_RINGS + 1):
+        phi = 0.5 * math.pi * (1.0 - k / (CAP_RINGS + 1))
+        ring = np.arange(n, n + loop.size)
+        new_points.append(c + math.sin(phi) * (rim - c) + r * math.cos(phi) * outward)
+        nxt_prev, nxt_ring = np.roll(prev, -1), np.roll(ring, -1)
+        # the boundary edge prev_j -> prev_j+1 is used reversed by the strip
+        new_faces += [np.stack([nxt_prev, prev, ring], axis=1), np.stack([nxt_prev, ring, nxt_ring], axis=1)]
+        prev, n = ring, n + loop.size
+    new_points.append((c + r * outward)[None, :])
+    new_faces.append(np.stack([np.roll(prev, -1), prev, np.full(prev.size, n)], axis=1))
+    return np.vstack(new_points), np.concatenate(new_faces)
 
 
 def cut_at_plane(
@@ -183,6 +217,8 @@ def cut_at_plane(
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
     s = (points - np.asarray(p0, dtype=float)) @ a
+    if not (np.any(s < -band) and np.any(s > band)):
+        raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
     volumes = side_volumes(points, faces, p0, a)
     area = dual_areas(points, faces)
     plus_node = s >= 0.0
@@ -207,7 +243,7 @@ def cut_at_plane(
         local[used] = np.arange(used.size)
         if body_labels(local[sub], used.size)[0] != 1:
             raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
-        p, f = _cap(local[sub], points[used])
+        p, f = _cap(local[sub], points[used], a if side == 0 else -a)
         opts = (
             options
             if options.nodes is None
@@ -237,3 +273,68 @@ def cut_at_plane(
         amounts,
         smallest,
     )
+
+
+def remesh_bodies(
+    points: np.ndarray,
+    faces: np.ndarray,
+    fields: dict | None = None,
+    kinds: dict | None = None,
+    options: RemeshOptions | None = None,
+) -> RemeshResult:
+    """:func:`~cortex_ti.surface.remesh.remesh` of each body of ``(points, faces)`` on its own: its
+    own enclosed volume restored, a density's amount on it kept, a node budget shared by the bodies'
+    areas; the bodies in the order of :func:`body_labels`."""
+    options = options or RemeshOptions()
+    fields, kinds = dict(fields or {}), dict(kinds or {})
+    n, labels = body_labels(faces, len(points))
+    flab = face_labels(faces, labels)
+    area = dual_areas(points, faces)
+    out_p, out_f, parts, offset, offsets = [], [], {name: [] for name in fields}, 0, 0.0
+    scale, predicted = [], 0.0
+    for b in range(n):
+        nodes = np.flatnonzero(labels == b)
+        local = np.full(len(points), -1, dtype=np.int64)
+        local[nodes] = np.arange(nodes.size)
+        share = float(area[nodes].sum() / area.sum())
+        opts = options if options.nodes is None else replace(options, nodes=max(int(round(options.nodes * share)), 12))
+        res = remesh(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
+        out_p.append(res.points)
+        out_f.append(res.faces.astype(np.int64) + offset)
+        for name in fields:
+            parts[name].append(res.fields[name])
+        offset += len(res.points)
+        offsets = max(offsets, abs(res.offset))
+        scale.append(res.scale)
+        predicted += res.predicted
+    return RemeshResult(
+        np.vstack(out_p),
+        np.ascontiguousarray(np.vstack(out_f), dtype=np.int32),
+        {name: np.concatenate(v) for name, v in parts.items()},
+        offsets,
+        len(points),
+        offset,
+        float(min(scale)),
+        predicted,
+    )
+
+
+def body_volumes(points: np.ndarray, faces: np.ndarray) -> list[float]:
+    """The enclosed volume of each body (in the order of :func:`body_labels`)."""
+    n, labels = body_labels(faces, len(points))
+    flab = face_labels(faces, labels)
+    return [enclosed_volume(points, faces[flab == b]) for b in range(n)]
+
+
+def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes) -> np.ndarray:
+    """Each body's nodes offset along their normals so that it encloses its ``volumes[b]``
+    (:func:`~cortex_ti.surface.remesh.restore_volume` body by body)."""
+    n, labels = body_labels(faces, len(points))
+    flab = face_labels(faces, labels)
+    out = np.array(points, dtype=float)
+    for b in range(n):
+        nodes = np.flatnonzero(labels == b)
+        local = np.full(len(points), -1, dtype=np.int64)
+        local[nodes] = np.arange(nodes.size)
+        out[nodes] = restore_volume(out[nodes], local[faces[flab == b]], volumes[b])[0]
+    return out
