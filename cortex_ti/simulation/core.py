@@ -251,8 +251,8 @@ class Simulation:
         time steps follow, not the stiff transient (measured: the excess falls by 0.62-0.77 in the
         first pseudo-steps and by 0.9 from the 4th-6th on, the tail going like k^-0.6;
         docs/validation/remesh_constriction.md). Then the volume is
-        restored as the remeshing restores it (each body's, ``volumes`` if given), the densities' amounts rescaled. Returns the points,
-        the fields, the largest move and the pseudo-steps taken."""
+        restored as the remeshing restores it (each body's, ``volumes`` if given), the densities'
+        amounts rescaled. Returns the points, the fields, the largest move and the pseudo-steps taken."""
         if self.curved:  # the old cells' quadratic flow at the feet on the old curved surface
             old = curved_remesh.interpolate_at(state.points, state.faces, flow, points)
         else:
