@@ -116,13 +116,13 @@ def side_volumes(points: np.ndarray, faces: np.ndarray, p0, axis) -> tuple[float
         whole = inside.all(axis=1)
         out[side] += float(_tet(x[whole, 0], x[whole, 1], x[whole, 2]).sum())
         for t in np.flatnonzero(inside.any(axis=1) & ~whole):
-            poly = _clip(x[t], sign * s[t])
+            poly = _clip_triangle(x[t], sign * s[t])
             for k in range(1, len(poly) - 1):
                 out[side] += float(_tet(poly[None, 0], poly[None, k], poly[None, k + 1])[0])
     return out[0], out[1]
 
 
-def _clip(tri: np.ndarray, s: np.ndarray) -> np.ndarray:
+def _clip_triangle(tri: np.ndarray, s: np.ndarray) -> np.ndarray:
     """The part ``s >= 0`` of one triangle (its corners ``tri`` (3, 3), their signed distances ``s``),
     a convex polygon in the triangle's orientation."""
     poly = []
@@ -151,15 +151,44 @@ class CutResult:
     min_angle: float
 
 
-#: the rings of nodes between a cap's rim and its pole (the cap is a dome, :func:`_cap`)
-CAP_RINGS = 4
+def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The part ``t >= 0`` of a triangulated surface (``t`` (N,) an affine function of the points,
+    a signed distance), the triangles across ``t = 0`` cut there: ``(points, faces)`` with only the
+    nodes used, the new nodes on the cut edges shared by the triangles on both sides of each edge."""
+    t = np.where(np.abs(t) < 1e-12, 1e-12, t)  # no node exactly on the cut
+    inside = t >= 0.0
+    new_points = [p for p in points]
+    on_edge: dict = {}
+
+    def cross(i: int, j: int) -> int:
+        key = (min(i, j), max(i, j))
+        if key not in on_edge:
+            w = t[i] / (t[i] - t[j])
+            on_edge[key] = len(new_points)
+            new_points.append(points[i] + w * (points[j] - points[i]))
+        return on_edge[key]
+
+    out = [faces[inside[faces].all(axis=1)]]
+    for tri in faces[inside[faces].any(axis=1) & ~inside[faces].all(axis=1)]:
+        poly = []
+        for k in range(3):
+            i, j = int(tri[k]), int(tri[(k + 1) % 3])
+            if inside[i]:
+                poly.append(i)
+            if inside[i] != inside[j]:
+                poly.append(cross(i, j))
+        out += [np.array([[poly[0], poly[k], poly[k + 1]]]) for k in range(1, len(poly) - 1)]
+    f = np.concatenate(out).astype(np.int64)
+    p = np.array(new_points)
+    used = np.unique(f)
+    local = np.full(len(p), -1, dtype=np.int64)
+    local[used] = np.arange(used.size)
+    return p[used], local[f]
 
 
-def _cap(faces: np.ndarray, points: np.ndarray, outward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Close a surface with one boundary loop by a dome: its rim the loop, its pole at the loop's
-    centroid plus the loop's mean radius ``r`` along ``outward``; :data:`CAP_RINGS` rings between,
-    ``x = c + sin(phi) (x_rim - c) + r cos(phi) outward``. On a neck whose surface runs along the
-    axis the dome meets it without a crease (a flat cap's right-angled rim starts a stiff transient)."""
+def _cap(faces: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Close a surface with one planar boundary loop (the rim) by a flat fan from the rim's centroid
+    (a new last node). Returns ``(points, faces, rim)``, ``rim`` the loop's nodes in order."""
     f = np.asarray(faces, dtype=np.int64)
     directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     key = np.sort(directed, axis=1)
@@ -177,22 +206,46 @@ def _cap(faces: np.ndarray, points: np.ndarray, outward: np.ndarray) -> tuple[np
     if len(loop) != len(nxt):
         raise CortexError(f"the cut left a side with {len(nxt)} boundary edges in more than one loop")
     loop = np.array(loop)
-    rim = points[loop]
+    centre = len(points)
+    cap = np.stack([np.roll(loop, -1), loop, np.full(loop.size, centre)], axis=1)  # the rim's edges reversed
+    return np.vstack([points, points[loop].mean(axis=0)]), np.concatenate([f, cap]), loop
+
+
+def _dome(points: np.ndarray, rim: np.ndarray, outward: np.ndarray, plane: float) -> np.ndarray:
+    r"""Raise the flat cap in the plane ``x . outward = plane`` into a dome over its rim (the points
+    ``rim`` (R, 3), in order): a point at distance ``rho`` from the rim's centroid ``c``, in the
+    direction ``theta`` where the rim is at ``R(theta)`` (interpolated), goes to
+    ``c + R sin(pi u / 2) e_theta + R cos(pi u / 2) outward``, ``u = rho / R``: the rim stays, a
+    circular rim gets a hemisphere, which meets a neck running along the axis without a crease (a
+    flat cap's right-angled rim starts a stiff transient)."""
     c = rim.mean(axis=0)
-    r = float(np.linalg.norm(rim - c, axis=1).mean())
-    new_points, new_faces, prev = [points], [f], loop
-    n = len(points)
-    for k in range(1, CAP_RINGS + 1):
-        phi = 0.5 * math.pi * (1.0 - k / (CAP_RINGS + 1))
-        ring = np.arange(n, n + loop.size)
-        new_points.append(c + math.sin(phi) * (rim - c) + r * math.cos(phi) * outward)
-        nxt_prev, nxt_ring = np.roll(prev, -1), np.roll(ring, -1)
-        # the boundary edge prev_j -> prev_j+1 is used reversed by the strip
-        new_faces += [np.stack([nxt_prev, prev, ring], axis=1), np.stack([nxt_prev, ring, nxt_ring], axis=1)]
-        prev, n = ring, n + loop.size
-    new_points.append((c + r * outward)[None, :])
-    new_faces.append(np.stack([np.roll(prev, -1), prev, np.full(prev.size, n)], axis=1))
-    return np.vstack(new_points), np.concatenate(new_faces)
+    e1 = rim[0] - c - ((rim[0] - c) @ outward) * outward
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(outward, e1)
+
+    def polar(x):
+        d = x - c
+        return np.hypot(d @ e1, d @ e2), np.arctan2(d @ e2, d @ e1)
+
+    r_rim, t_rim = polar(rim)
+    order = np.argsort(t_rim)
+    t_rim, r_rim = t_rim[order], r_rim[order]
+    t_ext = np.concatenate([t_rim - 2 * math.pi, t_rim, t_rim + 2 * math.pi])
+    r_ext = np.concatenate([r_rim, r_rim, r_rim])
+    size = float(np.mean(r_rim))
+    on_cap = points @ outward - plane >= -1e-3 * size  # the lobe lies behind the plane, the cap in it
+    rho, theta = polar(points[on_cap])
+    radius = np.interp(theta, t_ext, r_ext)
+    inside = rho < radius * (1.0 - 1e-9)
+    u = np.clip(rho / radius, 0.0, 1.0)
+    e = np.cos(theta)[:, None] * e1 + np.sin(theta)[:, None] * e2
+    lifted = (
+        c + (radius * np.sin(0.5 * math.pi * u))[:, None] * e + (radius * np.cos(0.5 * math.pi * u))[:, None] * outward
+    )
+    out = points.copy()
+    idx = np.flatnonzero(on_cap)[inside]
+    out[idx] = lifted[inside]
+    return out
 
 
 def cut_at_plane(
@@ -227,29 +280,26 @@ def cut_at_plane(
         for name, v in fields.items()
         if kinds.get(name) == DENSITY
     }
-    near = np.abs(s) < band
-    keep = ~near[faces].any(axis=1)
     face_side = s[faces].mean(axis=1) >= 0.0
     share = np.array([area[~plus_node].sum(), area[plus_node].sum()]) / area.sum()
     out_p, out_f, out_lab, parts = [], [], [], {name: [] for name in fields}
     offset, smallest = 0, math.inf
     for side in (0, 1):
-        mine = keep & (face_side == bool(side))
-        sub = faces[mine]
-        used = np.unique(sub)
-        if used.size == 0:
-            raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
-        local = np.full(len(points), -1, dtype=np.int64)
-        local[used] = np.arange(used.size)
-        if body_labels(local[sub], used.size)[0] != 1:
+        sign = 1.0 if side else -1.0
+        sub_points, sub = _clip(points, faces, sign * s - band)  # the side beyond the band, cut flat
+        if body_labels(sub, len(sub_points))[0] != 1:
             raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
-        p, f = _cap(local[sub], points[used], a if side == 0 else -a)
+        outward = a if side == 0 else -a
+        p, f, rim = _cap(sub, sub_points)
         opts = (
             options
             if options.nodes is None
             else replace(options, nodes=max(int(round(options.nodes * share[side])), 12))
         )
-        new = triangulate(p, f.astype(np.int32), opts)
+        flat = triangulate(p, f.astype(np.int32), replace(opts, min_angle=None))  # the cap made of small triangles
+        plane = float(sub_points[rim[0]] @ outward)
+        domed = _dome(flat.points, sub_points[rim], outward, plane)  # then raised into a dome
+        new = triangulate(domed, flat.faces, opts)  # and the whole remeshed to the usual quality
         new_points, _ = restore_volume(new.points, new.faces, volumes[side])
         old_faces = faces[face_side == bool(side)]  # the old surface on this side, band included
         moved = transfer_fields(points, old_faces, fields, {}, new_points, new.faces)
