@@ -38,7 +38,7 @@ from ..surface.mesh import Mesh
 from ..surface.topology import build_topology
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .core import Simulation, Solution
+    from .core import Simulation
 
 __all__ = [
     "Body",
@@ -105,13 +105,12 @@ def split_bodies(sim: Simulation, mesh: Mesh) -> list[Body] | None:
     return out
 
 
-def solve_by_body(sim: Simulation, x: np.ndarray, dt: float, zeta, implicit_rate) -> Solution:
+def solve_by_body(sim: Simulation, x: np.ndarray, dt: float, zeta, implicit_rate) -> dict:
     """The solve of :meth:`~cortex_ti.simulation.core.Simulation.solve` body by body (module
-    docstring): the velocities, normals and edge lengths put together; the pressure of each body in
-    ``body_pressure`` (the solution's ``pressure`` is NaN: there is not one); the residuals combined
-    (norms in quadrature, violations their largest)."""
-    from .core import Solution
-
+    docstring): the fields of its :class:`~cortex_ti.simulation.core.Solution`, the velocities,
+    normals and edge lengths put together; the pressure of each body in ``body_pressure`` (the
+    solution's ``pressure`` is NaN: there is not one); the residuals combined (norms in quadrature,
+    violations their largest)."""
     zeta = sim.zeta if zeta is None else np.asarray(zeta)
     n = x.shape[0]
     velocity, normal, edge = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
@@ -134,7 +133,16 @@ def solve_by_body(sim: Simulation, x: np.ndarray, dt: float, zeta, implicit_rate
         iterations=sum(i.iterations for i in infos),
         refactored=any(i.refactored for i in infos),
     )
-    return Solution(x, velocity, float("nan"), info, normal, edge, seconds, np.array(pressures, dtype=float))
+    return {
+        "points": x,
+        "velocity": velocity,
+        "pressure": float("nan"),
+        "info": info,
+        "normal": normal,
+        "edge_length": edge,
+        "seconds": seconds,
+        "body_pressure": np.array(pressures, dtype=float),
+    }
 
 
 @dataclass(frozen=True)

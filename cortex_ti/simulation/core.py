@@ -352,7 +352,7 @@ class Simulation:
         ``implicit_rate`` (N, 3) if given (the ``bdf2`` scheme); 0 is the instantaneous velocity."""
         x = self.mesh.points if points is None else points
         if self.bodies is not None:  # each body its own volume constraint and gauge (simulation/bodies.py)
-            return solve_by_body(self, x, dt, zeta, implicit_rate)
+            return Solution(**solve_by_body(self, x, dt, zeta, implicit_rate))
         return self.solve_on(x, self.topology, self.stencils, self.mesh.faces, self.solver, dt, zeta, implicit_rate)
 
     def solve_on(self, x, topology, stencils, faces, solver, dt=0.0, zeta=None, implicit_rate=None) -> Solution:

@@ -55,11 +55,13 @@ FURROWS = [
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
 #: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
 FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid"]
+#: issue 35's scenes: one cell becoming two
+DIVISION = ["cytokinesis"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
-    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN + FLUIDS)
-    for name in SHIPPED + FURROWS + MYOSIN + FLUIDS:
+    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN + FLUIDS + DIVISION)
+    for name in SHIPPED + FURROWS + MYOSIN + FLUIDS + DIVISION:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
         assert path.parent.parent.name == "scene"  # package data of cortex_ti.scene

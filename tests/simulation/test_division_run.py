@@ -64,6 +64,7 @@ def _check(path, v0):
     return ds
 
 
+@pytest.mark.slow  # the two runs of the fixture: ~4 CPU s
 def test_a_run_divides_and_goes_on_as_two_bodies(runs):
     v0, whole, _, _ = runs
     ds = _check(whole, v0)
@@ -73,6 +74,7 @@ def test_a_run_divides_and_goes_on_as_two_bodies(runs):
     assert c[0, 2] < -0.3 and c[1, 2] > 0.3
 
 
+@pytest.mark.slow
 def test_a_run_resumed_across_the_cut(runs):
     v0, _, part, _ = runs
     ds = _check(part, v0)
