@@ -253,6 +253,7 @@ def test_defaults_and_canonical_numbers():
         "numerics",
         "solver",
         "time",
+        "division",
         "axisymmetric",
     ]
 
@@ -331,7 +332,7 @@ def test_error_names_the_scene_file(tmp_path):
             "foo=1",
             "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
             "viscosity, rigidity, fluid, "
-            "active_stress, fields, effects, numerics, solver, time, axisymmetric)",
+            "active_stress, fields, effects, numerics, solver, time, division, axisymmetric)",
         ),
         # wrong types
         ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
