@@ -265,13 +265,15 @@ class TrajectoryWriter:
     ) -> None:
         """The mesh changed (a remeshing): the next frame starts segment ``mesh_<k>`` with these
         triangles and node count (``reference``: the ALE reference nodes, default the next frame's
-        points; ``attrs``: attributes of the segment's group, e.g. a division's record). The segment
-        becomes visible to readers with its first committed frame. Frames held for the old mesh are
+        points; ``attrs``: attributes of the segment's group, e.g. a division's record, kept when the
+        mesh changes again before the next frame). The segment becomes visible to readers with its
+        first committed frame. Frames held for the old mesh are
         committed first."""
         self.commit()
         n_nodes = int(n_nodes)
         ref = None if reference is None else _array("reference_points", reference, (n_nodes, 3))
-        self._pending = (_triangles(triangles, n_nodes), n_nodes, ref, dict(attrs or {}))
+        earlier = {} if self._pending is None else self._pending[3]  # a segment replaced before its first frame
+        self._pending = (_triangles(triangles, n_nodes), n_nodes, ref, {**earlier, **dict(attrs or {})})
 
     def _open_segment(self, points) -> None:
         """Create the pending segment's group (layout of :func:`_layout`) and write to it from now on."""
