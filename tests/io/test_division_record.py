@@ -21,3 +21,11 @@ def test_the_record_survives_a_remeshing_before_the_next_frame(tmp_path):
     w.finish()
     got = read_divisions(path)
     assert got == [{"segment": 1, "division_time": 0.25, "division_volumes": [1.0, 2.0]}]
+
+
+def test_a_file_from_before_the_division_key_resumes_without_division():
+    from cortex_ti.io.layout import scene_difference
+
+    old = "name: x\nmesh:\n  nodes: 42\n"
+    assert scene_difference(old, old + "division:\n  neck_radius: null\n") is None
+    assert "division" in scene_difference(old, old + "division:\n  neck_radius: 0.1\n")
