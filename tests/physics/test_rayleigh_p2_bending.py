@@ -10,6 +10,7 @@ Bounds: a finite difference's truncation error is estimated from two step sizes 
 convergence orders are asserted a margin below the measured ones, at the levels given.
 """
 
+
 import numpy as np
 import pytest
 
