@@ -62,6 +62,8 @@ def scene_difference(stored, new) -> str | None:
         return None if stored == new else "the stored scene is not a mapping"
     da.pop("time", None)
     db.pop("time", None)
+    if "division" not in da and (db.get("division") or {}).get("neck_radius") is None:
+        db.pop("division", None)  # a file from before the key: it did not divide, as the default does not
 
     def first(a, b, key):
         if isinstance(a, dict) and isinstance(b, dict):

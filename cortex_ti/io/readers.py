@@ -380,3 +380,28 @@ def _fitted_normals(points: np.ndarray, triangles: np.ndarray, fit: str) -> np.n
 
     topo = build_topology(Mesh(points, triangles))
     return compute_geometry(points, topo, StencilChooser(topo, fit)).normal
+
+
+def read_divisions(path: str | os.PathLike) -> list[dict]:
+    """The divisions a trajectory records (``division.neck_radius``): for each, the segment it starts
+    and the attributes of that segment's group (``division_time``, ``division_neck``,
+    ``division_volume``, ``division_volumes``; :data:`cortex_ti.simulation.bodies.CUT_ATTRS`), in order."""
+    import h5py
+
+    out = []
+    with h5py.File(_existing(path), "r") as h5:
+        for k in range(1, len(h5) + 1):
+            name = SEGMENT_GROUP.format(k)
+            if name not in h5:
+                continue
+            attrs = h5[name].attrs
+            if "division_time" in attrs:
+                rec = {key: _attr(attrs[key]) for key in attrs if key.startswith("division_")}
+                out.append({"segment": k, **rec})
+    return out
+
+
+def _attr(value):
+    """An attribute as a number (one value; netCDF stores it as an array of one) or a list."""
+    arr = np.asarray(value, dtype=float)
+    return float(arr.reshape(-1)[0]) if arr.size == 1 else arr.tolist()

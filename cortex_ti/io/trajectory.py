@@ -57,7 +57,15 @@ from __future__ import annotations
 
 from .frames import COMMIT_ATTR, SEGMENTS_ATTR, committed_frames
 from .layout import FIELD_PREFIX, FRAME_VARIABLES, partial_path
-from .readers import Trajectory, frame_mesh, last_frame, load_trajectory, merge_segments, open_trajectory
+from .readers import (
+    Trajectory,
+    frame_mesh,
+    last_frame,
+    load_trajectory,
+    merge_segments,
+    open_trajectory,
+    read_divisions,
+)
 from .resume import ResumeState
 from .writer import TrajectoryWriter
 
@@ -65,6 +73,7 @@ __all__ = [
     "FRAME_VARIABLES",
     "TrajectoryWriter",
     "Trajectory",
+    "read_divisions",
     "ResumeState",
     "open_trajectory",
     "load_trajectory",

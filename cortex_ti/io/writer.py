@@ -260,26 +260,31 @@ class TrajectoryWriter:
     def _segment_nc(self):
         return self._nc if self._segment == 0 else self._nc.groups[SEGMENT_GROUP.format(self._segment)]
 
-    def start_segment(self, triangles: np.ndarray, n_nodes: int, reference: np.ndarray | None = None) -> None:
+    def start_segment(
+        self, triangles: np.ndarray, n_nodes: int, reference: np.ndarray | None = None, attrs: Mapping | None = None
+    ) -> None:
         """The mesh changed (a remeshing): the next frame starts segment ``mesh_<k>`` with these
         triangles and node count (``reference``: the ALE reference nodes, default the next frame's
-        points). The segment becomes visible to readers with its first committed frame. Frames
-        held for the old mesh are committed first."""
+        points; ``attrs``: attributes of the segment's group, e.g. a division's record, kept when the
+        mesh changes again before the next frame). The segment becomes visible to readers with its
+        first committed frame. Frames held for the old mesh are
+        committed first."""
         self.commit()
         n_nodes = int(n_nodes)
         ref = None if reference is None else _array("reference_points", reference, (n_nodes, 3))
-        self._pending = (_triangles(triangles, n_nodes), n_nodes, ref)
+        earlier = {} if self._pending is None else self._pending[3]  # a segment replaced before its first frame
+        self._pending = (_triangles(triangles, n_nodes), n_nodes, ref, {**earlier, **dict(attrs or {})})
 
     def _open_segment(self, points) -> None:
         """Create the pending segment's group (layout of :func:`_layout`) and write to it from now on."""
-        triangles, n_nodes, ref = self._pending
+        triangles, n_nodes, ref, attrs = self._pending
         k = self._segment + 1
         name = SEGMENT_GROUP.format(k)
         if name in self._h5:  # left over from a segment whose first frame was never committed
             del self._h5[name]
         group = self._nc.create_group(name)
         sizes = {**self._sizes, "node": n_nodes}
-        _layout(group, sizes, triangles, self._variables(), {})
+        _layout(group, sizes, triangles, self._variables(), attrs)
         var = group.create_variable("reference_points", ("node", "xyz"), "f8", data=points if ref is None else ref)
         var.attrs.update(_REFERENCE_ATTRS)
         self._h5[name].attrs[COMMIT_ATTR] = np.int64(0)

@@ -4,18 +4,24 @@ exactly one mesh source, a time scheme and its tension treatment, ...)."""
 from __future__ import annotations
 
 import difflib
+import math
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.formulations import FORMULATIONS
 from ..physics.model import EFFECTS
 from ..surface.mesh import icosphere_sizes
+from ..surface.remesh import H_MIN_DIVISOR
 from .schema import current_schema, fmt_value
 
 __all__ = ["check_rules", "FLUIDS_MAX_NODES", "VALID_NODE_COUNTS", "fluids_size_message"]
 
 #: Icosphere node counts 10*4^k+2 accepted for mesh.nodes (k = 0..7).
 VALID_NODE_COUNTS: tuple[int, ...] = tuple(icosphere_sizes(7))
+
+#: division.neck_radius must be at least this many smallest target edge lengths h_min of the remeshing
+#: (a circle of that radius has about 4 pi = 12.6 edges of h_min around it)
+DIVISION_MIN_EDGES = 2.0
 
 #: Effects that need the normal force balance.
 _NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution", "fluids")
@@ -38,6 +44,7 @@ def check_rules(data: dict) -> None:
     _check_time(data.get("time") or {})
     _check_step_count(data)
     _check_stop_neck(data)
+    _check_division(data)
     _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
@@ -390,6 +397,40 @@ def _check_stop_neck(data: dict) -> None:
         raise SceneError(
             f"time.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
             f"{fmt_value(data['mesh']['radius'])}: the run would stop at its first frame"
+        )
+
+
+def _check_division(data: dict) -> None:
+    """``division.neck_radius``: a 3D run that remeshes flat triangles with normal or lagrangian nodes and
+    no fluids (the cut and the solve by body, cortex_ti.surface.division), a neck the remeshing resolves
+    (at least :data:`DIVISION_MIN_EDGES` smallest target edges, ``h_min``), and above ``time.stop_neck``."""
+    neck = (data.get("division") or {}).get("neck_radius")
+    if neck is None:
+        return
+    where = f"division.neck_radius = {fmt_value(neck)}"
+    if data["model"] != "3d":
+        raise SceneError(f"{where}: model = {data['model']} does not divide yet; remove division.neck_radius")
+    rem = data["mesh"].get("remesh") or {}
+    if rem.get("min_angle") is None:
+        raise SceneError(f"{where} needs remeshing (mesh.remesh.min_angle): the daughters are remeshed after the cut")
+    formulation = data["numerics"]["formulation"]
+    if formulation != "rayleigh_p1":
+        raise SceneError(f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1")
+    if data["mesh"]["motion"] not in ("normal", "lagrangian"):
+        raise SceneError(f"{where}: mesh.motion = {data['mesh']['motion']} is not split by body; use normal")
+    if "fluids" in data["effects"]:
+        raise SceneError(f"{where}: with the effect 'fluids' the daughters interact; remove one of the two")
+    stop = (data.get("time") or {}).get("stop_neck")
+    if stop is not None and stop >= neck:
+        raise SceneError(f"{where}: time.stop_neck = {fmt_value(stop)} would stop the run before the cut")
+    h_min = rem.get("h_min")
+    if h_min is None and data["mesh"]["file"] is None:
+        n, radius = data["mesh"]["nodes"], data["mesh"]["radius"]
+        h_min = radius * math.sqrt(8.0 * math.pi / (math.sqrt(3.0) * n)) / H_MIN_DIVISOR  # the icosphere's mean edge
+    if h_min is not None and neck < DIVISION_MIN_EDGES * h_min:
+        raise SceneError(
+            f"{where} is below what the mesh resolves: at least {DIVISION_MIN_EDGES:g} times the smallest edge "
+            f"length h_min = {h_min:.3g} ({DIVISION_MIN_EDGES * h_min:.3g} R0)"
         )
 
 

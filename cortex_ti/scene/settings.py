@@ -194,6 +194,12 @@ class AxisymmetricSettings:
     # "adaptive": equidistributing curvature, the label's stretch rate and the tension's gradient
 
 
+def _division_neck(data: dict) -> float | None:
+    """``division.neck_radius`` (None: no division; a scene without the ``division`` block has none)."""
+    value = (data.get("division") or {}).get("neck_radius")
+    return None if value is None else float(value)
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """Everything a run needs from its scene, resolved once (see the module docstring)."""
@@ -213,6 +219,7 @@ class RunSettings:
     axisymmetric: AxisymmetricSettings
     rigidity: RigiditySettings = RigiditySettings()
     fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
+    division_neck: float | None = None  # division.neck_radius: cut the surface in two at this neck (R0); None: never
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -295,6 +302,7 @@ class RunSettings:
                 float(data["rigidity"]["spontaneous_curvature"]),
             ),
             fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
+            division_neck=_division_neck(data),
         )
 
     @property

@@ -29,6 +29,7 @@ from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface import curved_remesh
 from ..surface.curved_transport import cell_quadrature, curved_advective_rate
+from ..surface.division import body_volumes, restore_body_volumes
 from ..surface.fits import StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
@@ -42,6 +43,7 @@ from ..surface.remesh import (
 )
 from ..surface.topology import Topology, build_topology
 from ..surface.transport import DENSITY, advective_rate, dual_areas, triangle_gradients
+from .bodies import divide_due, remesh_by_body, solve_by_body, split_bodies
 from .run import run_scene, run_summary
 from .setup import SceneSetup, field_moves
 
@@ -65,6 +67,7 @@ class Solution:
     normal: np.ndarray  # (N, 3) the solver's normals (fitted surface)
     edge_length: np.ndarray  # (N,) mean edge length at each node (the local mesh size)
     seconds: dict = field(default_factory=dict)
+    body_pressure: np.ndarray | None = None  # several bodies: each one's pressure (pressure is then NaN)
 
     @property
     def diagnostics(self) -> dict:
@@ -103,6 +106,10 @@ class Simulation:
         self.seconds: dict[str, float] = {}  # time per stage, summed over the solves of evaluate()
         self.report = None  # what the last run() did (cortex_ti.simulation.run.RunReport)
         self.segment = 0  # how many times the mesh was replaced (remeshing)
+        self.bodies = split_bodies(self, self.mesh)  # None: one body (simulation/bodies.py)
+        self.cuts: list = []  # the divisions of the last run (simulation/bodies.py: Cut)
+        self.neck_seen = math.inf  # the last frame's neck radius (division.neck_radius: when to search it)
+        self.segment_attrs: dict | None = None  # what the next trajectory segment records (a cut)
         rem = self.settings.mesh.remesh
         self.remesh_policy = None  # when the mesh is remeshed, with which options (None: never)
         if rem is not None:  # (the remeshing extra is checked by SceneSetup)
@@ -131,6 +138,7 @@ class Simulation:
         ref = points if reference is None else reference
         self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
         self.solver.new_mesh()
+        self.bodies = split_bodies(self, self.mesh)
 
     def continue_segment(self, points, triangles, reference, segment: int) -> None:
         """Resume on the mesh of segment ``segment`` of a remeshed run: its triangles, its ALE
@@ -152,6 +160,9 @@ class Simulation:
         rem, policy = self.settings.mesh.remesh, self.remesh_policy
         if policy is None:
             return None
+        divided = divide_due(self, state, t)  # division.neck_radius reached: the cut (simulation/bodies.py)
+        if divided is not None:
+            return divided
         why = policy.due(state.points, state.faces)
         if why is None and self.curved:
             return self._unfolded(state, t)
@@ -163,6 +174,8 @@ class Simulation:
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
         how = curved_remesh.remesh_curved if self.curved else remesh
+        if self.bodies is not None:  # each body remeshed on its own, its own volume restored
+            how = remesh_by_body(self)
         res = how(state.points, state.faces, dict(state.fields), kinds, policy.options)
         after = policy.judge(res.points, res.faces)
         log.info(
@@ -220,7 +233,7 @@ class Simulation:
         self.segment += 1
         return State(self.mesh.points, fields, self.mesh.faces)
 
-    def _settle(self, state: State, flow, points, faces, fields, kinds, rem):
+    def _settle(self, state: State, flow, points, faces, fields, kinds, rem, volumes=None):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
 
         The tension's nodal force is not a pointwise-consistent curvature on an irregular mesh, so a
@@ -238,8 +251,8 @@ class Simulation:
         time steps follow, not the stiff transient (measured: the excess falls by 0.62-0.77 in the
         first pseudo-steps and by 0.9 from the 4th-6th on, the tail going like k^-0.6;
         docs/validation/remesh_constriction.md). Then the volume is
-        restored as the remeshing restores it, the densities' amounts rescaled. Returns the points,
-        the fields, the largest move and the pseudo-steps taken."""
+        restored as the remeshing restores it (each body's, ``volumes`` if given), the densities'
+        amounts rescaled. Returns the points, the fields, the largest move and the pseudo-steps taken."""
         if self.curved:  # the old cells' quadratic flow at the feet on the old curved surface
             old = curved_remesh.interpolate_at(state.points, state.faces, flow, points)
         else:
@@ -263,6 +276,9 @@ class Simulation:
             x, _ = curved_remesh.unfold(x, faces)  # the settling may fold a cell across a crease again
             x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
             before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
+        elif self.bodies is not None:  # each daughter its own volume (the bodies keep their order)
+            x = restore_body_volumes(x, faces, volumes or body_volumes(state.points, state.faces))
+            before, after = dual_areas(points, faces), dual_areas(x, faces)
         else:
             x, _ = restore_volume(x, faces, enclosed_volume(state.points, state.faces))
             before, after = dual_areas(points, faces), dual_areas(x, faces)
@@ -319,13 +335,14 @@ class Simulation:
             operators=not self.curved,
         )
 
-    def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None, implicit_rate=None):
+    def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None, implicit_rate=None, faces=None):
         """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step, centred on
         the nodes' rate ``implicit_rate`` if given) with the tension ``zeta`` (default: the initial
-        state's)."""
+        state's; ``faces``: the triangles of the shape, default the mesh's)."""
         num = self.settings.numerics
         zeta = self.zeta if zeta is None else zeta
-        return num.formulation_entry.system(geometry, self.physics, zeta, self.mesh.faces, num, dt, implicit_rate)
+        faces = self.mesh.faces if faces is None else faces
+        return num.formulation_entry.system(geometry, self.physics, zeta, faces, num, dt, implicit_rate)
 
     def solve(
         self,
@@ -341,12 +358,19 @@ class Simulation:
         (:mod:`cortex_ti.physics.terms.implicit_tension`), centred on the nodes' rate
         ``implicit_rate`` (N, 3) if given (the ``bdf2`` scheme); 0 is the instantaneous velocity."""
         x = self.mesh.points if points is None else points
+        if self.bodies is not None:  # each body its own volume constraint and gauge (simulation/bodies.py)
+            return Solution(**solve_by_body(self, x, dt, zeta, implicit_rate))
+        return self.solve_on(x, self.topology, self.stencils, self.mesh.faces, self.solver, dt, zeta, implicit_rate)
+
+    def solve_on(self, x, topology, stencils, faces, solver, dt=0.0, zeta=None, implicit_rate=None) -> Solution:
+        """:meth:`solve` on the closed surface ``x`` with its ``topology``, fit ``stencils``, triangles
+        ``faces`` and ``solver`` (the whole mesh's, or one body's)."""
         t0 = time.perf_counter()
-        geometry = self.shape_geometry(x)
+        geometry = compute_geometry(x, topology, stencils, residual=self.settings.numerics.uses_fit_residual)
         t1 = time.perf_counter()
-        system = self.system(geometry, dt, zeta, implicit_rate)
+        system = self.system(geometry, dt, zeta, implicit_rate, faces)
         t2 = time.perf_counter()
-        unknowns, pressure, info = self.solver.solve(system, x)
+        unknowns, pressure, info = solver.solve(system, x)
         t3 = time.perf_counter()
         return Solution(
             points=x,

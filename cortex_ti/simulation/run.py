@@ -36,6 +36,7 @@ from ..io.trajectory import FIELD_PREFIX, ResumeState, TrajectoryWriter, partial
 from ..physics.fields import tension_of
 from ..physics.patterns import evaluate_active_stress
 from ..surface.transport import DENSITY
+from .bodies import BODY_VARIABLES, MAX_BODIES, body_diagnostics
 from .report import EXIT_CODES, STOP_REASONS, RunReport, _ProgressBar, run_summary, stop_reason
 from .resume import (  # noqa: F401  (their old home: cortex_ti.simulation.run)
     extend_finished,
@@ -266,6 +267,7 @@ class FileHooks(RunHooks):
         self.stored = stored_fields(sim)
         self.curved = s.numerics.formulation_entry.curved
         self.stop_neck = s.time.stop_neck
+        self.division = s.division_neck is not None  # the bodies' variables and the neck at every frame
         self.neck, self.neck_t = np.inf, None  # the last frame's neck radius and time (time.stop_neck)
         self.saved = writer.n_frames  # frames the saved step history belongs to
         if s.mesh.remesh is None:
@@ -278,9 +280,12 @@ class FileHooks(RunHooks):
         )
         if self.curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
             diag.update(curved_measures(ev.points, sim.mesh.faces, axis=self.axis))
-        if self.stop_neck is not None:
-            radius = neck_radius(ev.points, sim.mesh.faces, axis=self.axis)[0]
+        if self.division:
+            diag.update(body_diagnostics(ev.points, sim.mesh.faces, ev.pressure, ev.solution.body_pressure))
+        if self.stop_neck is not None or self.division:
+            radius = neck_radius(ev.points, sim.mesh.faces, axis=self.axis)[0] if sim.bodies is None else np.nan
             self.neck, self.neck_t = (radius if np.isfinite(radius) else np.inf), t
+            sim.neck_seen = self.neck
             diag["neck_radius"] = radius
         fields = ev.state.fields
         self.writer.append(
@@ -300,7 +305,8 @@ class FileHooks(RunHooks):
     def remesh(self, state, t):
         new = self.sim.remesh_state(state, t)
         if new is not None:
-            self.writer.start_segment(new.faces, new.n_nodes, new.points)
+            self.writer.start_segment(new.faces, new.n_nodes, new.points, attrs=self.sim.segment_attrs)
+            self.sim.segment_attrs = None
             cap_ale_step(self.sim, self.scheme, t)  # the new reference triangles have their own stiffness
         return new
 
@@ -334,6 +340,8 @@ def _open_writer(sim: Simulation, output: Path, attrs: dict, resumed: bool, exte
     """The trajectory writer of a dynamic run (a refused resume names the key that changed); a refused
     extension removes its copy of the finished file, which stays unchanged."""
     st = sim.settings.time
+    division = sim.settings.division_neck is not None
+    neck = st.stop_neck is not None or division
     try:
         return TrajectoryWriter(
             output,
@@ -343,10 +351,12 @@ def _open_writer(sim: Simulation, output: Path, attrs: dict, resumed: bool, exte
             extra_vars={
                 **FRAME_EXTRAS,
                 **_DYNAMIC_EXTRAS,
-                **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if st.stop_neck is not None else {}),
+                **({k: (("time",), v) for k, v in NECK_ATTRS.items()} if neck else {}),
+                **(BODY_VARIABLES if division else {}),
                 **{spec.var: (("time", "node"), dict(spec.attrs)) for spec in stored_fields(sim)},
             },
             resume=resumed,
+            extra_dims={"body": MAX_BODIES} if division else None,
             node_vars=field_values(sim),
             force=force,
         )

@@ -55,11 +55,13 @@ FURROWS = [
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
 #: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
 FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid", "polarised_swimmer"]
+#: issue 35's scenes: one cell becoming two
+DIVISION = ["cytokinesis"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
-    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN + FLUIDS)
-    for name in SHIPPED + FURROWS + MYOSIN + FLUIDS:
+    assert builtin_scene_names() == sorted(SHIPPED + FURROWS + MYOSIN + FLUIDS + DIVISION)
+    for name in SHIPPED + FURROWS + MYOSIN + FLUIDS + DIVISION:
         path = builtin_scene_path(name)
         assert path.name == f"{name}.yaml" and path.parent.name == "scenes"
         assert path.parent.parent.name == "scene"  # package data of cortex_ti.scene
@@ -251,6 +253,7 @@ def test_defaults_and_canonical_numbers():
         "numerics",
         "solver",
         "time",
+        "division",
         "axisymmetric",
     ]
 
@@ -329,7 +332,7 @@ def test_error_names_the_scene_file(tmp_path):
             "foo=1",
             "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
             "viscosity, rigidity, fluid, "
-            "active_stress, fields, effects, numerics, solver, time, axisymmetric)",
+            "active_stress, fields, effects, numerics, solver, time, division, axisymmetric)",
         ),
         # wrong types
         ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),

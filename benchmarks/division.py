@@ -1,0 +1,119 @@
+"""Issue 35's bars for a run that divides (``division.neck_radius``), read from its trajectory.
+
+From a trajectory file (``--file``, e.g. of ``cortex-ti run cytokinesis``) or a run made here
+(``--scene`` with ``--set``): the frames' body count; the daughters' volumes at the first two-body
+frame and at the last against the initial volume, and against each other; the recorded cut
+(:func:`cortex_ti.io.trajectory.read_divisions`: its time, neck and the sides' volumes); the total of
+every stored density (``sum_i c_i A_i``, barycentric dual areas) at every frame, its largest relative
+change across the cut (the last one-body frame to the first two-body frame) and over the run; each
+daughter's roundness at the last frame (the largest ``|r - mean r| / mean r`` of its nodes' distances
+from its area centroid); the smallest triangle angle over all frames; the run's time.
+
+Usage::
+
+    cortex-ti run cytokinesis -o c.h5 --threads 1 && python benchmarks/division.py --file c.h5
+    python benchmarks/division.py --scene cytokinesis --set mesh.nodes=642 --set division.neck_radius=0.15
+    python benchmarks/division.py --smoke
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
+import numpy as np
+
+
+def bars(path: Path) -> dict:
+    """The measurements of the module docstring for the trajectory ``path``."""
+    from cortex_ti.io.trajectory import Trajectory, frame_mesh, read_divisions
+    from cortex_ti.surface.division import body_labels, face_labels
+    from cortex_ti.surface.measures import area_centroid, enclosed_volume, min_angles
+    from cortex_ti.surface.transport import dual_areas
+
+    ds = Trajectory(path).ds
+    n = ds["n_bodies"].values
+    vol = ds["body_volume"].values
+    v0 = vol[0, 0]
+    out = {"frames": len(n), "t_end": float(ds["time"].values[-1]), "n_bodies": f"{int(n[0])} -> {int(n[-1])}"}
+    densities = [v for v in ds.data_vars if v.startswith("field_") or v == "myosin"]
+    totals, smallest = {d: [] for d in densities}, np.inf
+    for k in range(len(n)):
+        p, f = frame_mesh(ds, k)
+        smallest = min(smallest, float(min_angles(p, f).min()))
+        a = dual_areas(p, f)
+        for d in densities:
+            totals[d].append(float(ds[d].values[k][: len(p)] @ a))
+    out["smallest angle (deg)"] = smallest
+    cut = read_divisions(path)
+    if cut:
+        c = cut[0]
+        out["cut: t, neck"] = (c["division_time"], c["division_neck"])
+        out["cut: sides' volumes / volume before - 1"] = sum(c["division_volumes"]) / c["division_volume"] - 1.0
+    two = np.flatnonzero(n == 2)
+    if two.size:
+        k = int(two[0])
+        for label, j in (("first two-body frame", k), ("last frame", len(n) - 1)):
+            out[f"{label}: V0 + V1 - V(0), relative"] = (vol[j, 0] + vol[j, 1]) / v0 - 1.0
+            out[f"{label}: abs(V0 - V1) / (V0 + V1)"] = abs(vol[j, 0] - vol[j, 1]) / (vol[j, 0] + vol[j, 1])
+        for d in densities:
+            m = np.array(totals[d])
+            out[f"{d}: total across the cut, relative change"] = m[k] / m[k - 1] - 1.0
+            out[f"{d}: total over the run, largest relative change"] = float(np.max(np.abs(m / m[0] - 1.0)))
+        p, f = frame_mesh(ds, len(n) - 1)
+        nb, lab = body_labels(f, len(p))
+        flab = face_labels(f, lab)
+        for b in range(nb):
+            fb = f[flab == b]
+            r = np.linalg.norm(p[lab == b] - area_centroid(p, fb), axis=1)
+            out[f"daughter {b}: roundness max abs(r / mean r - 1), volume"] = (
+                float(np.max(np.abs(r / r.mean() - 1.0))),
+                enclosed_volume(p, fb),
+            )
+    return out
+
+
+def smoke() -> Path:
+    """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step."""
+    import meshio
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+    from tests.dumbbell_tools import dumbbell
+
+    where = _bench.folder()
+    p, f = dumbbell(642, neck=0.25)
+    meshio.write(where / "db.obj", meshio.Mesh(p, [("triangle", f)]))
+    sets = [f"mesh.file={where / 'db.obj'}", "mesh.nodes=null", "active_stress.0.amplitude=0"]
+    sets += ["division.neck_radius=0.27", "time.stop_neck=null", "time.save_every=0.0002", "time.t_end=0.0012"]
+    return run("constriction_p4", sets, where)
+
+
+def run(scene: str, sets: list[str], where: Path) -> Path:
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation.core import Simulation
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    path = Simulation(load_scene(scene, sets)).run(where / f"{scene}.h5", progress=False, force=True)
+    print(f"<!-- the run: {time.perf_counter() - t0:.0f} s wall, {time.process_time() - c0:.0f} s CPU -->")
+    return path
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--file", type=Path, help="a trajectory of a run with division.neck_radius")
+    ap.add_argument("--scene", default="cytokinesis")
+    ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
+    ap.add_argument("--smoke", action="store_true", help="a tiny case: the dumbbell cut at its first step")
+    a = ap.parse_args()
+    print(_bench.header())
+    path = a.file if a.file else smoke() if a.smoke else run(a.scene, a.sets, _bench.folder())
+    print("| measured | value |\n|---|---|")
+    for k, v in bars(path).items():
+        print(f"| {k} | {v if isinstance(v, str) else np.round(v, 12).tolist()} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,122 @@
+"""A run across a division (division.neck_radius): a 642-node dumbbell under a uniform tension, cut at
+its first step, then evolved as two bodies; resumed across the cut; the solve by body against the
+solves of each body alone; and the scenes the division refuses, in one line with exit 2."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+import pytest
+
+from cortex_ti.cli import main
+from cortex_ti.io.trajectory import Trajectory, read_divisions
+from cortex_ti.surface.measures import enclosed_volume
+from cortex_ti.surface.remesh import remesh_available
+from tests.dumbbell_tools import dumbbell
+
+pytestmark = pytest.mark.skipif(not remesh_available(), reason="needs mmgpy (the remesh extra)")
+
+#: the dumbbell (neck 0.264 at t = 0) under the uniform tension of constriction_p4 without its ring:
+#: the neck is below division.neck_radius at the first frame, so the first step's end cuts it
+SETS = [
+    "mesh.nodes=null",
+    "active_stress.0.amplitude=0",
+    "division.neck_radius=0.27",
+    "time.stop_neck=null",
+    "time.save_every=0.0002",
+]
+
+
+def _run(tmp_path, out, t_end, *flags):
+    args = ["run", "constriction_p4", "-o", str(out), "--threads", "1", "--set", f"mesh.file={tmp_path / 'db.obj'}"]
+    for s in [*SETS, f"time.t_end={t_end}"]:
+        args += ["--set", s]
+    return main([*args, *flags])
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """One run to t = 0.0012 across the cut, and one to t = 0.0004 (before it) resumed to 0.0012."""
+    tmp = tmp_path_factory.mktemp("division")
+    p, f = dumbbell(642, neck=0.25)
+    meshio.write(tmp / "db.obj", meshio.Mesh(p, [("triangle", f)]))
+    whole, part = tmp / "whole.h5", tmp / "part.h5"
+    assert _run(tmp, whole, 0.0012) == 0
+    assert _run(tmp, part, 0.0004) == 0
+    assert _run(tmp, part, 0.0012, "--resume") == 0
+    return enclosed_volume(p, f), whole, part, tmp
+
+
+def _check(path, v0):
+    ds = Trajectory(path).ds
+    n = ds["n_bodies"].values
+    assert n[0] == 1 and n[-1] == 2 and np.all(np.diff(n) >= 0)
+    vol = ds["body_volume"].values
+    assert np.isnan(vol[0, 1]) and np.all(np.isfinite(vol[n == 2]))
+    # the constraint keeps each body's volume: the sum stays the initial volume (the run's drift, O(dt^2))
+    assert np.all(np.abs(np.nansum(vol, axis=1) / v0 - 1.0) < 1e-5)
+    cut = read_divisions(path)
+    assert len(cut) == 1 and abs(sum(cut[0]["division_volumes"]) / cut[0]["division_volume"] - 1.0) < 1e-13
+    # the two daughters of the symmetric dumbbell: equal to the mesh's asymmetry (icosphere + remeshing)
+    after = vol[n == 2]
+    assert np.all(np.abs(after[:, 0] / after[:, 1] - 1.0) < 1e-3)
+    assert np.all(np.isnan(ds["neck_radius"].values[n == 2]))  # no neck once divided
+    return ds
+
+
+@pytest.mark.slow  # the two runs of the fixture: ~4 CPU s
+def test_a_run_divides_and_goes_on_as_two_bodies(runs):
+    v0, whole, _, _ = runs
+    ds = _check(whole, v0)
+    assert float(ds["time"].values[-1]) == pytest.approx(0.0012)
+    # the two bodies lie on either side of the cut plane z = 0
+    c = ds["body_centroid"].values[-1]
+    assert c[0, 2] < -0.3 and c[1, 2] > 0.3
+
+
+@pytest.mark.slow
+def test_a_run_resumed_across_the_cut(runs):
+    v0, _, part, _ = runs
+    ds = _check(part, v0)
+    assert float(ds["time"].values[-1]) == pytest.approx(0.0012)
+
+
+def test_the_solve_by_body_equals_each_body_alone():
+    """A consistency check (the code against itself): two bodies (a sphere and an ellipsoid) solved
+    together, body by body, give each body's velocity and pressure of its own one-body solve."""
+    import cortex_ti as ct
+    from cortex_ti.simulation.core import Simulation
+    from cortex_ti.surface.mesh import icosphere
+
+    m = icosphere(162)
+    sim = Simulation(ct.load_scene("constriction_p4", ["mesh.nodes=162", "mesh.remesh.min_angle=null"]))
+    a, b = m.points, m.points * np.array([0.8, 0.8, 1.3]) + 3.0
+    zeta = 1.0 + 0.5 * m.points[:, 2] ** 2
+    sim.use_mesh(np.vstack([a, b]), np.concatenate([m.faces, m.faces + 162]))
+    both = sim.solve(sim.mesh.points, 0.0, np.concatenate([zeta, zeta]))
+    assert np.isnan(both.pressure)
+    for k, x in enumerate((a, b)):
+        sim.use_mesh(x, m.faces)
+        alone = sim.solve(x, 0.0, zeta)
+        np.testing.assert_allclose(both.velocity[162 * k : 162 * (k + 1)], alone.velocity, rtol=0, atol=1e-10)
+        assert abs(both.body_pressure[k] - alone.pressure) <= 1e-10 * abs(alone.pressure)
+
+
+@pytest.mark.parametrize(
+    ("sets", "said"),
+    [
+        (["division.neck_radius=0.01"], "below what the mesh resolves"),
+        (["division.neck_radius=0.2", "mesh.remesh.min_angle=null"], "needs remeshing"),
+        (["division.neck_radius=0.2", "model=axisymmetric", "mesh.remesh.min_angle=null"], "does not divide"),
+        (["division.neck_radius=0.2", "numerics.formulation=paper"], "cannot be cut"),
+        (["division.neck_radius=0.05", "time.stop_neck=0.1"], "before the cut"),
+    ],
+)
+def test_division_refusals(tmp_path, capsys, sets, said):
+    out = tmp_path / "r.h5"
+    args = ["run", "constriction_p4", "-o", str(out)]
+    for s in ["time.stop_neck=null", *sets]:
+        args += ["--set", s]
+    assert main(args) == 2 and not out.exists() and not (tmp_path / "r.h5.partial").exists()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("cortex-ti: error:") and said in err[0], err
