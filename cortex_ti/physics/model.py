@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EFFECTS", "FAR_FIELDS", "Fluid", "Physics"]
+__all__ = ["EFFECTS", "FAR_FIELDS", "FLUID_SOLVERS", "FLUID_AUTO_DENSE_MAX", "Fluid", "Physics", "resolve_fluid_solver"]
 
 #: The vocabulary of physical effects a scene can switch on (name -> description).
 EFFECTS: dict[str, str] = {
@@ -40,6 +40,34 @@ FAR_FIELDS: dict[str, str] = {
     "extension": "uniaxial extension along z, u = E (-x / 2, -y / 2, z) (fluid.far_field.rate E)",
 }
 
+#: The solves of the effect ``fluids`` (``fluid.solver``; ``auto`` is resolved by the node count).
+FLUID_SOLVERS: dict[str, str] = {
+    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else fmm",
+    "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
+    "solve/dense.py)",
+    "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
+    "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
+    "fluids; equal viscosities)",
+}
+
+#: ``auto`` takes the dense solve up to this many nodes (docs/validation/fluids.md, "Cost of a step": the
+#: dense solve is the cheaper one there on this machine; above it the dense matrices do not fit)
+FLUID_AUTO_DENSE_MAX = 2562
+
+
+def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: float) -> str:
+    """``fluid.solver`` as it runs: ``dense`` or ``fmm`` (``auto``: dense up to
+    :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not known yet).
+
+    >>> resolve_fluid_solver("auto", 642, 1.0, 1.0), resolve_fluid_solver("auto", 10242, 1.0, 1.0)
+    ('dense', 'fmm')
+    """
+    if choice != "auto":
+        return choice
+    if nodes is None or nodes <= FLUID_AUTO_DENSE_MAX or mu_in != mu_out:
+        return "dense"
+    return "fmm"
+
 
 @dataclass(frozen=True)
 class Fluid:
@@ -54,6 +82,7 @@ class Fluid:
     far_field: str = "none"
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rate: float = 0.0
+    solver: str = "dense"  # dense | fmm (RunSettings resolves auto by the node count)
 
     def far_velocity(self, points: np.ndarray) -> np.ndarray | None:
         """The far-field flow at ``points`` (N, 3); None for a medium at rest at infinity.

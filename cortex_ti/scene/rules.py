@@ -4,11 +4,13 @@ exactly one mesh source, a time scheme and its tension treatment, ...)."""
 from __future__ import annotations
 
 import difflib
+import importlib.util
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
+from ..physics.fluids_fast import FMM_MISSING
 from ..physics.formulations import FORMULATIONS
-from ..physics.model import EFFECTS
+from ..physics.model import EFFECTS, resolve_fluid_solver
 from ..surface.mesh import icosphere_sizes
 from .schema import current_schema, fmt_value
 
@@ -139,8 +141,18 @@ def _check_fluids(data: dict, seen: set[str]) -> None:
             "mesh.remesh with the effect 'fluids' is not implemented (the remeshing's settling steps and the "
             "dense operator on a changing node count are untested): remove mesh.remesh"
         )
-    nodes = data["mesh"].get("nodes")
-    if nodes is not None and nodes > FLUIDS_MAX_NODES:
+    nodes = data["mesh"].get("nodes") if data["mesh"].get("file") is None else None
+    solver = resolve_fluid_solver(fluid["solver"], nodes, fluid["inner"], fluid["outer"])
+    if solver == "fmm":
+        if fluid["inner"] != fluid["outer"]:
+            raise SceneError(
+                f"fluid.solver = {fluid['solver']} with fluid.inner = {fmt_value(fluid['inner'])} != fluid.outer = "
+                f"{fmt_value(fluid['outer'])}: the matrix-free solve has the single layer only (equal viscosities); "
+                "use fluid.solver: dense (at most 2562 nodes)"
+            )
+        if importlib.util.find_spec("fmm3dpy") is None:
+            raise SceneError(FMM_MISSING)
+    elif nodes is not None and nodes > FLUIDS_MAX_NODES:
         raise SceneError(fluids_size_message(nodes))
 
 
@@ -149,7 +161,8 @@ def fluids_size_message(nodes: int) -> str:
     return (
         f"mesh of {nodes} nodes with the effect 'fluids': the dense boundary-integral method holds at most "
         f"{FLUIDS_MAX_NODES} nodes (its (3N)^2 matrices are built and factorised on every solve: 1.8 GB and "
-        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242; docs/guide/fluids.md)"
+        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242): set fluid.solver: fmm "
+        "(docs/guide/fluids.md)"
     )
 
 
