@@ -18,9 +18,12 @@ memory and time, so that ``D`` is never formed (the coupled Krylov solve of
   (read at the quadrature points and summed back by the weights: ``C_7^T g``; the Stokeslet is
   symmetric). fmm3dpy's Stokeslet is ``(1 / 8 pi) (I / r + r r^T / r^3)``, the factor of ``C`` at
   ``mu = 1``.
-* ``V_local = (A C_local + C_local^T A) / 2``, ``C_local`` the accurate near blocks alone (sparse):
-  the local part of ``V'``, which the preconditioner factorises (the completion is left out: it is
-  dense and only fixes the pressure mode, which the volume row fixes in the preconditioner).
+* ``V_local``: the diagonal of ``V'`` without the completion, ``A_i C_ii`` (a node's accurate
+  self-interaction, Duffy quadrature on its own triangles): the local part of ``V'`` the
+  preconditioner factorises. Measured on furrow_in_fluid (GMRES iterations to 1e-9, factorisation CPU
+  s): the diagonal 20 / 24 iterations at 642 / 2562 nodes (0.04 / 0.35 s), all the near blocks 15 / 16
+  (0.8 / 50 s: their LU fills in), the one-ring blocks 38 at 642 (a truncated kernel is a poorer
+  approximation); docs/validation/fluids.md.
 
 fmm3dpy is the optional extra ``fluids`` (``pip install 'cortex-ti[fluids]'``); without it
 :func:`require_fmm` raises one :class:`~cortex_ti.errors.SolverError` naming the extra.
@@ -37,13 +40,15 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from .stokes_bie import _pair_blocks, near_pairs, node_areas, radon7
 
-__all__ = ["FMM_BACKEND", "FMM_EPS", "FmmFluid", "fmm_fluid", "require_fmm", "FMM_MISSING"]
+__all__ = ["DIRECT_BACKEND", "FMM_BACKEND", "FMM_EPS", "FmmFluid", "fmm_fluid", "require_fmm", "FMM_MISSING"]
 
 #: the FMM's requested relative precision (below the Krylov tolerance of the coupled solve)
 FMM_EPS = 1e-9
 
 #: the name :class:`~cortex_ti.solve.system.SolveInfo` and the run summary report for this solve
 FMM_BACKEND = "gmres-fmm"
+#: ... and for the direct sums (``fluid.solver: direct``)
+DIRECT_BACKEND = "gmres-direct"
 
 #: the one line a run without fmm3dpy gets
 FMM_MISSING = (
@@ -65,12 +70,16 @@ class FmmFluid:
     """The fluids of equal viscosity ``mu`` on one shape, matrix-free (module docstring): ``V'``
     applied by :meth:`single`, its local part ``local`` (sparse), the nodes' areas ``areas3`` (3N,
     each node's area three times), ``far`` (3N) the far-field velocity at the nodes or None. The
-    coupled solve (:func:`cortex_ti.solve.fluid_krylov.solve_fluid_krylov`) reads these."""
+    coupled solve (:class:`cortex_ti.solve.fluid_krylov.FluidKrylov`) reads these. ``backend``:
+    ``fmm`` (fmm3dpy) or ``direct`` (every pair summed by a Taichi kernel,
+    :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory)."""
 
-    name = FMM_BACKEND
-
-    def __init__(self, points, faces, normals, mu: float, far=None, eps: float = FMM_EPS, **quadrature):
-        self._fmm = require_fmm()
+    def __init__(
+        self, points, faces, normals, mu: float, far=None, eps: float = FMM_EPS, backend: str = "fmm", **quadrature
+    ):
+        self.backend = backend
+        self.name = FMM_BACKEND if backend == "fmm" else DIRECT_BACKEND
+        self._fmm = require_fmm() if backend == "fmm" else None
         t0 = time.perf_counter()
         x = np.ascontiguousarray(points, float)
         faces = np.asarray(faces, np.int64)
@@ -93,14 +102,14 @@ class FmmFluid:
             shape=(nf * nq, n),
         )
         self._sources = np.ascontiguousarray(np.concatenate([y, x]).T)  # (3, 7F + N)
+        self._x, self._y = x, np.ascontiguousarray(y)
         self._nq = nf * nq
         pi, pf, corr = near_pairs(x, faces, False, **quadrature)
         accurate = corr + _pair_blocks(x[pi], tri[pf], tarea[pf], bary, w)
         self.correction = _scatter(pi, faces[pf], corr, n) / (8.0 * math.pi)
+        # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks)
         c_local = _scatter(pi, faces[pf], accurate, n) / (8.0 * math.pi)
-        a = sp.diags(self.areas3)
-        vl = a @ c_local
-        self.local = (0.5 * (vl + vl.T)).tocsc()
+        self.local = sp.diags(self.areas3 * c_local.diagonal()).tocsc()
         self._correction_t = self.correction.T.tocsr()
         self._w = (area[:, None] * np.asarray(normals, float)).ravel()
         radius = math.sqrt(area.sum() / (4.0 * math.pi))
@@ -120,22 +129,35 @@ class FmmFluid:
         f = np.asarray(f, float)
         n = f.size // 3
         g = self.areas3 * f
-        strength = np.zeros((2, self._sources.shape[1], 3))
-        strength[0, : self._nq] = self._weights @ f.reshape(n, 3)
-        strength[1, self._nq :] = g.reshape(n, 3)
-        out = self._fmm.stfmm3d(
-            eps=self.eps,
-            sources=self._sources,
-            stoklet=np.ascontiguousarray(strength.transpose(0, 2, 1)),
-            ifppreg=1,
-            nd=2,
-        )
-        pot = out.pot  # (2, 3, 7F + N)
-        cf = pot[0][:, self._nq :].T.ravel() + self.correction @ f
-        ctg = (self._weights.T @ pot[1][:, : self._nq].T).ravel() + self._correction_t @ g
+        if self._fmm is None:
+            cf, ctg = self._direct(f.reshape(n, 3), g.reshape(n, 3))
+        else:
+            cf, ctg = self._fmm_sums(f.reshape(n, 3), g.reshape(n, 3))
+        cf = cf + self.correction @ f
+        ctg = ctg + self._correction_t @ g
         self.n_fmm += 1
         self.fmm_seconds += time.perf_counter() - t0
         return 0.5 * (self.areas3 * cf + ctg) + self._c * self._w * (self._w @ f)
+
+    def _direct(self, f, g):
+        """``(C_7 f, C_7^T g)`` (3N each) by the direct sums."""
+        from .stokes_kernel import stokeslet_sums
+
+        s = np.ascontiguousarray(self._weights @ f)
+        u = np.zeros_like(self._x)
+        t = np.zeros_like(self._y)
+        stokeslet_sums(self._x, self._y, s, np.ascontiguousarray(g), u, t)
+        scale = 1.0 / (8.0 * math.pi)
+        return scale * u.ravel(), scale * (self._weights.T @ t).ravel()
+
+    def _fmm_sums(self, f, g):
+        """``(C_7 f, C_7^T g)`` (3N each) by one FMM with two densities."""
+        strength = np.zeros((2, self._sources.shape[1], 3))
+        strength[0, : self._nq] = self._weights @ f
+        strength[1, self._nq :] = g
+        stoklet = np.ascontiguousarray(strength.transpose(0, 2, 1))
+        pot = self._fmm.stfmm3d(eps=self.eps, sources=self._sources, stoklet=stoklet, ifppreg=1, nd=2).pot
+        return pot[0][:, self._nq :].T.ravel(), (self._weights.T @ pot[1][:, : self._nq].T).ravel()
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
@@ -159,12 +181,12 @@ def _scatter(pi: np.ndarray, corners: np.ndarray, blocks: np.ndarray, n: int) ->
     return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * n))
 
 
-def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, **kw) -> FmmFluid:
+def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, backend="fmm", **kw) -> FmmFluid:
     """:class:`FmmFluid` for equal viscosities; a viscosity contrast (the double layer) is the dense
     path's only (the scene rules refuse it with ``fluid.solver: fmm``)."""
     if mu_in != mu_out:
         raise SolverError(
-            f"fluid.solver = fmm with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the matrix-free path "
+            f"fluid.solver = {backend} with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the matrix-free path "
             "has the single layer only (equal viscosities); use fluid.solver: dense"
         )
-    return FmmFluid(points, faces, normals, mu_out, far=far, **kw)
+    return FmmFluid(points, faces, normals, mu_out, far=far, backend=backend, **kw)

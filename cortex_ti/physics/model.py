@@ -42,31 +42,35 @@ FAR_FIELDS: dict[str, str] = {
 
 #: The solves of the effect ``fluids`` (``fluid.solver``; ``auto`` is resolved by the node count).
 FLUID_SOLVERS: dict[str, str] = {
-    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else fmm",
+    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else direct",
     "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
     "solve/dense.py)",
+    "direct": "matrix-free as fmm, the single layer's far field summed pair by pair by a Taichi kernel (O(N^2) time, "
+    "O(N) memory; no extra)",
     "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
     "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
     "fluids; equal viscosities)",
 }
 
-#: ``auto`` takes the dense solve up to this many nodes (docs/validation/fluids.md, "Cost of a step": the
-#: dense solve is the cheaper one there on this machine; above it the dense matrices do not fit)
-FLUID_AUTO_DENSE_MAX = 2562
+#: ``auto`` takes the dense solve up to this many nodes, ``direct`` above (docs/validation/fluids.md, "Cost
+#: of a step": at 642 nodes the two cost about the same, at 2562 ``direct`` about half the dense solve's CPU
+#: time in 1/100 of its memory; fmm3dpy's FMM is slower than the direct sums up to 10242 nodes on this machine)
+FLUID_AUTO_DENSE_MAX = 642
 
 
 def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: float) -> str:
-    """``fluid.solver`` as it runs: ``dense`` or ``fmm`` (``auto``: dense up to
-    :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not known yet).
+    """``fluid.solver`` as it runs: ``dense``, ``direct`` or ``fmm`` (``auto``: dense up to
+    :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not
+    known yet; else direct).
 
-    >>> resolve_fluid_solver("auto", 642, 1.0, 1.0), resolve_fluid_solver("auto", 10242, 1.0, 1.0)
-    ('dense', 'fmm')
+    >>> resolve_fluid_solver("auto", 642, 1.0, 1.0), resolve_fluid_solver("auto", 2562, 1.0, 1.0)
+    ('dense', 'direct')
     """
     if choice != "auto":
         return choice
     if nodes is None or nodes <= FLUID_AUTO_DENSE_MAX or mu_in != mu_out:
         return "dense"
-    return "fmm"
+    return "direct"
 
 
 @dataclass(frozen=True)

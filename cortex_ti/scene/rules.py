@@ -143,14 +143,14 @@ def _check_fluids(data: dict, seen: set[str]) -> None:
         )
     nodes = data["mesh"].get("nodes") if data["mesh"].get("file") is None else None
     solver = resolve_fluid_solver(fluid["solver"], nodes, fluid["inner"], fluid["outer"])
-    if solver == "fmm":
+    if solver in ("fmm", "direct"):
         if fluid["inner"] != fluid["outer"]:
             raise SceneError(
                 f"fluid.solver = {fluid['solver']} with fluid.inner = {fmt_value(fluid['inner'])} != fluid.outer = "
                 f"{fmt_value(fluid['outer'])}: the matrix-free solve has the single layer only (equal viscosities); "
                 "use fluid.solver: dense (at most 2562 nodes)"
             )
-        if importlib.util.find_spec("fmm3dpy") is None:
+        if solver == "fmm" and importlib.util.find_spec("fmm3dpy") is None:
             raise SceneError(FMM_MISSING)
     elif nodes is not None and nodes > FLUIDS_MAX_NODES:
         raise SceneError(fluids_size_message(nodes))

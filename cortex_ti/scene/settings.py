@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.schemes import SCHEMES
-from ..physics.fluids_fast import FMM_BACKEND
+from ..physics.fluids_fast import DIRECT_BACKEND, FMM_BACKEND
 from ..physics.formulations import FORMULATIONS
 from ..physics.model import Fluid, Physics, resolve_fluid_solver
 from ..physics.patterns import pattern_axis
@@ -307,7 +307,7 @@ class RunSettings:
         (:data:`cortex_ti.physics.fluids_fast.FMM_BACKEND`) of ``fluid.solver``, else the sparse backend."""
         if self.fluid is None:
             return self.solver.backend
-        return FMM_BACKEND if self.fluid.solver == "fmm" else DENSE_BACKEND
+        return {"fmm": FMM_BACKEND, "direct": DIRECT_BACKEND}.get(self.fluid.solver, DENSE_BACKEND)
 
     def has(self, effect: str) -> bool:
         """Whether ``effect`` is switched on."""

@@ -41,11 +41,13 @@ class Fluids(Term):
 
             raise SolverError("the effect 'fluids' needs its settings (Physics.fluid)")
         far = fluid.far_velocity(g.points)
-        if fluid.solver == "fmm":
+        if fluid.solver in ("fmm", "direct"):
             from ..fluids_fast import fmm_fluid
 
             ctx.add_fluid_operator(
-                fmm_fluid(g.points, ctx.faces, g.normal, mu_in=fluid.inner, mu_out=fluid.outer, far=far)
+                fmm_fluid(
+                    g.points, ctx.faces, g.normal, mu_in=fluid.inner, mu_out=fluid.outer, far=far, backend=fluid.solver
+                )
             )
         else:
             op = fluid_operator(g.points, ctx.faces, g.normal, mu_in=fluid.inner, mu_out=fluid.outer, measure=False)
