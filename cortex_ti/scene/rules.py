@@ -22,7 +22,8 @@ VALID_NODE_COUNTS: tuple[int, ...] = tuple(icosphere_sizes(7))
 #: Effects that need the normal force balance.
 _NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution", "fluids")
 
-#: The most nodes a scene with the effect ``fluids`` may have: its boundary-integral map is dense, (3N)^2
+#: The most nodes a scene with the effect ``fluids`` and ``fluid.solver: dense`` may have (the matrix-free
+#: solvers have no limit): its boundary-integral map is dense, (3N)^2
 #: doubles built and factorised on every solve. Measured (docs/validation/fluids.md, "Cost of a step"):
 #: at 2562 nodes 1.8 GB and 29 CPU seconds per step on one thread; 10242 nodes would need 16 times the
 #: memory (~28 GB, more than this 24 GB machine) and 64 times the time (~30 minutes a step).
