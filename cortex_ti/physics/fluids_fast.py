@@ -38,7 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError
-from .stokes_bie import _pair_blocks, near_pairs, node_areas, radon7
+from .stokes_bie import near_pairs, node_areas, radon7
 
 __all__ = ["DIRECT_BACKEND", "FMM_BACKEND", "FMM_EPS", "FmmFluid", "fmm_fluid", "require_fmm", "FMM_MISSING"]
 
@@ -104,8 +104,8 @@ class FmmFluid:
         self._sources = np.ascontiguousarray(np.concatenate([y, x]).T)  # (3, 7F + N)
         self._x, self._y = x, np.ascontiguousarray(y)
         self._nq = nf * nq
-        pi, pf, corr = near_pairs(x, faces, False, **quadrature)
-        accurate = corr + _pair_blocks(x[pi], tri[pf], tarea[pf], bary, w)
+        pi, pf, corr, plain = near_pairs(x, faces, False, **quadrature)
+        accurate = corr + plain
         self.correction = _scatter(pi, faces[pf], corr, n) / (8.0 * math.pi)
         # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks)
         c_local = _scatter(pi, faces[pf], accurate, n) / (8.0 * math.pi)

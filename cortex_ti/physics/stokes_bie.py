@@ -157,10 +157,11 @@ def near_pairs(
     near: float = 3.0,
     duffy_points: int = 8,
     near_levels: int = 2,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The (node, triangle) pairs whose 7-point value is replaced (the node's own triangles and the
-    near ones, module docstring) and the replacement minus the 7-point value: ``(pi, pf, corr)``,
-    ``corr`` (P, 3 corners, 3, 3) with the kernel's raw factor (no ``1 / 8 pi``)."""
+    near ones, module docstring), the replacement minus the 7-point value and the 7-point value:
+    ``(pi, pf, corr, plain)``, ``corr`` and ``plain`` (P, 3 corners, 3, 3) with the kernel's raw factor
+    (no ``1 / 8 pi``)."""
     x = np.ascontiguousarray(x, float)
     faces = np.asarray(faces, np.int64)
     nf = faces.shape[0]
@@ -177,8 +178,8 @@ def near_pairs(
     pf, pi = pf[keep], pi[keep]
     vert = faces[pf] == pi[:, None]
     own = vert.any(1)
-    corr = np.zeros((pi.size, 3, 3, 3))
-    corr -= _pair_blocks(x[pi], tri[pf], area[pf], bary, w, double)
+    plain = _pair_blocks(x[pi], tri[pf], area[pf], bary, w, double)
+    corr = -plain
     # own triangles: roll the corners so that the target is corner 0, Duffy rule there
     k0 = np.argmax(vert[own], axis=1)
     roll = (k0[:, None] + np.arange(3)[None]) % 3
@@ -188,7 +189,7 @@ def near_pairs(
     corr[own] += np.take_along_axis(blk, back[:, :, None, None], axis=1)
     sb, sw = split_rule(near_levels)
     corr[~own] += _pair_blocks(x[pi[~own]], tri[pf[~own]], area[pf[~own]], sb, sw, double)
-    return pi, pf, corr
+    return pi, pf, corr, plain
 
 
 def _layer(
@@ -240,7 +241,7 @@ def _layer(
                     c[s:e, b, :, a] = blk
 
     # the pairs whose 7-point value is replaced: the node's own triangles and the near ones
-    pi, pf, corr = near_pairs(x, faces, double, near=near, duffy_points=duffy_points, near_levels=near_levels)
+    pi, pf, corr, _ = near_pairs(x, faces, double, near=near, duffy_points=duffy_points, near_levels=near_levels)
     # scatter into C[i, a, j, b]
     j = faces[pf]  # (P, 3)
     flat = c.reshape(-1)
