@@ -17,11 +17,12 @@ factorisation and the GMRES iterations (their count in the table).
 ``cortex-ti run`` in a child process (one thread): wall and CPU seconds, steps, the child's peak
 resident memory, and the GMRES iterations (from the run summary).
 
-``--sediment``: instead, the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
+``--sediment``: instead (per solver), the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
 static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
 measure a run gives, the rate of the enclosed polyhedron's volume centroid as the nodes move along
 their normals by ``v_n``, against Boussinesq-Scriven; and the t = 0 flow's largest non-rigid normal
-speed.
+speed; and Faxén's rotation of ``cell_in_shear`` at t = 0 (mesh-moment normalisation: exact on any
+mesh, so its error is the solve's).
 
 Usage::
 
@@ -111,7 +112,27 @@ def volume_centroid(x, tri):
     return (v[:, None] * (a + b + c) / 4.0).sum(0) / v.sum()
 
 
-def sediment(nodes: int) -> str:
+def faxen(nodes: int, solver: str) -> float:
+    """``cell_in_shear`` (G = 1) at t = 0: the largest error of the rotation (normalised by the mesh's
+    own moment, exact for a rigid rotation) and the mean velocity against Faxén's ``-G/2 e_z`` and 0."""
+    import numpy as np
+
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sim = Simulation(load_scene("cell_in_shear", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
+    x = sim.mesh.points
+    sol = sim.solve(x)
+    a = sim.shape_geometry(x).area
+    c = (a[:, None] * x).sum(0) / a.sum()
+    r = x - c
+    rr = np.einsum("nc,nc->n", r, r)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :]
+    omega = np.linalg.solve((a[:, None, None] * rr).sum(0), (a[:, None] * np.cross(r, sol.velocity)).sum(0))
+    mean = (a[:, None] * sol.velocity).sum(0) / a.sum()
+    return float(max(np.abs(omega - [0.0, 0.0, -0.5]).max(), np.abs(mean).max()))
+
+
+def sediment(nodes: int, solver: str = "dense") -> str:
     """One row of ``--sediment`` (module docstring)."""
     import numpy as np
 
@@ -119,7 +140,7 @@ def sediment(nodes: int) -> str:
     from cortex_ti.simulation import Simulation
     from cortex_ti.truth import fluid_sphere as fs
 
-    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}"]))
+    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
     x, tri = sim.mesh.points, sim.mesh.faces
     sol = sim.solve(x)
     vn = np.einsum("nc,nc->n", sol.velocity, sol.normal)
@@ -130,7 +151,8 @@ def sediment(nodes: int) -> str:
     n = x / np.linalg.norm(x, axis=1)[:, None]
     vn = np.einsum("nc,nc->n", sol.velocity, n)
     nonrigid = np.abs(vn - n @ np.linalg.lstsq(n, vn, rcond=None)[0]).max()
-    return f"| {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} |"
+    fx = faxen(nodes, solver)
+    return f"| {solver} | {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} | {fx:.1e} |"
 
 
 def table(rows: list[dict]) -> str:
@@ -187,10 +209,14 @@ def main(argv: list[str] | None = None) -> None:
     threads = os.environ.get("OMP_NUM_THREADS", "unset")
     print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}"))
     if args.sediment or args.smoke:
-        print("| nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed |")
-        print("|---|---|---|---|")
+        print(
+            "| solver | nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed | "
+            "Faxén error (mesh moment) |"
+        )
+        print("|---|---|---|---|---|---|")
         for n in nodes:
-            print(sediment(n), flush=True)
+            for s in ["dense"] if args.smoke else args.solvers:
+                print(sediment(n, s), flush=True)
         if args.sediment:
             return
     solvers = ["dense", "direct"] if args.smoke else args.solvers
