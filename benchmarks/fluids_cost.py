@@ -192,7 +192,7 @@ def whole_run(nodes: int, solver: str, t_end: float) -> str:
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
     return (
         f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
-        f"{after.ru_maxrss / 2**20:.2f} | {data.get('solver', '?')} |"
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('solver_backend', '?')} |"
     )
 
 

@@ -110,7 +110,15 @@ def stresslet_flux(r: np.ndarray, nrm: np.ndarray) -> np.ndarray:
     return (r[..., :, None] * r[..., None, :]) * (rn / d2**2.5)[..., None, None]
 
 
-def _pair_blocks(x, tri, area, bary, w, double=False) -> np.ndarray:
+def _pair_blocks(x, tri, area, bary, w, double=False, chunk: int = 8192) -> np.ndarray:
+    """In chunks of ``chunk`` pairs (the temporaries are (chunk, Q, 3, 3)): :func:`_pair_chunk`."""
+    out = np.empty((len(x), 3, 3, 3))
+    for s in range(0, len(x), chunk):
+        out[s : s + chunk] = _pair_chunk(x[s : s + chunk], tri[s : s + chunk], area[s : s + chunk], bary, w, double)
+    return out
+
+
+def _pair_chunk(x, tri, area, bary, w, double=False) -> np.ndarray:
     """``int_T k(x, y) phi_k(y) dA_y`` for pairs (target x (P, 3), triangle corners tri (P, 3, 3))
     with one rule (bary (Q, 3), w (Q,)): (P, 3 corners, 3, 3); ``k`` the Stokeslet ``G(x - y)``
     or, ``double``, ``stresslet_flux(y - x, n_T)``."""
