@@ -233,7 +233,11 @@ def main(argv: list[str] | None = None) -> None:
     for n in nodes:
         for s in solvers:
             rows.append(measure(n, s))
-            print(f"<!-- {s}, {n} nodes: relative residual {rows[-1]['residual']:.1e} -->", flush=True)
+            r = rows[-1]  # the row as a comment at once (a long measurement stopped keeps what it had)
+            print(
+                f"<!-- {s}, {n} nodes: relative residual {r['residual']:.1e}; {table([r]).splitlines()[-1]} -->",
+                flush=True,
+            )
     print(table(rows))
 
 
