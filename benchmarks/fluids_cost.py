@@ -1,5 +1,5 @@
-"""What a step with the effect ``fluids`` costs (issue 36): the dense boundary-integral method per
-solve, by stage, and its memory, at several node counts.
+"""What a step with the effect ``fluids`` costs (issue 36): per solve, by stage, and its memory, at
+several node counts, for each ``fluid.solver`` (dense; direct and fmm, matrix-free); and whole runs.
 
 One solve is one step of the scenes' schemes (bdf2, Euler: one solve a step; Heun and the adaptive
 schemes: two). Stages of a solve of ``furrow_in_fluid`` on its initial shape: the geometry (fits,
@@ -8,17 +8,27 @@ quadrature, its Cholesky factorisation and ``D = A V^-1 A``, timed on its own), 
 assembly (the sparse cortex terms), the densification of ``K + D`` and the dense Cholesky solve with
 its refinement (:mod:`cortex_ti.solve.dense`). Memory: the peak of NumPy's allocations over one solve
 (``tracemalloc``: LAPACK's own workspace is not in it) and the process's peak resident size. Wall and
-CPU seconds (the machine is shared: CPU seconds are the steadier number on one thread).
+CPU seconds (the machine is shared: CPU seconds are the steadier number on one thread). The
+matrix-free solvers (``--solvers direct fmm``): the operator is the near corrections and the
+quadrature set-up (:class:`cortex_ti.physics.fluids_fast.FmmFluid`), the solve the preconditioner's
+factorisation and the GMRES iterations (their count in the table).
 
-``--sediment``: instead, the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
+``--run``: instead, ``furrow_in_fluid`` to ``--t-end`` (3) with each solver at each node count, as
+``cortex-ti run`` in a child process (one thread): wall and CPU seconds, steps, the child's peak
+resident memory, and the GMRES iterations (from the run summary).
+
+``--sediment``: instead (per solver), the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
 static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
 measure a run gives, the rate of the enclosed polyhedron's volume centroid as the nodes move along
 their normals by ``v_n``, against Boussinesq-Scriven; and the t = 0 flow's largest non-rigid normal
-speed.
+speed; and Faxén's rotation of ``cell_in_shear`` at t = 0 (mesh-moment normalisation: exact on any
+mesh, so its error is the solve's).
 
 Usage::
 
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 162 642 2562
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 642 2562 --solvers dense direct fmm
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --run --nodes 642 2562 --solvers dense direct
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --sediment --nodes 162 642 2562
     python benchmarks/fluids_cost.py --smoke
 """
@@ -44,23 +54,28 @@ def since(start) -> tuple[float, float]:
     return wall - start[0], cpu - start[1]
 
 
-def measure(nodes: int) -> dict:
+def measure(nodes: int, solver: str = "dense") -> dict:
     """The stages of one solve of furrow_in_fluid at ``nodes`` nodes (module docstring)."""
     from cortex_ti.physics.fluids import fluid_operator
+    from cortex_ti.physics.fluids_fast import fmm_fluid
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
 
-    sim = Simulation(load_scene("furrow_in_fluid", [f"mesh.nodes={nodes}"]))
+    sim = Simulation(load_scene("furrow_in_fluid", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
     fluid = sim.settings.fluid
     x = sim.mesh.points
     geo = sim.shape_geometry(x)  # compiles the kernels: not timed
-    if nodes <= 162:  # warm-up of the small case's code paths
+    if nodes <= 162 or solver == "direct":  # warm-up of the code paths (the Taichi kernel's compilation)
         sim.solve(x)
+        sim.solver.new_mesh()  # no warm start from the warm-up
     start = clocks()
     geo = sim.shape_geometry(x)
     geometry = since(start)
     start = clocks()
-    fluid_operator(x, sim.mesh.faces, geo.normal, mu_in=fluid.inner, mu_out=fluid.outer, measure=False)
+    if solver == "dense":
+        fluid_operator(x, sim.mesh.faces, geo.normal, mu_in=fluid.inner, mu_out=fluid.outer, measure=False)
+    else:
+        fmm_fluid(x, sim.mesh.faces, geo.normal, mu_in=fluid.inner, mu_out=fluid.outer, backend=solver)
     operator = since(start)
     tracemalloc.start()
     start = clocks()
@@ -70,13 +85,15 @@ def measure(nodes: int) -> dict:
     tracemalloc.stop()
     s = sol.info.seconds
     return {
+        "solver": solver,
+        "iterations": sol.info.iterations,
         "nodes": nodes,
         "unknowns": 3 * nodes,
         "geometry": geometry[0],
         "operator": operator[0],
         "operator_cpu": operator[1],
         "assembly": sol.seconds["assembly"],
-        "densify": s["normal_equations"],
+        "densify": s.get("normal_equations", 0.0),
         "factor_solve": s["factor_solve"],
         "solve_wall": whole[0],
         "solve_cpu": whole[1],
@@ -86,7 +103,27 @@ def measure(nodes: int) -> dict:
     }
 
 
-def sediment(nodes: int) -> str:
+def faxen(nodes: int, solver: str) -> float:
+    """``cell_in_shear`` (G = 1) at t = 0: the largest error of the rotation (normalised by the mesh's
+    own moment, exact for a rigid rotation) and the mean velocity against Faxén's ``-G/2 e_z`` and 0."""
+    import numpy as np
+
+    from cortex_ti.scene import load_scene
+    from cortex_ti.simulation import Simulation
+
+    sim = Simulation(load_scene("cell_in_shear", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
+    x = sim.mesh.points
+    sol = sim.solve(x)
+    a = sim.shape_geometry(x).area
+    c = (a[:, None] * x).sum(0) / a.sum()
+    r = x - c
+    rr = np.einsum("nc,nc->n", r, r)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :]
+    omega = np.linalg.solve((a[:, None, None] * rr).sum(0), (a[:, None] * np.cross(r, sol.velocity)).sum(0))
+    mean = (a[:, None] * sol.velocity).sum(0) / a.sum()
+    return float(max(np.abs(omega - [0.0, 0.0, -0.5]).max(), np.abs(mean).max()))
+
+
+def sediment(nodes: int, solver: str = "dense") -> str:
     """One row of ``--sediment`` (module docstring)."""
     import numpy as np
 
@@ -94,7 +131,7 @@ def sediment(nodes: int) -> str:
     from cortex_ti.simulation import Simulation
     from cortex_ti.truth import fluid_sphere as fs
 
-    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}"]))
+    sim = Simulation(load_scene("sedimenting_cell", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
     x, tri = sim.mesh.points, sim.mesh.faces
     sol = sim.solve(x)
     vn = np.einsum("nc,nc->n", sol.velocity, sol.normal)
@@ -105,44 +142,93 @@ def sediment(nodes: int) -> str:
     n = x / np.linalg.norm(x, axis=1)[:, None]
     vn = np.einsum("nc,nc->n", sol.velocity, n)
     nonrigid = np.abs(vn - n @ np.linalg.lstsq(n, vn, rcond=None)[0]).max()
-    return f"| {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} |"
+    fx = faxen(nodes, solver)
+    return f"| {solver} | {nodes} | {-rate[2]:.5f} | {abs(-rate[2] / exact - 1):.2e} | {nonrigid:.2e} | {fx:.1e} |"
 
 
 def table(rows: list[dict]) -> str:
     out = [
-        "| nodes | geometry (s) | operator (s, CPU s) | assembly incl. operator (s) | K + D dense (s) | "
-        "Cholesky + solve (s) | one solve (s, CPU s) | peak NumPy memory (GB) | peak RSS (GB) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| solver | nodes | geometry (s) | operator (s, CPU s) | assembly incl. operator (s) | K + D dense (s) | "
+        "factorisation + solve (s) | GMRES iterations | one solve (s, CPU s) | peak NumPy memory (GB) | "
+        "peak RSS (GB) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         out.append(
-            f"| {r['nodes']} | {r['geometry']:.2f} | {r['operator']:.2f} ({r['operator_cpu']:.2f}) | "
-            f"{r['assembly']:.2f} | {r['densify']:.2f} | {r['factor_solve']:.2f} | "
+            f"| {r['solver']} | {r['nodes']} | {r['geometry']:.2f} | {r['operator']:.2f} ({r['operator_cpu']:.2f}) | "
+            f"{r['assembly']:.2f} | {r['densify']:.2f} | {r['factor_solve']:.2f} | {r['iterations']} | "
             f"{r['solve_wall']:.2f} ({r['solve_cpu']:.2f}) | {r['peak_numpy_gb']:.3f} | {r['peak_rss_gb']:.2f} |"
         )
     return "\n".join(out) + "\n"
+
+
+def whole_run(nodes: int, solver: str, t_end: float) -> str:
+    """One row of ``--run`` (module docstring): ``cortex-ti run furrow_in_fluid`` in a child process."""
+    import json
+    import subprocess
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out, summary = os.path.join(tmp, "f.h5"), os.path.join(tmp, "f.json")
+        cmd = [sys.executable, "-m", "cortex_ti", "run", "furrow_in_fluid", "-o", out, "--threads", "1"]
+        cmd += ["--summary", summary, "--set", f"mesh.nodes={nodes}", "--set", f"fluid.solver={solver}"]
+        cmd += ["--set", f"time.t_end={t_end:g}"]
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        wall = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
+        wall = time.perf_counter() - wall
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        data = json.loads(open(summary).read())
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
+    return (
+        f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('solver_backend', '?')} |"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, nargs="+", default=[162, 642, 2562])
     parser.add_argument("--sediment", action="store_true", help="the run tests' static bound instead (docstring)")
+    parser.add_argument("--solvers", nargs="+", default=["dense"], help="fluid.solver values (dense direct fmm)")
+    parser.add_argument("--run", action="store_true", help="whole runs of furrow_in_fluid instead (docstring)")
+    parser.add_argument("--t-end", type=float, default=3.0, help="the runs' end time (--run)")
     parser.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = parser.parse_args(argv)
     nodes = [162] if args.smoke else args.nodes
     threads = os.environ.get("OMP_NUM_THREADS", "unset")
     print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}"))
     if args.sediment or args.smoke:
-        print("| nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed |")
-        print("|---|---|---|---|")
+        print(
+            "| solver | nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed | "
+            "Faxén error (mesh moment) |"
+        )
+        print("|---|---|---|---|---|---|")
         for n in nodes:
-            print(sediment(n), flush=True)
+            for s in ["dense"] if args.smoke else args.solvers:
+                print(sediment(n, s), flush=True)
         if args.sediment:
             return
+    solvers = ["dense", "direct"] if args.smoke else args.solvers
+    if args.run:
+        print(
+            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | solver_name |"
+        )
+        print("|---|---|---|---|---|---|---|---|")
+        for n in nodes:
+            for s in solvers:
+                print(whole_run(n, s, 0.1 if args.smoke else args.t_end), flush=True)
+        return
     rows = []
     for n in nodes:
-        rows.append(measure(n))
-        print(f"<!-- {n} nodes: relative residual {rows[-1]['residual']:.1e} -->", flush=True)
+        for s in solvers:
+            rows.append(measure(n, s))
+            r = rows[-1]  # the row as a comment at once (a long measurement stopped keeps what it had)
+            print(
+                f"<!-- {s}, {n} nodes: relative residual {r['residual']:.1e}; {table([r]).splitlines()[-1]} -->",
+                flush=True,
+            )
     print(table(rows))
 
 

@@ -163,6 +163,7 @@ def assemble_p1(
 
     system = energy_system(kmat, f, ctx.constraints, velocity_basis(geometry, physics), terms)
     system.dense = ctx.dense
+    system.fluid_operator = ctx.fluid_operator
     return system
 
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EFFECTS", "FAR_FIELDS", "Fluid", "Physics"]
+__all__ = ["EFFECTS", "FAR_FIELDS", "FLUID_SOLVERS", "FLUID_AUTO_DENSE_MAX", "Fluid", "Physics", "resolve_fluid_solver"]
 
 #: The vocabulary of physical effects a scene can switch on (name -> description).
 EFFECTS: dict[str, str] = {
@@ -40,6 +40,38 @@ FAR_FIELDS: dict[str, str] = {
     "extension": "uniaxial extension along z, u = E (-x / 2, -y / 2, z) (fluid.far_field.rate E)",
 }
 
+#: The solves of the effect ``fluids`` (``fluid.solver``; ``auto`` is resolved by the node count).
+FLUID_SOLVERS: dict[str, str] = {
+    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else direct",
+    "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
+    "solve/dense.py)",
+    "direct": "matrix-free as fmm, the single layer's far field summed pair by pair by a Taichi kernel (O(N^2) time, "
+    "O(N) memory; no extra)",
+    "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
+    "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
+    "fluids; equal viscosities)",
+}
+
+#: ``auto`` takes the dense solve up to this many nodes, ``direct`` above (docs/validation/fluids.md, "Cost
+#: of a step": at 642 nodes the two cost about the same, at 2562 ``direct`` about half the dense solve's CPU
+#: time in 1/100 of its memory; fmm3dpy's FMM is slower than the direct sums up to 10242 nodes on this machine)
+FLUID_AUTO_DENSE_MAX = 642
+
+
+def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: float) -> str:
+    """``fluid.solver`` as it runs: ``dense``, ``direct`` or ``fmm`` (``auto``: dense up to
+    :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not
+    known yet; else direct).
+
+    >>> resolve_fluid_solver("auto", 642, 1.0, 1.0), resolve_fluid_solver("auto", 2562, 1.0, 1.0)
+    ('dense', 'direct')
+    """
+    if choice != "auto":
+        return choice
+    if nodes is None or nodes <= FLUID_AUTO_DENSE_MAX or mu_in != mu_out:
+        return "dense"
+    return "direct"
+
 
 @dataclass(frozen=True)
 class Fluid:
@@ -54,6 +86,7 @@ class Fluid:
     far_field: str = "none"
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rate: float = 0.0
+    solver: str = "dense"  # dense | fmm (RunSettings resolves auto by the node count)
 
     def far_velocity(self, points: np.ndarray) -> np.ndarray | None:
         """The far-field flow at ``points`` (N, 3); None for a medium at rest at infinity.

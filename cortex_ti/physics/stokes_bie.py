@@ -110,7 +110,15 @@ def stresslet_flux(r: np.ndarray, nrm: np.ndarray) -> np.ndarray:
     return (r[..., :, None] * r[..., None, :]) * (rn / d2**2.5)[..., None, None]
 
 
-def _pair_blocks(x, tri, area, bary, w, double=False) -> np.ndarray:
+def _pair_blocks(x, tri, area, bary, w, double=False, chunk: int = 8192) -> np.ndarray:
+    """In chunks of ``chunk`` pairs (the temporaries are (chunk, Q, 3, 3)): :func:`_pair_chunk`."""
+    out = np.empty((len(x), 3, 3, 3))
+    for s in range(0, len(x), chunk):
+        out[s : s + chunk] = _pair_chunk(x[s : s + chunk], tri[s : s + chunk], area[s : s + chunk], bary, w, double)
+    return out
+
+
+def _pair_chunk(x, tri, area, bary, w, double=False) -> np.ndarray:
     """``int_T k(x, y) phi_k(y) dA_y`` for pairs (target x (P, 3), triangle corners tri (P, 3, 3))
     with one rule (bary (Q, 3), w (Q,)): (P, 3 corners, 3, 3); ``k`` the Stokeslet ``G(x - y)``
     or, ``double``, ``stresslet_flux(y - x, n_T)``."""
@@ -147,6 +155,49 @@ def double_layer_matrix(points: np.ndarray, faces: np.ndarray, **quadrature) -> 
     idx = np.arange(n)
     out[idx, :, idx, :] += 0.5 * np.eye(3)[None] - rows
     return out.reshape(3 * n, 3 * n)
+
+
+def near_pairs(
+    x: np.ndarray,
+    faces: np.ndarray,
+    double: bool,
+    *,
+    near: float = 3.0,
+    duffy_points: int = 8,
+    near_levels: int = 2,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The (node, triangle) pairs whose 7-point value is replaced (the node's own triangles and the
+    near ones, module docstring), the replacement minus the 7-point value and the 7-point value:
+    ``(pi, pf, corr, plain)``, ``corr`` and ``plain`` (P, 3 corners, 3, 3) with the kernel's raw factor
+    (no ``1 / 8 pi``)."""
+    x = np.ascontiguousarray(x, float)
+    faces = np.asarray(faces, np.int64)
+    nf = faces.shape[0]
+    tri = x[faces]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    bary, w = radon7()
+    cen = tri.mean(1)
+    rho = np.linalg.norm(tri - cen[:, None, :], axis=2).max(1)
+    tree = cKDTree(x)
+    cand = tree.query_ball_point(cen, near * rho.max())
+    pf = np.repeat(np.arange(nf), [len(k) for k in cand])
+    pi = np.concatenate([np.asarray(k, np.int64) for k in cand])
+    keep = np.linalg.norm(x[pi] - cen[pf], axis=1) < near * rho[pf]
+    pf, pi = pf[keep], pi[keep]
+    vert = faces[pf] == pi[:, None]
+    own = vert.any(1)
+    plain = _pair_blocks(x[pi], tri[pf], area[pf], bary, w, double)
+    corr = -plain
+    # own triangles: roll the corners so that the target is corner 0, Duffy rule there
+    k0 = np.argmax(vert[own], axis=1)
+    roll = (k0[:, None] + np.arange(3)[None]) % 3
+    fo = np.take_along_axis(faces[pf[own]], roll, axis=1)
+    blk = _pair_blocks(x[pi[own]], x[fo], area[pf[own]], *duffy_rule(duffy_points), double)
+    back = np.argsort(roll, axis=1)  # rolled corner -> original corner
+    corr[own] += np.take_along_axis(blk, back[:, :, None, None], axis=1)
+    sb, sw = split_rule(near_levels)
+    corr[~own] += _pair_blocks(x[pi[~own]], tri[pf[~own]], area[pf[~own]], sb, sw, double)
+    return pi, pf, corr, plain
 
 
 def _layer(
@@ -198,27 +249,7 @@ def _layer(
                     c[s:e, b, :, a] = blk
 
     # the pairs whose 7-point value is replaced: the node's own triangles and the near ones
-    cen = tri.mean(1)
-    rho = np.linalg.norm(tri - cen[:, None, :], axis=2).max(1)
-    tree = cKDTree(x)
-    cand = tree.query_ball_point(cen, near * rho.max())
-    pf = np.repeat(np.arange(nf), [len(k) for k in cand])
-    pi = np.concatenate([np.asarray(k, np.int64) for k in cand])
-    keep = np.linalg.norm(x[pi] - cen[pf], axis=1) < near * rho[pf]
-    pf, pi = pf[keep], pi[keep]
-    vert = faces[pf] == pi[:, None]
-    own = vert.any(1)
-    corr = np.zeros((pi.size, 3, 3, 3))
-    corr -= _pair_blocks(x[pi], tri[pf], area[pf], bary, w, double)
-    # own triangles: roll the corners so that the target is corner 0, Duffy rule there
-    k0 = np.argmax(vert[own], axis=1)
-    roll = (k0[:, None] + np.arange(3)[None]) % 3
-    fo = np.take_along_axis(faces[pf[own]], roll, axis=1)
-    blk = _pair_blocks(x[pi[own]], x[fo], area[pf[own]], *duffy_rule(duffy_points), double)
-    back = np.argsort(roll, axis=1)  # rolled corner -> original corner
-    corr[own] += np.take_along_axis(blk, back[:, :, None, None], axis=1)
-    sb, sw = split_rule(near_levels)
-    corr[~own] += _pair_blocks(x[pi[~own]], tri[pf[~own]], area[pf[~own]], sb, sw, double)
+    pi, pf, corr, _ = near_pairs(x, faces, double, near=near, duffy_points=duffy_points, near_levels=near_levels)
     # scatter into C[i, a, j, b]
     j = faces[pf]  # (P, 3)
     flat = c.reshape(-1)

@@ -4,12 +4,14 @@ exactly one mesh source, a time scheme and its tension treatment, ...)."""
 from __future__ import annotations
 
 import difflib
+import importlib.util
 import math
 
 from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
+from ..physics.fluids_fast import FMM_MISSING
 from ..physics.formulations import FORMULATIONS
-from ..physics.model import EFFECTS
+from ..physics.model import EFFECTS, resolve_fluid_solver
 from ..surface.mesh import icosphere_sizes
 from ..surface.remesh import H_MIN_DIVISOR
 from .schema import current_schema, fmt_value
@@ -26,7 +28,8 @@ DIVISION_MIN_EDGES = 2.0
 #: Effects that need the normal force balance.
 _NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigidity", "shape_evolution", "fluids")
 
-#: The most nodes a scene with the effect ``fluids`` may have: its boundary-integral map is dense, (3N)^2
+#: The most nodes a scene with the effect ``fluids`` and ``fluid.solver: dense`` may have (the matrix-free
+#: solvers have no limit): its boundary-integral map is dense, (3N)^2
 #: doubles built and factorised on every solve. Measured (docs/validation/fluids.md, "Cost of a step"):
 #: at 2562 nodes 1.8 GB and 29 CPU seconds per step on one thread; 10242 nodes would need 16 times the
 #: memory (~28 GB, more than this 24 GB machine) and 64 times the time (~30 minutes a step).
@@ -145,8 +148,20 @@ def _check_fluids(data: dict, seen: set[str]) -> None:
             "mesh.remesh with the effect 'fluids' is not implemented (the remeshing's settling steps and the "
             "dense operator on a changing node count are untested): remove mesh.remesh"
         )
-    nodes = data["mesh"].get("nodes")
-    if nodes is not None and nodes > FLUIDS_MAX_NODES and not axisymmetric:
+    nodes = data["mesh"].get("nodes") if data["mesh"].get("file") is None else None
+    if axisymmetric:
+        return  # the meridian's own operator: fluid.solver chooses among the 3D solves only
+    solver = resolve_fluid_solver(fluid["solver"], nodes, fluid["inner"], fluid["outer"])
+    if solver in ("fmm", "direct"):
+        if fluid["inner"] != fluid["outer"]:
+            raise SceneError(
+                f"fluid.solver = {fluid['solver']} with fluid.inner = {fmt_value(fluid['inner'])} != fluid.outer = "
+                f"{fmt_value(fluid['outer'])}: the matrix-free solve has the single layer only (equal viscosities); "
+                "use fluid.solver: dense (at most 2562 nodes)"
+            )
+        if solver == "fmm" and importlib.util.find_spec("fmm3dpy") is None:
+            raise SceneError(FMM_MISSING)
+    elif nodes is not None and nodes > FLUIDS_MAX_NODES:
         raise SceneError(fluids_size_message(nodes))
 
 
@@ -178,7 +193,8 @@ def fluids_size_message(nodes: int) -> str:
     return (
         f"mesh of {nodes} nodes with the effect 'fluids': the dense boundary-integral method holds at most "
         f"{FLUIDS_MAX_NODES} nodes (its (3N)^2 matrices are built and factorised on every solve: 1.8 GB and "
-        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242; docs/guide/fluids.md)"
+        "30 s per step at 2562 nodes, 16 times the memory and 64 times the time at 10242): set fluid.solver: fmm "
+        "(docs/guide/fluids.md)"
     )
 
 

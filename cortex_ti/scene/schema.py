@@ -32,7 +32,7 @@ from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.fields import FIELDS
 from ..physics.formulations import ACTIVE_FORCES, FORMULATIONS, PRESSURE_WEIGHTS
-from ..physics.model import FAR_FIELDS
+from ..physics.model import FAR_FIELDS, FLUID_SOLVERS
 from ..physics.patterns import pattern_schemas
 from ..solve.factorizations import backend_names
 from ..surface.fits import FIT_SCHEMES
@@ -71,6 +71,7 @@ def full_schema() -> dict:
     props["mesh"]["properties"]["motion"]["enum"] = list(MESH_MOTIONS)
     props["solver"]["properties"]["backend"]["enum"] = backend_names()
     props["fluid"]["properties"]["far_field"]["properties"]["type"]["enum"] = list(FAR_FIELDS)
+    props["fluid"]["properties"]["solver"]["enum"] = list(FLUID_SOLVERS)
     fragments = pattern_schemas()
     schema["$defs"] = {"pattern": _pattern_schema(list(fragments)), **copy.deepcopy(fragments)}
     for name, spec in FIELDS.items():

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dynamics.schemes import SCHEMES
+from ..physics.fluids_fast import DIRECT_BACKEND, FMM_BACKEND
 from ..physics.formulations import FORMULATIONS
-from ..physics.model import Fluid, Physics
+from ..physics.model import Fluid, Physics, resolve_fluid_solver
 from ..physics.patterns import pattern_axis
 from ..solve.dense import DENSE_BACKEND
 from ..solve.factorizations import choose_factorization
@@ -301,15 +302,20 @@ class RunSettings:
                 float(data["rigidity"]["bending"]) if "bending_rigidity" in effects else 0.0,
                 float(data["rigidity"]["spontaneous_curvature"]),
             ),
-            fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
+            fluid=_fluid_settings(data["fluid"], mesh["nodes"] if mesh["file"] is None else None)
+            if "fluids" in effects
+            else None,
             division_neck=_division_neck(data),
         )
 
     @property
     def solver_name(self) -> str:
-        """The solve that runs, as the outputs record it: the dense Cholesky of the fluids
-        (:data:`cortex_ti.solve.dense.DENSE_BACKEND`) with the effect ``fluids``, else the sparse backend."""
-        return DENSE_BACKEND if self.fluid is not None else self.solver.backend
+        """The solve that runs, as the outputs record it: with the effect ``fluids`` the dense Cholesky
+        (:data:`cortex_ti.solve.dense.DENSE_BACKEND`) or the matrix-free coupled GMRES
+        (:data:`cortex_ti.physics.fluids_fast.FMM_BACKEND`) of ``fluid.solver``, else the sparse backend."""
+        if self.fluid is None:
+            return self.solver.backend
+        return {"fmm": FMM_BACKEND, "direct": DIRECT_BACKEND}.get(self.fluid.solver, DENSE_BACKEND)
 
     def has(self, effect: str) -> bool:
         """Whether ``effect`` is switched on."""
@@ -367,7 +373,8 @@ class RunSettings:
         fluids = (
             ""
             if fl is None
-            else f"; fluids mu_in = {fl.inner:g}, mu_out = {fl.outer:g}, far field {fl.far_field} (dense, no gauge)"
+            else f"; fluids mu_in = {fl.inner:g}, mu_out = {fl.outer:g}, far field {fl.far_field} "
+            f"({fl.solver}, no gauge)"
         )
         return (
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
@@ -375,10 +382,12 @@ class RunSettings:
         )
 
 
-def _fluid_settings(data: dict) -> Fluid:
-    """``fluid`` resolved (the effect ``fluids`` on): floats, tuples, the far field's type and values."""
+def _fluid_settings(data: dict, nodes: int | None) -> Fluid:
+    """``fluid`` resolved (the effect ``fluids`` on): floats, tuples, the far field's type and values,
+    the solve (``auto`` by the icosphere's node count ``nodes``; None: a mesh file, dense)."""
     far = data["far_field"]
     return Fluid(
+        solver=resolve_fluid_solver(data["solver"], nodes, float(data["inner"]), float(data["outer"])),
         inner=float(data["inner"]),
         outer=float(data["outer"]),
         body_force=tuple(float(b) for b in data["body_force"]),

@@ -148,7 +148,9 @@ class SceneSetup:
         self.scene = scene
         self.settings = settings = scene.settings
         self.undeformed = mesh or initial_mesh(settings)
-        if settings.fluid is not None and self.undeformed.n_nodes > FLUIDS_MAX_NODES:  # a mesh file's size
+        fluid = settings.fluid
+        # a mesh file's size (an icosphere's is checked by the scene rules)
+        if fluid is not None and fluid.solver == "dense" and self.undeformed.n_nodes > FLUIDS_MAX_NODES:
             raise SceneError(fluids_size_message(self.undeformed.n_nodes))
         self.topology = build_topology(self.undeformed)
         # the fields are assigned on the undeformed mesh, then the mesh is deformed

@@ -65,6 +65,7 @@ import scipy.sparse as sp
 from ..errors import SolverError
 from .dense import solve_dense
 from .factorizations import choose_factorization
+from .fluid_krylov import FluidKrylov
 from .krylov import gmres_right
 from .system import EnergySystem, LinearSystem, SolveInfo, rigid_motion_rows
 
@@ -269,6 +270,7 @@ class ConstrainedSolver:
         self.n_factorizations = 0
         self.n_iterations = 0  # GMRES iterations over all solves
         self.dense_last = False  # whether the last solve was dense (solve/dense.py)
+        self._fluid_krylov = None  # the fluids' coupled GMRES (solve/fluid_krylov.py), made at its first solve
 
     @property
     def backend(self) -> str:
@@ -289,10 +291,20 @@ class ConstrainedSolver:
         self._last = None
         self._previous = []
         self.rule = RefactorRule(self.factor_cls.refactor_cost)
+        if self._fluid_krylov is not None:
+            self._fluid_krylov.new_mesh()
 
     def solve(self, system: System, points: np.ndarray) -> tuple[np.ndarray, float, SolveInfo]:
         """Return velocity unknowns ``x``, pressure ``P`` (0 without it) and diagnostics; a system
         with a dense part (the fluids') is solved densely (:mod:`cortex_ti.solve.dense`)."""
+        if getattr(system, "fluid_operator", None) is not None:
+            if self._fluid_krylov is None:
+                self._fluid_krylov = FluidKrylov()
+            x, pressure, _, info = self._fluid_krylov.solve(system, system.fluid_operator)
+            self._last, self._pre, self.dense_last = None, None, True
+            self.n_factorizations += int(info.refactored)
+            self.n_iterations += info.iterations
+            return x, pressure, info
         if getattr(system, "dense", None) is not None:
             x, pressure, _, info = solve_dense(system)
             self._last, self._pre, self.dense_last = None, None, True

@@ -183,6 +183,7 @@ class P1Context(Context):
     triangle_force: np.ndarray | None = None  # (T, 9): the power sum_T f_T . (v_a, v_b, v_c)
     node_force: np.ndarray | None = None  # (N, 3): the power sum_k f_k . v_k
     dense: np.ndarray | None = None  # (3N, 3N) a dense symmetric dissipation (the fluids'), added to the sparse one
+    fluid_operator: object | None = None  # the fluids matrix-free (physics/fluids_fast.py): a coupled Krylov solve
 
     formulation = "rayleigh_p1"
 
@@ -205,6 +206,13 @@ class P1Context(Context):
         """A dense symmetric positive semidefinite (3N, 3N) dissipation: the system is then solved
         densely (:mod:`cortex_ti.solve.dense`)."""
         self.dense = _plus(self.dense, block)
+
+    def add_fluid_operator(self, op) -> None:
+        """The fluids matrix-free (:class:`~cortex_ti.physics.fluids_fast.FmmFluid`): the system is
+        then solved by the coupled GMRES of :mod:`cortex_ti.solve.fluid_krylov`."""
+        if self.fluid_operator is not None:
+            raise ValueError("one matrix-free fluid operator per system")
+        self.fluid_operator = op
 
 
 @dataclass
