@@ -2,7 +2,8 @@
 ``benchmarks/investigations/`` and no other, each with its kind; a one-off opens with its question
 and its answer; scripts share helpers through ``_bench.py`` only.
 
-Every benchmark script runs: its ``--smoke`` mode (a tiny case, seconds) in a process of its own,
+Every benchmark script runs: its ``--smoke`` mode (a tiny case, seconds) in a process of its own
+(forked from one that did the imports once: ``tests/preloaded.py``),
 from an empty folder, must finish with status 0, print its report, and write nothing where it was
 started (a smoke run's files go to a temporary folder). The numbers of a smoke run mean nothing and
 are not checked: the benchmarks' measurements live on the validation pages, never in pass/fail
@@ -20,6 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import preloaded
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -85,9 +87,7 @@ def test_smoke_mode_runs(script, tmp_path):
         "OMP_NUM_THREADS": "1",
         "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
     }
-    res = subprocess.run(
-        [sys.executable, str(script), "--smoke"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
-    )
+    res = preloaded.run([str(script), "--smoke"], cwd=tmp_path, env=env, timeout=600)
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-3000:]
     assert res.stdout.strip(), "a benchmark prints its report"
     assert list(tmp_path.iterdir()) == [], "a smoke run writes only into a temporary folder"

@@ -2,12 +2,12 @@
 
 Every fenced block marked ```bash or ```python in ``README.md`` and ``docs/**/*.md`` is extracted:
 
-* a ``bash`` block runs its ``cortex-ti ...`` lines in order, each in a subprocess, in one fresh
-  folder per block; other commands (``pip``, ``snakemake``, ``python benchmarks/...``) are left
+* a ``bash`` block runs its ``cortex-ti ...`` lines in order, each in a process of its own (forked
+  from one that did the imports once: ``tests/preloaded.py``), in one fresh folder per block; other commands (``pip``, ``snakemake``, ``python benchmarks/...``) are left
   to their own tests. A ``cortex-ti run`` gets ``mesh.nodes=162`` (replacing any node count the
   example gives) and, for a dynamic scene, its end time (the scene's, or the one the example
   sets) times :data:`TIME_SCALE`, so a run takes seconds;
-* a ``python`` block is run by a fresh interpreter in a fresh folder.
+* a ``python`` block is run by a fresh process (the same way) in a fresh folder.
 
 Files an example reads but no earlier line of its block wrote (``p8.h5`` in a block that plots
 it, ``my_scene.yaml``) are made first: :data:`FIXTURES` says from which scene.
@@ -24,9 +24,9 @@ import re
 import shlex
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
+import preloaded
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -102,9 +102,9 @@ def env() -> dict:
 
 
 def cortex(argv: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "cortex_ti", *argv], cwd=cwd, env=env(), capture_output=True, text=True, timeout=900
-    )
+    """``python -m cortex_ti ARGV`` in a process of its own (forked from one that did the imports:
+    tests/preloaded.py)."""
+    return preloaded.run(["-m", "cortex_ti", *argv], cwd=cwd, env=env(), timeout=900)
 
 
 def small(argv: list[str]) -> list[str]:
@@ -180,9 +180,7 @@ def test_example_runs_as_written(path, lang, text, tmp_path, fixtures):
         compile(text, f"{path.name} example", "exec")  # a syntax error names the page
         # in a fresh interpreter: an example that registers a term or a pattern must not change the
         # registries the other tests of this session see
-        res = subprocess.run(
-            [sys.executable, "-c", text], cwd=tmp_path, env=env(), capture_output=True, text=True, timeout=600
-        )
+        res = preloaded.run(["-c", text], cwd=tmp_path, env=env(), timeout=600)
         assert res.returncode == 0, f"{path.name}: a python example failed:\n{res.stderr[-2000:]}"
         return
     ran = 0

@@ -21,6 +21,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import preloaded
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -30,7 +31,7 @@ EXAMPLES = sorted((ROOT / "docs" / "examples").glob("plot_*.py"))
 def _run(script: Path, cwd: Path) -> subprocess.CompletedProcess:
     path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": path, "CORTEX_TI_THREADS": "2"}
-    return subprocess.run([sys.executable, str(script)], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+    return preloaded.run([str(script)], cwd=cwd, env=env, timeout=300)  # a process of its own: tests/preloaded.py
 
 
 def test_there_are_examples():
