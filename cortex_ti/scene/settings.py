@@ -213,6 +213,7 @@ class RunSettings:
     axisymmetric: AxisymmetricSettings
     rigidity: RigiditySettings = RigiditySettings()
     fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
+    division_neck_radius: float | None = None  # division.neck_radius (R0): cut the cell in two there; None: never
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -295,6 +296,7 @@ class RunSettings:
                 float(data["rigidity"]["spontaneous_curvature"]),
             ),
             fluid=_fluid_settings(data["fluid"]) if "fluids" in effects else None,
+            division_neck_radius=_division(data),
         )
 
     @property
@@ -365,6 +367,12 @@ class RunSettings:
             f"formulation {num.formulation}, {num.fit} fit (normals, curvature); pressure {num.pressure_weights}, "
             f"active force {num.active_force}{held}{fluids}"
         )
+
+
+def _division(data: dict) -> float | None:
+    """``division.neck_radius`` (None: no division, or a scene written before the key)."""
+    value = (data.get("division") or {}).get("neck_radius")
+    return None if value is None else float(value)
 
 
 def _fluid_settings(data: dict) -> Fluid:
