@@ -50,6 +50,7 @@ FURROWS = [
     "shear_035_tilted",
     "shear_075",
     "constriction_p4",
+    "constriction_rigid",
 ]
 #: issue 20's scenes: a myosin cortex that organises itself
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]
@@ -251,6 +252,7 @@ def test_defaults_and_canonical_numbers():
         "numerics",
         "solver",
         "time",
+        "division",
         "axisymmetric",
     ]
 
@@ -329,7 +331,7 @@ def test_error_names_the_scene_file(tmp_path):
             "foo=1",
             "unknown key 'foo' (valid keys here: name, description, model, translation, tension_transport, mesh, "
             "viscosity, rigidity, fluid, "
-            "active_stress, fields, effects, numerics, solver, time, axisymmetric)",
+            "active_stress, fields, effects, numerics, solver, time, division, axisymmetric)",
         ),
         # wrong types
         ("viscosity.bulk=abc", "viscosity.bulk: 'abc' is not of type 'number'"),
