@@ -185,7 +185,11 @@ def evolution_options(settings: RunSettings) -> dict:
 
 def _stop_neck(settings: RunSettings) -> float | None:
     """Where the meridian run stops: the larger of ``time.stop_neck`` (a scene's request) and
-    ``axisymmetric.stop_neck`` (the model's floor); None when neither lies below the radius."""
+    ``axisymmetric.stop_neck`` (the model's floor); None when neither lies below the radius. With
+    ``division.neck_radius`` the floor is that radius (the cut; a scene run's trajectory ends there,
+    the daughters are :func:`cortex_ti.axisymmetric.division.simulate_division`'s)."""
+    if settings.division_neck is not None:  # the cut's radius replaces the floor (it may lie below it)
+        return max(settings.division_neck, settings.time.stop_neck or 0.0)
     stop = max(settings.axisymmetric.stop_neck, settings.time.stop_neck or 0.0)
     return stop if stop < settings.mesh.radius else None
 
@@ -269,7 +273,10 @@ class AxisymmetricRun:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         self._warn_unresolved(res)
         self._warn_compressed(res)
-        if res.stopped != "t_end":
+        if s.division_neck is not None and res.stopped.startswith("neck"):
+            msg = "division.neck_radius reached, %s: the file ends at the cut (daughters: division.simulate_division)"
+            log.warning("%s (axisymmetric): " + msg, s.name, res.stopped)
+        elif res.stopped != "t_end":
             log.warning("%s (axisymmetric): stopped early, %s; the frames so far are kept", s.name, res.stopped)
         return res
 

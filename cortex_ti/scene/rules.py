@@ -36,6 +36,18 @@ _NEED_NORMAL_BALANCE = ("incompressibility", "bending_viscosity", "bending_rigid
 FLUIDS_MAX_NODES = 2562
 
 
+#: The smallest neck radius a meridian of ``n`` points is cut at is ``AXISYMMETRIC_NECK_RESOLUTION / n^2``
+#: (R0): the symmetric ring 1 + 20 exp(-10 x^4) with kappa = 0.01 on adaptive points stops (singular
+#: force balance) at a neck of 1.6e-3 with n = 48 and 8.3e-4 with n = 64, about 3.5 / n^2
+#: (docs/validation/division_axisymmetric.md); the floor keeps a factor of about 3 above it.
+AXISYMMETRIC_NECK_RESOLUTION = 10.0
+
+
+def axisymmetric_neck_floor(n: int) -> float:
+    """The smallest ``division.neck_radius`` (R0) the axisymmetric model resolves with ``n`` points."""
+    return AXISYMMETRIC_NECK_RESOLUTION / float(n) ** 2
+
+
 def check_rules(data: dict) -> None:
     """Cross-key rules that JSON schema does not express, on a schema-valid scene with its
     defaults filled in; each rule raises one :class:`SceneError` naming the keys involved."""
@@ -58,6 +70,7 @@ def check_rules(data: dict) -> None:
     _check_fluids(data, effects)
     if data["model"] == "axisymmetric":
         _check_axisymmetric(data)
+        _check_axisymmetric_division(data)
 
 
 def _check_rigidity(data: dict, seen: set[str]) -> None:
@@ -417,15 +430,15 @@ def _check_stop_neck(data: dict) -> None:
 
 
 def _check_division(data: dict) -> None:
-    """``division.neck_radius``: a 3D run that remeshes flat triangles with normal or lagrangian nodes and
+    """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles with normal or lagrangian nodes and
     no fluids (the cut and the solve by body, cortex_ti.surface.division), a neck the remeshing resolves
     (at least :data:`DIVISION_MIN_EDGES` smallest target edges, ``h_min``), and above ``time.stop_neck``."""
     neck = (data.get("division") or {}).get("neck_radius")
     if neck is None:
         return
     where = f"division.neck_radius = {fmt_value(neck)}"
-    if data["model"] != "3d":
-        raise SceneError(f"{where}: model = {data['model']} does not divide yet; remove division.neck_radius")
+    if data["model"] == "axisymmetric":
+        return  # the meridian's cut: _check_axisymmetric_division
     rem = data["mesh"].get("remesh") or {}
     if rem.get("min_angle") is None:
         raise SceneError(f"{where} needs remeshing (mesh.remesh.min_angle): the daughters are remeshed after the cut")
@@ -541,6 +554,30 @@ def _check_axisymmetric(data: dict) -> None:
     _check_axisymmetric_patterns(data["active_stress"], "active_stress", why)
     if myosin is not None:
         _check_axisymmetric_patterns(myosin.get("initial") or [], "fields.myosin.initial", why)
+
+
+def _check_axisymmetric_division(data: dict) -> None:
+    """``division.neck_radius`` on the meridian: below the radius, at or above what its points
+    resolve (:func:`axisymmetric_neck_floor`), and without a myosin field (not moved across a cut yet)."""
+    neck = (data.get("division") or {}).get("neck_radius")
+    if neck is None:
+        return
+    n = data["axisymmetric"]["n"]
+    if neck >= data["mesh"]["radius"]:
+        raise SceneError(
+            f"division.neck_radius = {fmt_value(neck)} must be smaller than mesh.radius = "
+            f"{fmt_value(data['mesh']['radius'])}"
+        )
+    floor = axisymmetric_neck_floor(n)
+    if neck < floor:
+        raise SceneError(
+            f"division.neck_radius = {fmt_value(neck)} is below what axisymmetric.n = {n} points resolve "
+            f"({floor:.3g} R0 = {AXISYMMETRIC_NECK_RESOLUTION:g} / n^2): raise it or axisymmetric.n"
+        )
+    if (data["fields"] or {}).get("myosin") is not None:
+        raise SceneError(
+            "division.neck_radius with fields.myosin: the axisymmetric model does not move a myosin across a cut yet"
+        )
 
 
 def _check_axisymmetric_patterns(patterns: list, where: str, why: str) -> None:

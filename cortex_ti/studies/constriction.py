@@ -6,6 +6,8 @@ axisymmetric model stops cleanly at its ``stop_neck``); ``arrested`` when the ne
 last frames is below :data:`ARREST_RATE`; ``closing`` otherwise (undecided at ``t_end``). The
 *threshold* (:func:`threshold`) lies between the largest ring-to-pole tension ratio
 ``1 + zeta_hat`` whose axisymmetric run arrests and the smallest whose run closes (same ``p``).
+Rings with bending rigidity (the ``bending`` column, kappa > 0) are kept apart from the threshold,
+which is that of the rings without it; :func:`rigidity_map` lists how each rigid ring ended.
 The axisymmetric runs' frames whose label map their points do not resolve (``label_resolved``: past
 :data:`~cortex_ti.axisymmetric.evolve.STRETCH_LIMIT` of material stretch for arc-length points, a
 folded map for the adaptive ones) are drawn dotted and excluded from the 3D comparison.
@@ -30,6 +32,8 @@ __all__ = [
     "threshold",
     "constriction_figure",
     "constriction_numbers",
+    "bending",
+    "rigidity_map",
 ]
 
 #: |d neck / dt| (R0/t_a) over the last frames below which a run counts as arrested
@@ -98,19 +102,28 @@ def _prescribed(ds: xr.Dataset, i: int) -> bool:
     return math.isfinite(float(ds["zeta_hat"].values[i])) and math.isfinite(float(ds["p"].values[i]))
 
 
+def bending(ds: xr.Dataset, i: int) -> float:
+    """Run ``i``'s bending rigidity kappa (the ``bending`` column; 0 in a store written before it)."""
+    if "bending" not in ds.coords and "bending" not in ds:
+        return 0.0
+    value = float(ds["bending"].values[i])
+    return value if math.isfinite(value) else 0.0
+
+
 def _ring(ds: xr.Dataset, i: int) -> tuple:
-    """What makes two runs the same ring: the scene, and the pattern's ``zeta_hat`` and ``p`` (None
-    for a scene without one, so that two such runs compare equal)."""
+    """What makes two runs the same ring: the scene, the pattern's ``zeta_hat`` and ``p`` (None
+    for a scene without one, so that two such runs compare equal) and the rigidity."""
     if not _prescribed(ds, i):
-        return (str(ds["scene"].values[i]), None, None)
-    return (str(ds["scene"].values[i]), float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]))
+        return (str(ds["scene"].values[i]), None, None, bending(ds, i))
+    return (str(ds["scene"].values[i]), float(ds["zeta_hat"].values[i]), float(ds["p"].values[i]), bending(ds, i))
 
 
 def threshold(ds: xr.Dataset) -> dict[float, tuple[float, float]]:
     """Per ``p``: (the largest ratio 1 + zeta_hat that arrests, the smallest that closes) among the
-    axisymmetric runs of prescribed rings (nan where the sweep has none)."""
+    axisymmetric runs of prescribed rings without rigidity (nan where the sweep has none; the rigid
+    rings are :func:`rigidity_map`'s)."""
     out = {}
-    prescribed = [i for i in _axisymmetric(ds) if _prescribed(ds, i)]
+    prescribed = [i for i in _axisymmetric(ds) if _prescribed(ds, i) and bending(ds, i) == 0.0]
     for p in sorted({float(ds["p"].values[i]) for i in prescribed}):
         runs = [i for i in prescribed if float(ds["p"].values[i]) == p]
         ratio = {i: 1.0 + float(ds["zeta_hat"].values[i]) for i in runs}
@@ -162,6 +175,8 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
         ax = axes[1] if i in own else a0
         ring = _ring(ds, i)
         name = f"1 + $\\hat\\zeta$ = {1 + ring[1]:g}" if ring[1] is not None else ring[0]
+        if ring[3]:
+            name += f", $\\kappa$ = {ring[3]:g}"
         t, v = _series(ds, i)
         if str(ds["model"].values[i]) == "axisymmetric":
             tu = _unresolved_time(ds, i)
@@ -192,7 +207,7 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
     seen = set()
     longest = {}  # per ring, its longest axisymmetric run
     for i in _axisymmetric(ds):
-        if not _prescribed(ds, i):
+        if not _prescribed(ds, i) or bending(ds, i):
             continue
         key = _ring(ds, i)
         if key not in longest or float(ds["t_end"].values[i]) > float(ds["t_end"].values[longest[key]]):
@@ -203,6 +218,10 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
         marker, label = style[kind]
         a1.plot(1.0 + float(ds["zeta_hat"].values[i]), v[-1], marker, color="k", label=None if kind in seen else label)
         seen.add(kind)
+    kappas = sorted({row[0] for row in rigidity_map(ds)})
+    for kappa, ratio, kind, end in rigidity_map(ds):  # the rigid rings, coloured by kappa
+        k = kappas.index(kappa)
+        a1.plot(ratio, end, style[kind][0], color=f"C{k % 10}", mfc="none", label=once(f"$\\kappa$ = {kappa:g}"))
     for p, (lo, hi) in threshold(ds).items():
         if math.isfinite(lo) and math.isfinite(hi):
             a1.axvspan(lo, hi, color="0.85", label=f"threshold, p = {p:g}: ({lo:g}, {hi:g}]")
@@ -210,6 +229,22 @@ def constriction_figure(ds: xr.Dataset) -> Figure:
     a1.set_ylabel(r"neck radius at the end / $R_0$")
     a1.legend(fontsize=7)
     return fig
+
+
+def rigidity_map(ds: xr.Dataset) -> list[tuple[float, float, str, float]]:
+    """(kappa, ratio 1 + zeta_hat, outcome, neck at the end) of the longest axisymmetric run of each
+    prescribed ring with rigidity (kappa > 0), sorted: which rings close against the bending number."""
+    longest = {}
+    for i in _axisymmetric(ds):
+        if _prescribed(ds, i) and bending(ds, i) > 0.0:
+            key = _ring(ds, i)
+            if key not in longest or float(ds["t_end"].values[i]) > float(ds["t_end"].values[longest[key]]):
+                longest[key] = i
+    rows = [
+        (bending(ds, i), 1.0 + float(ds["zeta_hat"].values[i]), outcome(ds, i), float(_series(ds, i)[1][-1]))
+        for i in longest.values()
+    ]
+    return sorted(rows)
 
 
 def constriction_numbers(stores) -> pd.DataFrame:
@@ -222,6 +257,7 @@ def constriction_numbers(stores) -> pd.DataFrame:
         row = {
             "run": str(ds["label"].values[i]),
             "ratio 1 + zeta_hat": f"{1.0 + float(ds['zeta_hat'].values[i]):g}" if _prescribed(ds, i) else "myosin",
+            "kappa": f"{bending(ds, i):g}",
             "t reached": f"{t[-1]:.4g}",
             "neck at the end": f"{v[-1]:.5f}",
             "outcome": outcome(ds, i),

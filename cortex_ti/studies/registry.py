@@ -123,14 +123,16 @@ _STUDIES = (
 _STUDIES += (
     Study(
         "constriction",
-        ("scene", "model", "zeta_hat", "p", "remesh", "nodes", "t_end"),
-        "Deep rings without bending viscosity (issue 18): the neck radius against time, by the axisymmetric "
+        ("scene", "model", "zeta_hat", "p", "bending", "remesh", "nodes", "t_end"),
+        "Deep rings without bending viscosity (issue 18; with bending rigidity `bending`, issue 35): the neck "
+        "radius against time, by the axisymmetric "
         "model with adaptive points (the truth, converged to its neck of 0.1; frames whose label map it does "
         "not resolve are left out) and in 3D "
         "with remeshing, of prescribed rings (zeta_hat, p) and of the myosin ring that forms by itself "
         "(scene myosin_constriction; its zeta_hat and p are null); and, from the axisymmetric runs of "
         "prescribed rings over the ring-to-pole tension ratio 1 + zeta_hat, the "
-        "threshold above which the furrow closes (to a neck of 0.1 R0) instead of arresting.",
+        "threshold above which the furrow closes (to a neck of 0.1 R0) instead of arresting; the rings with "
+        "rigidity (scene constriction_rigid) mapped over kappa and the ratio, closing to a neck of 1e-2 R0.",
         variables=(
             "neck_radius",
             "furrow_radius",

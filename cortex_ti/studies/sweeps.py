@@ -41,6 +41,8 @@ seed         ``fields.myosin.initial.0.         amplitude of that harmonic (unit
 myosin_gamma ``fields.myosin.tension.gamma``    slope of the linear tension law (activity
                                                 A = zeta0 gamma)
 turnover     ``fields.myosin.turnover``         turnover rate k of the myosin, 1/t_a
+bending      ``rigidity.bending``               bending rigidity kappa, eta_s R0^2/t_a (the
+                                                scene must have the effect bending_rigidity)
 ===========  =================================  =====================================
 """
 
@@ -90,6 +92,7 @@ PARAMETERS: dict[str, str] = {
     "seed": "fields.myosin.initial.0.terms.0.coeff",
     "myosin_gamma": "fields.myosin.tension.gamma",
     "turnover": "fields.myosin.turnover",
+    "bending": "rigidity.bending",
 }
 
 #: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
@@ -150,6 +153,8 @@ def _settings_value(settings, column: str):
         return settings.patterns[0][PATTERN_COLUMNS[column]] if settings.patterns else None
     if column == "model":
         return settings.model
+    if column == "bending":  # 0 without the effect bending_rigidity
+        return settings.rigidity.bending
     if column == "remesh":
         return None if settings.mesh.remesh is None else settings.mesh.remesh.min_angle
     if column in _MYOSIN:

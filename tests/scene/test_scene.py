@@ -50,6 +50,7 @@ FURROWS = [
     "shear_035_tilted",
     "shear_075",
     "constriction_p4",
+    "constriction_rigid",
 ]
 #: issue 20's scenes: a myosin cortex that organises itself
 MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "myosin_constriction"]

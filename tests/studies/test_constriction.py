@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 import xarray as xr
 
 from cortex_ti.studies import constriction as c
@@ -87,3 +88,17 @@ def test_the_figure_gives_the_myosin_ring_a_panel_and_the_table_a_row():
     assert table["run"].tolist()[-1] == "threshold, p = 4"
     prescribed = c.constriction_figure(ds.isel(run=[0, 1, 4]))
     assert len(prescribed.axes) == 2
+
+
+def test_rigid_rings_are_mapped_apart_from_the_threshold():
+    """Issue 35: with a ``bending`` column, a rigid ring's run is not one of the threshold's (the
+    threshold is that of the rings without rigidity) but a row of the rigidity map; a store without
+    the column reads kappa = 0."""
+    ds = _store()
+    assert [c.bending(ds, i) for i in range(5)] == [0.0] * 5 and c.rigidity_map(ds) == []
+    rigid = ds.assign_coords(bending=("run", np.array([0.0, 0.01, 0.0, 0.0, 0.0])))
+    # run 1 (ratio 7, closed) is rigid now: no ring without rigidity closes, so the bracket opens
+    assert c.threshold(rigid)[4.0][0] == 4.0 and math.isnan(c.threshold(rigid)[4.0][1])
+    assert c.rigidity_map(rigid) == [(0.01, 7.0, "closed", pytest.approx(1.0 - 0.18 * 5.0))]
+    c.constriction_figure(rigid)  # draws the rigid ring beside the others
+    assert c.constriction_numbers([rigid])["kappa"].tolist()[:2] == ["0", "0.01"]

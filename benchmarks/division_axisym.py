@@ -1,0 +1,253 @@
+"""Constriction to the end and pinch-off in the axisymmetric model with bending rigidity (issue 35).
+
+Rings zeta = 1 + A exp(-10 |theta - theta_r|^4) (ring-to-pole tension ratio 1 + A), eta_s = eta_b =
+1, no bending viscosity, rigidity kappa (eta_s R0^2 / t_a), adaptive points.
+
+Sections:
+
+- ``neck``: the symmetric ring A = 20, kappa = 0.01 to a neck of 1e-4 (or the integrator's end):
+  the neck radius at fixed times over n (48, 64, 96) and rtol (1e-8, 1e-10), its local rate
+  -d ln r / dt, and the times it reaches 0.1, 1e-2 and 1e-3 R0 (the reference numbers for 3D).
+- ``map``: closed (neck 1e-2 before t = 10), arrested (|d neck / dt| < 1e-4 at t = 10) or failed,
+  over kappa and A, with the up-down lobe mode's growth rate at the last frame (the largest real
+  eigenvalue among the modes odd under z -> -z of the full-meridian Jacobian at the mirrored state).
+- ``asymmetric``: the ring off the equator (theta_r = pi/2 - 0.2): cut at a neck of 0.02, the
+  daughters' volume ratio over n.
+- ``cut``: the symmetric run cut at a neck of 0.02 and the daughters evolved 0.2 t_a (ring
+  disassembled at the cut): volumes and roundness.
+
+Usage (one core): ``python benchmarks/division_axisym.py [--smoke] [section ...]``
+"""
+
+from __future__ import annotations
+
+import os
+
+for _k in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
+    os.environ.setdefault(_k, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from _bench import HELP, run_sections  # noqa: E402
+
+from cortex_ti.axisymmetric.balance import ForceBalance, check_gauge, check_visc  # noqa: E402
+from cortex_ti.axisymmetric.division import cut, simulate_division  # noqa: E402
+from cortex_ti.axisymmetric.dynamics import Dynamics  # noqa: E402
+from cortex_ti.axisymmetric.evolve import StepFailed, simulate  # noqa: E402
+from cortex_ti.axisymmetric.spectral import Spectral  # noqa: E402
+
+VISC = dict(eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0)
+SMOKE = False
+
+
+def ring(A: float, centre: float = np.pi / 2):
+    return lambda th: 1.0 + A * np.exp(-10.0 * np.abs(np.asarray(th, dtype=float) - centre) ** 4)
+
+
+def run(A, kappa, n, *, rtol=1e-8, t_end=10.0, stop=1e-4, centre=np.pi / 2, keep=None):
+    """The run (frames every 0.05 t_a) or the frames before a failure; ``keep`` collects states."""
+    times = np.round(np.linspace(0.0, t_end, int(round(t_end * 20)) + 1), 10)
+    try:
+        return simulate(
+            ring(A, centre),
+            **VISC,
+            kappa=kappa,
+            t_end=t_end,
+            save_times=times,
+            n=n,
+            rtol=rtol,
+            interpolate=True,
+            parametrization="adaptive",
+            stop_neck=stop,
+            max_steps=50000,
+            on_save=keep,
+        )
+    except StepFailed as exc:
+        return exc.result
+
+
+def neck(res):
+    return np.where(np.isfinite(res.neck_radius), res.neck_radius, res.furrow_radius)
+
+
+def crossing(t, r, level):
+    """First time the neck falls to ``level`` (log-linear between frames), nan if never."""
+    k = np.flatnonzero(r <= level)
+    if not k.size or k[0] == 0:
+        return float("nan")
+    i = k[0]
+    a, b = np.log(r[i - 1]), np.log(r[i])
+    return float(t[i - 1] + (np.log(level) - a) / (b - a) * (t[i] - t[i - 1]))
+
+
+def section_neck():
+    cases = [(16, 1e-6)] if SMOKE else [(48, 1e-8), (64, 1e-8), (96, 1e-8), (64, 1e-10)]
+    checks = (0.5,) if SMOKE else (1.0, 1.5, 1.7, 1.8, 1.9)
+    t_end = 0.5 if SMOKE else 3.0
+    print("## The symmetric ring A = 20, kappa = 0.01, to the end\n")
+    print(
+        "| n | rtol | "
+        + " | ".join(f"neck at t={t:g}" for t in checks)
+        + " | t(0.1) | t(1e-2) | t(1e-3) | smallest neck | end | CPU s |"
+    )
+    print("|---:|---:|" + "---:|" * (len(checks) + 6) + "---|")
+    runs = {}
+    for n, rt in cases:
+        c0 = time.process_time()
+        r = run(20.0, 0.01, n, rtol=rt, t_end=t_end)
+        cpu = time.process_time() - c0
+        nk = neck(r)
+        runs[(n, rt)] = r
+        cells = [f"{nk[r.index(t)]:.8f}" if t <= r.t[-1] + 1e-9 else "-" for t in checks]
+        tc = [crossing(r.t, nk, lv) for lv in (0.1, 1e-2, 1e-3)]
+        print(
+            f"| {n} | {rt:g} | "
+            + " | ".join(cells)
+            + " | "
+            + " | ".join(f"{x:.4f}" for x in tc)
+            + f" | {nk.min():.3e} | {r.stopped[:60]} | {cpu:.1f} |"
+        )
+    print()
+    r = runs[cases[-2] if len(cases) > 1 else cases[0]]
+    nk = neck(r)
+    print(f"Local rate -d ln r / dt (central differences of the frames, n = {r.params['n']}):\n")
+    print("| t | neck | -d ln r/dt |")
+    print("|---:|---:|---:|")
+    for i in range(1, r.t.size - 1):
+        if nk[i] < 0.2:
+            rate = -(np.log(nk[i + 1]) - np.log(nk[i - 1])) / (r.t[i + 1] - r.t[i - 1])
+            print(f"| {r.t[i]:.2f} | {nk[i]:.4e} | {rate:.3f} |")
+    print()
+
+
+def lobe_rate(res, y, kappa, A, n):
+    """Largest real part of the eigenvalues of the modes odd under z -> -z (the lobe mode) of the
+    full-meridian adaptive dynamics at the mirrored symmetric state ``y``."""
+    r, z, u = y[:n], y[n : 2 * n], y[2 * n : 3 * n]
+    yf = np.concatenate([r, r[::-1], z, -z[::-1], u, np.pi - u[::-1]])
+    sp = Spectral(2 * n, False)
+    ph = check_visc(**VISC, radius=1.0, kappa=kappa)
+    dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge("velocity")), ring(A), "adaptive")
+    w, V = np.linalg.eig(dyn.jac(0.0, yf))
+    m = 2 * n
+    R = np.zeros((3 * m, 3 * m))  # the reflection of a perturbation that keeps the state symmetric
+    idx = np.arange(m)
+    for blk, sign in ((0, 1.0), (1, -1.0), (2, -1.0)):
+        R[blk * m + idx, blk * m + idx[::-1]] = sign
+    odd = np.linalg.norm(R @ V + V, axis=0) < np.linalg.norm(R @ V - V, axis=0)
+    keep = odd & (np.abs(w) > 1e-6)
+    return float(w[keep].real.max()) if keep.any() else float("nan")
+
+
+def section_map():
+    kappas = (0.01,) if SMOKE else (0.001, 0.01, 0.1)
+    amps = (20.0,) if SMOKE else (6.0, 12.0, 20.0)
+    n, t_end = (16, 0.3) if SMOKE else (48, 10.0)
+    print(f"## Closing, arrest or slipping over (kappa, A), n = {n}, rtol 1e-8, to t = {t_end:g} or a neck of 1e-2\n")
+    print("| kappa | 1 + A | outcome | t at the end | neck at the end | lobe rate at the end (1/t_a) | CPU s |")
+    print("|---:|---:|---|---:|---:|---:|---:|")
+    for kappa in kappas:
+        for A in amps:
+            box = {}
+            c0 = time.process_time()
+            r = run(A, kappa, n, t_end=t_end, stop=1e-2, keep=lambda f, y, box=box: box.__setitem__("y", y))
+            cpu = time.process_time() - c0
+            nk = neck(r)
+            if r.stopped.startswith("neck"):
+                out = "closed"
+            elif r.stopped != "t_end":
+                out = "failed: " + r.stopped.split(":")[1][:50]
+            else:
+                rate = (nk[-1] - nk[-2]) / (r.t[-1] - r.t[-2])
+                out = f"arrested (rate {rate:.1e})" if abs(rate) < 1e-4 else f"closing (rate {rate:.1e})"
+            lobe = lobe_rate(r, box["y"], kappa, A, n)
+            print(f"| {kappa:g} | {1 + A:g} | {out} | {r.t[-1]:.3f} | {nk[-1]:.4e} | {lobe:+.3f} | {cpu:.1f} |")
+    print()
+
+
+def section_asymmetric():
+    ns = (24,) if SMOKE else (64, 96)
+    stop = 0.1 if SMOKE else 0.02
+    print(f"## The ring off the equator (theta_r = pi/2 - 0.2, A = 20, kappa = 0.01), cut at a neck of {stop:g}\n")
+    print("| n | cut time | neck label | V north | V south | V north / V south | sum - mother | CPU s |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for n in ns:
+        box = {}
+        c0 = time.process_time()
+        r = run(
+            20.0,
+            0.01,
+            n,
+            t_end=3.0,
+            stop=stop,
+            centre=np.pi / 2 - 0.2,
+            keep=lambda f, y, box=box: box.__setitem__("y", y),
+        )
+        if not r.stopped.startswith("neck"):
+            print(f"| {n} | did not reach the neck: {r.stopped[:60]} |")
+            continue
+        sp = Spectral(n, False)
+        ph = check_visc(**VISC, radius=1.0, kappa=0.01)
+        dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge("velocity")), ring(20.0, np.pi / 2 - 0.2), "adaptive")
+        north, south = cut(dyn, box["y"], 2 * n)
+        cpu = time.process_time() - c0
+        print(
+            f"| {n} | {r.t[-1]:.5f} | {north.labels[1]:.6f} | {north.volume:.10f} | {south.volume:.10f} | "
+            f"{north.volume / south.volume:.8f} | {north.volume + south.volume - r.volume[-1]:.1e} | {cpu:.1f} |"
+        )
+    print()
+
+
+def section_cut():
+    n, nd, stop, t_end = (24, 32, 0.1, 1.3) if SMOKE else (48, 96, 0.02, 1.8)
+    c0 = time.process_time()
+    res = simulate_division(
+        ring(20.0),
+        neck_radius=stop,
+        t_end=t_end,
+        save_times=np.round(np.linspace(0, t_end, int(t_end * 20) + 1), 10),
+        n=n,
+        daughter_n=nd,
+        **VISC,
+        kappa=0.01,
+        rtol=1e-8,
+        interpolate=True,
+    )
+    cpu = time.process_time() - c0
+    ci = res.cut_info
+    print(f"## Cut of the symmetric ring at a neck of {stop:g} (n = {n}, daughters {nd} points), to t = {t_end:g}\n")
+    print(
+        f"cut at t = {ci['time']:.6f}; mother volume {ci['mother_volume']:.15f}; daughters {ci['volumes'][0]:.15f} + "
+        f"{ci['volumes'][1]:.15f} (sum - mother {sum(ci['volumes']) - ci['mother_volume']:.1e}); cap arc length "
+        f"{ci['cap_lengths'][0]:.4f}; CPU {cpu:.1f} s\n"
+    )
+    print(
+        "| body | t | volume - volume at the cut | max - min distance from the centroid "
+        "| R of a sphere of that volume |"
+    )
+    print("|---|---:|---:|---:|---:|")
+    for name, d, v0 in zip(("north", "south"), res.daughters, ci["volumes"], strict=True):
+        for i in (0, -1):
+            rr = np.hypot(d.r[i], d.z[i] - d.z_centroid[i])
+            r_v = (3 * d.volume[i] / (4 * np.pi)) ** (1 / 3)
+            print(f"| {name} | {d.t[i]:.3f} | {d.volume[i] - v0:.1e} | {np.ptp(rr):.4f} | {r_v:.6f} |")
+    print()
+
+
+SECTIONS = {"neck": section_neck, "asymmetric": section_asymmetric, "cut": section_cut, "map": section_map}
+
+
+def main(argv=None):
+    global SMOKE
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--smoke", action="store_true", help=HELP)
+    p.add_argument("sections", nargs="*", choices=[*SECTIONS, []], default=[])
+    a = p.parse_args(argv)
+    SMOKE = a.smoke
+    run_sections(SECTIONS, a.sections)
+
+
+if __name__ == "__main__":
+    main()
