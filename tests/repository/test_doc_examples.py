@@ -6,7 +6,8 @@ Every fenced block marked ```bash or ```python in ``README.md`` and ``docs/**/*.
   from one that did the imports once: ``tests/preloaded.py``), in one fresh folder per block;
   other commands (``pip``, ``snakemake``, ``python benchmarks/...``) are left to their own tests.
   A ``cortex-ti run`` gets ``mesh.nodes=162`` (replacing any node count the example gives) and,
-  for a dynamic scene, its end time (the scene's, or the one the example sets) times :data:`TIME_SCALE`, so a run takes seconds;
+  for a dynamic scene, its end time (the scene's, or the one the example sets) times
+  :data:`TIME_SCALE`, so a run takes seconds;
 * a ``python`` block is run by a fresh process (the same way) in a fresh folder.
 
 Files an example reads but no earlier line of its block wrote (``p8.h5`` in a block that plots
