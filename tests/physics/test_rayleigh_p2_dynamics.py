@@ -16,7 +16,7 @@ import pytest
 
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
-from cortex_ti.surface.curved import curved_surface, p2_shape, radon_rule
+from cortex_ti.surface.curved import curved_surface, p2_shape, triangle_rule
 
 P2 = ["numerics.formulation=rayleigh_p2", "numerics.fit=quartic", "solver.reuse=false", "solver.rtol=1e-12"]
 
@@ -36,7 +36,7 @@ def _ellipsoid_surface(nodes: int = 642):
 def _energy(points, cells, zeta):
     """``E_h = int zeta dA`` over the isoparametric cells through ``points``, in numpy (the area
     element |d_xi X x d_eta X| of the quadratic map, the cells' quadrature rule)."""
-    q, w = radon_rule()
+    q, w = triangle_rule()
     shape, dshape = p2_shape(q)
     c = points[cells]
     a1 = np.einsum("qi,tic->tqc", dshape[:, :, 0], c)
