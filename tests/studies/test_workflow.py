@@ -138,7 +138,7 @@ def test_tiny_configuration_end_to_end(tmp_path):
         assert angle[-1] < angle[0]  # turning back toward the pattern axis
 
     cost = open_store("cost")
-    n_runs = 8 + 1 + 1 + 2 + 4 + 1 + 1  # + the twin of furrow_p8_a1 (both studies run it), + constriction
+    n_runs = 4 + 1 + 1 + 2 + 4 + 1 + 1  # + the twin of furrow_p8_a1 (both studies run it), + constriction
     assert cost.sizes["run"] == n_runs
     deep = open_store("constriction")
     assert deep["model"].values.tolist() == ["axisymmetric"]
