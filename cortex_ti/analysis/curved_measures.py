@@ -50,6 +50,16 @@ def _quadrature(points, cells):
     return x, cross * _RULE_WEIGHTS[None, :, None]  # positions and n dA
 
 
+def _cells_and_centre(points, faces):
+    """``(points, cells, x, n dA, dA, centre)``: the curved cells of ``faces``, their quadrature
+    points, weighted normals and areas, and the surface's area centroid."""
+    points = np.asarray(points, dtype=float)
+    cells = p2_cells(np.asarray(faces))
+    x, nda = _quadrature(points, cells)
+    da = np.linalg.norm(nda, axis=-1)
+    return points, cells, x, nda, da, da.ravel() @ x.reshape(-1, 3) / da.sum()
+
+
 def _section_points(points, faces, cells, axis, c):
     """Crossings of the plane through ``c`` normal to ``axis`` with the curved cells: the two crossing
     points of every flat sub-triangle the plane cuts (M, 2, 3)."""
@@ -158,14 +168,10 @@ def curved_measures(points, faces, axis=(0.0, 0.0, 1.0)) -> dict[str, float]:
     >>> round(m["volume"], 5), round(m["furrow_radius"], 7), round(m["pole_radius"], 12)
     (4.18875, 0.9999982, 1.0)
     """
-    points = np.asarray(points, dtype=float)
     faces = np.asarray(faces)
-    cells = p2_cells(faces)
+    points, cells, x, nda, da, centre = _cells_and_centre(points, faces)
     axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    x, nda = _quadrature(points, cells)
-    da = np.linalg.norm(nda, axis=-1)
     area = float(da.sum())
-    centre = da.ravel() @ x.reshape(-1, 3) / area
     rel = (x - centre).reshape(-1, 3)
     moment = rel.T @ (da.reshape(-1, 1) * rel)
     w, vec = np.linalg.eigh(moment)
@@ -198,13 +204,9 @@ def curved_neck_radius(points, faces, axis=(0.0, 0.0, 1.0), planes: int = 64) ->
     >>> bool(np.isnan(curved_neck_radius(m.points, m.faces)[0]))
     True
     """
-    points = np.asarray(points, dtype=float)
     faces = np.asarray(faces)
-    cells = p2_cells(faces)
+    points, cells, _, _, _, centre = _cells_and_centre(points, faces)
     ax = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
-    x, nda = _quadrature(points, cells)
-    da = np.linalg.norm(nda, axis=-1)
-    centre = np.einsum("tq,tqc->c", da, x) / da.sum()
     height = (points - centre) @ ax
 
     def radius(z: float) -> float:
