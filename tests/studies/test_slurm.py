@@ -169,6 +169,11 @@ def test_small_configuration_through_the_slurm_profile(cluster, tmp_path):
         str(workdir),
         "--profile",
         str(_profile(tmp_path)),
+        # the stores and tables, not the figures: they are drawn locally, the same code as in
+        # test_workflow.py's tiny configuration, and would only add local CPU time here
+        # (targets before --configfile, which takes every word after it)
+        *[f"results/aggregate/{name}.nc" for name in stores_of(yaml.safe_load(CONFIG.read_text()))],
+        *[f"results/figures/{table}.html" for table in TABLES],
         "--configfile",
         str(CONFIG),
     ]
