@@ -253,6 +253,8 @@ def test_arclength_points_from_the_scene_resolve_a_deep_neck(tmp_path):
         "time.t_end=1.5",
         "--set",
         "time.save_every=0.5",
+        "--set",
+        "axisymmetric.rtol=1e-8",  # the time error ~1e-8, far below the points' 7.7e-4 and 1e-2
     ]
     necks, early = {}, {}
     for points in ("normal", "arclength"):
@@ -269,7 +271,7 @@ def test_arclength_points_from_the_scene_resolve_a_deep_neck(tmp_path):
         eta_bar_b=0.0,
         t_end=0.5,
         n=48,
-        rtol=1e-10,
+        rtol=1e-8,
         parametrization="arclength",
     ).furrow_radius[-1]
     assert abs(early["arclength"] - ref) <= 1e-7  # the scene key reaches the solver
