@@ -25,10 +25,18 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-import numpy as np
-import pytest
+# One BLAS (and OpenMP) thread per process, set before NumPy loads its OpenBLAS: each worker has a
+# core of its own, and OpenBLAS's threads on an oversubscribed machine spin on the small dense
+# matrices of the axisymmetric model (a (96, 48) product 0.085 ms on one thread, 8 ms on two when
+# the cores were busy: the axisymmetric cut's test 16 -> 5.6 CPU s). Inherited by the commands the
+# tests run. A value set outside the tests is kept.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from cortex_ti import runtime
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from cortex_ti import runtime  # noqa: E402
 
 #: At most this many pytest-xdist workers for ``-n auto``: more would mostly add memory (each
 #: worker holds Taichi and its meshes) and start-up, not speed, to a suite of ~1000 tests.

@@ -271,20 +271,21 @@ def simulate(
     t0 = time.perf_counter()
     failure = None
     try:
-        saved, nsteps, nlu, stopped = _integrate(
-            dyn,
-            y0,
-            st,
-            float(t_end),
-            Radau if method == "Radau" else BDF,
-            rtol,
-            atol,
-            interpolate,
-            max_steps,
-            stops,
-            t_start=t_start,
-            hook=hook,
-        )
+        with _one_blas_thread():
+            saved, nsteps, nlu, stopped = _integrate(
+                dyn,
+                y0,
+                st,
+                float(t_end),
+                Radau if method == "Radau" else BDF,
+                rtol,
+                atol,
+                interpolate,
+                max_steps,
+                stops,
+                t_start=t_start,
+                hook=hook,
+            )
     except _Failed as exc:
         if not exc.saved:
             raise ValueError(str(exc)) from None
@@ -395,6 +396,18 @@ class _Saved(list):
 
 
 _NO_STATS = dict(wall_time=0.0, n_rhs=0, n_steps=0, n_jac=0, n_lu=0)
+
+
+def _one_blas_thread():
+    """One BLAS thread while the model integrates: its dense matrices are small (the Jacobian's
+    batched products, a few hundred rows), and OpenBLAS's threads cost more than they bring there:
+    on the 2-core machine with its cores busy, a (96, 48) complex product took 8 ms with OpenBLAS's
+    default two threads and 0.09-0.2 ms on one (the threads spin), and the axisymmetric cut's test
+    16 CPU s against 5.6. ``threadpoolctl`` sets it for the BLAS libraries NumPy and SciPy loaded,
+    and restores it afterwards."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _integrate(dyn, y0, st, t_end, Solver, rtol, atol, interpolate, max_steps, stops=None, t_start=0.0, hook=None):
