@@ -1,6 +1,7 @@
 """A run across a division (division.neck_radius): a 642-node dumbbell under a uniform tension, cut at
-its first step, then evolved as two bodies; resumed across the cut; the solve by body against the
-solves of each body alone; and the scenes the division refuses, in one line with exit 2."""
+its first step, then evolved as two bodies; resumed across the cut; the daughters rounding up (with
+a ring that dissolves at the cut and the weighted semi-implicit tension); the solve by body against
+the solves of each body alone; and the scenes the division refuses, in one line with exit 2."""
 
 from __future__ import annotations
 
@@ -81,6 +82,46 @@ def test_a_run_resumed_across_the_cut(runs):
     assert float(ds["time"].values[-1]) == pytest.approx(0.0012)
 
 
+@pytest.fixture(scope="module")
+def rounded(runs):
+    """The dumbbell with constriction_p4's ring at amplitude 5, dissolved at the cut (division.ring), and
+    numerics.implicit_tension_weight = 2, followed to t = 1.6."""
+    _, _, _, tmp = runs
+    out = tmp / "round.h5"
+    extra = ["active_stress.0.amplitude=5", "division.ring=dissolve", "numerics.implicit_tension_weight=2"]
+    extra += ["time.save_every=0.4"]
+    args = []
+    for s in extra:
+        args += ["--set", s]
+    assert _run(tmp, out, 1.6, *args) == 0
+    return Trajectory(out).ds
+
+
+@pytest.mark.slow  # the fixture's run: ~5 CPU s
+def test_the_daughters_round_up(rounded):
+    """A closed cortex under a uniform tension relaxes to a sphere: after the cut (the ring dissolved,
+    so the tension is zeta0 = 1 on every node of both daughters) each daughter is round within the
+    issue's 1e-2 at t = 1.6 (0.0077 measured; the meshes' own equilibrium is 0.0068, its l = 2 part
+    decays at ~4 / t_a), each keeping its volume. Without the weight the step fell to ~1e-7 within
+    0.004 t_a of the cut (docs/derivations/implicit_tension_weight.md: stable only below ~3e-7 there);
+    with it no frame after the cut has a step below 1e-4."""
+    from benchmarks.division import roundness
+
+    ds = rounded
+    n = ds["n_bodies"].values
+    assert n[0] == 1 and n[-1] == 2
+    zeta = ds["active_stress"].values
+    assert np.nanmax(zeta[0]) > 5.0  # the ring before the cut
+    for k in np.flatnonzero(n == 2):
+        z = zeta[k][np.isfinite(zeta[k])]
+        assert np.all(np.abs(z - 1.0) < 1e-12)  # dissolved: zeta0 everywhere
+    last = roundness(ds, len(n) - 1)
+    assert all(r < 1e-2 for r, _ in last), last
+    v = ds["body_volume"].values
+    assert np.all(np.abs(v[-1] / v[np.flatnonzero(n == 2)[0]] - 1.0) < 1e-4)
+    assert float(np.min(ds["dt"].values[n == 2])) > 1e-4
+
+
 def test_the_solve_by_body_equals_each_body_alone():
     """A consistency check (the code against itself): two bodies (a sphere and an ellipsoid) solved
     together, body by body, give each body's velocity and pressure of its own one-body solve."""
@@ -110,6 +151,9 @@ def test_the_solve_by_body_equals_each_body_alone():
         (["division.neck_radius=0.001", "model=axisymmetric", "mesh.remesh.min_angle=null"], "points resolve"),
         (["division.neck_radius=0.2", "numerics.formulation=paper"], "cannot be cut"),
         (["division.neck_radius=0.05", "time.stop_neck=0.1"], "before the cut"),
+        (["numerics.implicit_tension_weight=0.5"], ">= 1"),
+        (["numerics.implicit_tension_weight=2", "numerics.formulation=paper"], "rayleigh_p1 only"),
+        (["division.neck_radius=0.2", "division.ring=melt"], "division.ring"),
     ],
 )
 def test_division_refusals(tmp_path, capsys, sets, said):
