@@ -70,18 +70,9 @@ def bars(path: Path) -> dict:
 def roundness(ds, k: int) -> list[tuple[float, float]]:
     """``(roundness, volume)`` of each body of frame ``k`` (module docstring)."""
     from cortex_ti.io.trajectory import frame_mesh
-    from cortex_ti.surface.division import body_labels, face_labels
-    from cortex_ti.surface.measures import area_centroid, enclosed_volume
+    from cortex_ti.surface.division import body_roundness
 
-    p, f = frame_mesh(ds, k)
-    nb, lab = body_labels(f, len(p))
-    flab = face_labels(f, lab)
-    out = []
-    for b in range(nb):
-        fb = f[flab == b]
-        r = np.linalg.norm(p[lab == b] - area_centroid(p, fb), axis=1)
-        out.append((float(np.max(np.abs(r / r.mean() - 1.0))), float(enclosed_volume(p, fb))))
-    return out
+    return body_roundness(*frame_mesh(ds, k))
 
 
 def rounding(path: Path) -> str:
