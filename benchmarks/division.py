@@ -13,7 +13,8 @@ Usage::
 
     cortex-ti run cytokinesis -o c.h5 --threads 1 && python benchmarks/division.py --file c.h5
     python benchmarks/division.py --scene cytokinesis --set mesh.nodes=642 --set division.neck_radius=0.15
-    python benchmarks/division.py --smoke     # the 642-node dumbbell, cut at once; its daughters round up
+    python benchmarks/division.py --smoke       # the 642-node dumbbell, cut at its first step (to t = 0.0012)
+    python benchmarks/division.py --dumbbell    # the same followed until its daughters are round (t = 1.6)
 """
 
 from __future__ import annotations
@@ -87,9 +88,9 @@ def rounding(path: Path) -> str:
     return "\n".join(rows)
 
 
-def smoke() -> Path:
-    """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step, its
-    daughters followed until they are round (t = 1.6)."""
+def smoke(t_end: float = 0.0012, save_every: float = 0.0002) -> Path:
+    """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step, followed
+    to ``t_end`` (1.6: until its daughters are round)."""
     import meshio
 
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -99,7 +100,7 @@ def smoke() -> Path:
     p, f = dumbbell(642, neck=0.25)
     meshio.write(where / "db.obj", meshio.Mesh(p, [("triangle", f)]))
     sets = [f"mesh.file={where / 'db.obj'}", "mesh.nodes=null", "active_stress.0.amplitude=0"]
-    sets += ["division.neck_radius=0.27", "time.stop_neck=null", "time.save_every=0.2", "time.t_end=1.6"]
+    sets += ["division.neck_radius=0.27", "time.stop_neck=null", f"time.save_every={save_every}", f"time.t_end={t_end}"]
     sets += ["numerics.implicit_tension_weight=2"]  # docs/derivations/implicit_tension_weight.md
     return run("constriction_p4", sets, where)
 
@@ -120,14 +121,20 @@ def main() -> None:
     ap.add_argument("--scene", default="cytokinesis")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
     ap.add_argument("--smoke", action="store_true", help="a tiny case: the dumbbell cut at its first step")
+    ap.add_argument("--dumbbell", action="store_true", help="the smoke's dumbbell until its daughters are round")
     ap.add_argument("--rounding", action="store_true", help="also the daughters' roundness at every two-body frame")
     a = ap.parse_args()
     print(_bench.header())
-    path = a.file if a.file else smoke() if a.smoke else run(a.scene, a.sets, _bench.folder())
+    if a.file:
+        path = a.file
+    elif a.smoke or a.dumbbell:
+        path = smoke(1.6, 0.2) if a.dumbbell else smoke()
+    else:
+        path = run(a.scene, a.sets, _bench.folder())
     print("| measured | value |\n|---|---|")
     for k, v in bars(path).items():
         print(f"| {k} | {v if isinstance(v, str) else np.round(v, 12).tolist()} |")
-    if a.rounding or a.smoke:
+    if a.rounding or a.dumbbell:
         print()
         print(rounding(path))
 
