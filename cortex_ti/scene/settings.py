@@ -202,6 +202,12 @@ def _division_neck(data: dict) -> float | None:
     return None if value is None else float(value)
 
 
+def _division_weight(data: dict) -> float | None:
+    """``division.implicit_tension_weight`` (None: the numerics' weight after a cut too)."""
+    value = (data.get("division") or {}).get("implicit_tension_weight")
+    return None if value is None else float(value)
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """Everything a run needs from its scene, resolved once (see the module docstring)."""
@@ -223,6 +229,7 @@ class RunSettings:
     fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
     division_neck: float | None = None  # division.neck_radius: cut the surface in two at this neck (R0); None: never
     division_ring: str = "keep"  # division.ring: "keep" the patterns' extra tension at the cut, or "dissolve" it
+    division_weight: float | None = None  # division.implicit_tension_weight: the daughters' (None: the numerics')
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -310,6 +317,7 @@ class RunSettings:
             else None,
             division_neck=_division_neck(data),
             division_ring=(data.get("division") or {}).get("ring", "keep"),
+            division_weight=_division_weight(data),
         )
 
     @property

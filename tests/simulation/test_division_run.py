@@ -84,12 +84,12 @@ def test_a_run_resumed_across_the_cut(runs):
 
 @pytest.fixture(scope="module")
 def rounded(tmp_path_factory):
-    """The dumbbell under the uniform tension, numerics.implicit_tension_weight = 2, followed to t = 1.2."""
+    """The dumbbell under the uniform tension, division.implicit_tension_weight = 2, followed to t = 1.2."""
     tmp = tmp_path_factory.mktemp("rounding")
     p, f = dumbbell(642, neck=0.25)
     meshio.write(tmp / "db.obj", meshio.Mesh(p, [("triangle", f)]))
     out = tmp / "round.h5"
-    assert _run(tmp, out, 1.2, "--set", "numerics.implicit_tension_weight=2", "--set", "time.save_every=0.6") == 0
+    assert _run(tmp, out, 1.2, "--set", "division.implicit_tension_weight=2", "--set", "time.save_every=0.6") == 0
     return Trajectory(out).ds
 
 
@@ -165,6 +165,11 @@ def test_the_solve_by_body_equals_each_body_alone():
         (["numerics.implicit_tension_weight=0.5"], ">= 1"),
         (["numerics.implicit_tension_weight=2", "numerics.formulation=paper"], "rayleigh_p1 only"),
         (["division.neck_radius=0.2", "division.ring=melt"], "division.ring"),
+        (["division.implicit_tension_weight=2"], "set division.neck_radius"),
+        (
+            ["division.ring=dissolve", "model=axisymmetric", "mesh.remesh.min_angle=null", "division.neck_radius=0.1"],
+            "axisymmetric model stops",
+        ),
     ],
 )
 def test_division_refusals(tmp_path, capsys, sets, said):
