@@ -101,7 +101,7 @@ def smoke(t_end: float = 0.0012, save_every: float = 0.0002) -> Path:
     meshio.write(where / "db.obj", meshio.Mesh(p, [("triangle", f)]))
     sets = [f"mesh.file={where / 'db.obj'}", "mesh.nodes=null", "active_stress.0.amplitude=0"]
     sets += ["division.neck_radius=0.27", "time.stop_neck=null", f"time.save_every={save_every}", f"time.t_end={t_end}"]
-    sets += ["numerics.implicit_tension_weight=2"]  # docs/derivations/implicit_tension_weight.md
+    sets += ["division.implicit_tension_weight=2"]  # docs/derivations/implicit_tension_weight.md
     return run("constriction_p4", sets, where)
 
 
