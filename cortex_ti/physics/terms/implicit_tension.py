@@ -45,7 +45,9 @@ stiffness to the drag on it, stable only for ``rho < 4 theta / 3``; on flat tria
 moving along their normals ``rho`` reaches 1.98 (icospheres) to 2.55 (the daughters' MMG meshes), so
 ``theta = 1`` lets the mode oscillate from step to step and the error control shrinks the step to
 that of the explicit scheme (docs/derivations/implicit_tension_weight.md). Centred on the rate the
-weighted drag stays ``O(dt^2)``.
+weighted drag stays ``O(dt^2)``, but it pulls the state toward the extrapolation the error estimate
+compares it with, hiding part of the step's error: the daughters of a division get ``theta = 2``
+from the cut on (``division.implicit_tension_weight``), the rest keeps 1.
 """
 
 from __future__ import annotations
