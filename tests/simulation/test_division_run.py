@@ -96,10 +96,10 @@ def rounded(tmp_path_factory):
 @pytest.mark.slow  # the fixture's run: ~4 CPU s
 def test_the_daughters_round_up(rounded):
     """A closed cortex under a uniform tension relaxes to a sphere: each daughter is round within the
-    issue's 1e-2 at t = 2 (0.0101 and 0.0090 at t = 1.2, measured; the meshes' own equilibrium, about
-    0.007, is reached by t = 2-3), keeping its volume. Without the weight the step fell to ~1e-7 within 0.004 t_a of the cut
-    (docs/derivations/implicit_tension_weight.md: stable only below ~3e-7 there); with it no frame after
-    the cut has a step below 1e-4."""
+    issue's 1e-2 at t = 2 (0.0092 and 0.0079 at t = 1.6, measured; the meshes' own equilibrium, about
+    0.007, is reached by t = 2-4), keeping its volume. Without the weight the step fell to ~1e-7 within
+    0.004 t_a of the cut (docs/derivations/implicit_tension_weight.md: stable only below ~3e-7 there);
+    with it no frame after the cut has a step below 1e-4."""
     from cortex_ti.io.trajectory import frame_mesh
     from cortex_ti.surface.division import body_roundness
 
