@@ -42,11 +42,11 @@ stiffness: on a mode the viscous dissipation hardly resists (a mesh-scale near-i
 where the stub of a just-divided daughter meets its lobe), extrapolated BDF2 maps the mode by
 ``z^2 - 2 a z + a = 0``, ``a = 1 - rho / theta``, ``rho`` the ratio of the discrete tension's
 stiffness to the drag on it, stable only for ``rho < 4 theta / 3``; on flat triangles with the nodes
-moving along their normals ``rho`` reaches 1.98 (icospheres) to 2.55 (the daughters' MMG meshes), so
+moving along their normals ``rho`` reaches 2.0 (icospheres) to 3.2 (the daughters' MMG meshes), so
 ``theta = 1`` lets the mode oscillate from step to step and the error control shrinks the step to
 that of the explicit scheme (docs/derivations/implicit_tension_weight.md). Centred on the rate the
 weighted drag stays ``O(dt^2)``, but it pulls the state toward the extrapolation the error estimate
-compares it with, hiding part of the step's error: the daughters of a division get ``theta = 2``
+compares it with, hiding part of the step's error: the daughters of a division get ``theta = 2.5``
 from the cut on (``division.implicit_tension_weight``), the rest keeps 1.
 """
 
