@@ -13,7 +13,8 @@ Usage::
 
     cortex-ti run cytokinesis -o c.h5 --threads 1 && python benchmarks/division.py --file c.h5
     python benchmarks/division.py --scene cytokinesis --set mesh.nodes=642 --set division.neck_radius=0.15
-    python benchmarks/division.py --smoke
+    python benchmarks/division.py --smoke       # the 642-node dumbbell, cut at its first step (to t = 0.0012)
+    python benchmarks/division.py --dumbbell    # the same followed until its daughters are round (t = 1.6)
 """
 
 from __future__ import annotations
@@ -30,8 +31,7 @@ import numpy as np
 def bars(path: Path) -> dict:
     """The measurements of the module docstring for the trajectory ``path``."""
     from cortex_ti.io.trajectory import Trajectory, frame_mesh, read_divisions
-    from cortex_ti.surface.division import body_labels, face_labels
-    from cortex_ti.surface.measures import area_centroid, enclosed_volume, min_angles
+    from cortex_ti.surface.measures import min_angles
     from cortex_ti.surface.transport import dual_areas
 
     ds = Trajectory(path).ds
@@ -63,21 +63,34 @@ def bars(path: Path) -> dict:
             m = np.array(totals[d])
             out[f"{d}: total across the cut, relative change"] = m[k] / m[k - 1] - 1.0
             out[f"{d}: total over the run, largest relative change"] = float(np.max(np.abs(m / m[0] - 1.0)))
-        p, f = frame_mesh(ds, len(n) - 1)
-        nb, lab = body_labels(f, len(p))
-        flab = face_labels(f, lab)
-        for b in range(nb):
-            fb = f[flab == b]
-            r = np.linalg.norm(p[lab == b] - area_centroid(p, fb), axis=1)
-            out[f"daughter {b}: roundness max abs(r / mean r - 1), volume"] = (
-                float(np.max(np.abs(r / r.mean() - 1.0))),
-                enclosed_volume(p, fb),
-            )
+        for b, (rb, vb) in enumerate(roundness(ds, len(n) - 1)):
+            out[f"daughter {b}: roundness max abs(r / mean r - 1), volume"] = (rb, vb)
     return out
 
 
-def smoke() -> Path:
-    """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step."""
+def roundness(ds, k: int) -> list[tuple[float, float]]:
+    """``(roundness, volume)`` of each body of frame ``k`` (module docstring)."""
+    from cortex_ti.io.trajectory import frame_mesh
+    from cortex_ti.surface.division import body_roundness
+
+    return body_roundness(*frame_mesh(ds, k))
+
+
+def rounding(path: Path) -> str:
+    """A table of the daughters' roundness against time (every two-body frame)."""
+    from cortex_ti.io.trajectory import Trajectory
+
+    ds = Trajectory(path).ds
+    rows = ["| t | daughter 0: roundness | daughter 1: roundness | V0 | V1 |", "|---|---|---|---|---|"]
+    for k in np.flatnonzero(ds["n_bodies"].values == 2):
+        (r0, v0), (r1, v1) = roundness(ds, int(k))
+        rows.append(f"| {float(ds['time'].values[k]):.4g} | {r0:.4f} | {r1:.4f} | {v0:.6f} | {v1:.6f} |")
+    return "\n".join(rows)
+
+
+def smoke(t_end: float = 0.0012, save_every: float = 0.0002) -> Path:
+    """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step, followed
+    to ``t_end`` (1.6: until its daughters are round)."""
     import meshio
 
     sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -87,7 +100,8 @@ def smoke() -> Path:
     p, f = dumbbell(642, neck=0.25)
     meshio.write(where / "db.obj", meshio.Mesh(p, [("triangle", f)]))
     sets = [f"mesh.file={where / 'db.obj'}", "mesh.nodes=null", "active_stress.0.amplitude=0"]
-    sets += ["division.neck_radius=0.27", "time.stop_neck=null", "time.save_every=0.0002", "time.t_end=0.0012"]
+    sets += ["division.neck_radius=0.27", "time.stop_neck=null", f"time.save_every={save_every}", f"time.t_end={t_end}"]
+    sets += ["division.implicit_tension_weight=2"]  # docs/derivations/implicit_tension_weight.md
     return run("constriction_p4", sets, where)
 
 
@@ -107,12 +121,22 @@ def main() -> None:
     ap.add_argument("--scene", default="cytokinesis")
     ap.add_argument("--set", action="append", default=[], dest="sets", metavar="KEY=VALUE")
     ap.add_argument("--smoke", action="store_true", help="a tiny case: the dumbbell cut at its first step")
+    ap.add_argument("--dumbbell", action="store_true", help="the smoke's dumbbell until its daughters are round")
+    ap.add_argument("--rounding", action="store_true", help="also the daughters' roundness at every two-body frame")
     a = ap.parse_args()
     print(_bench.header())
-    path = a.file if a.file else smoke() if a.smoke else run(a.scene, a.sets, _bench.folder())
+    if a.file:
+        path = a.file
+    elif a.smoke or a.dumbbell:
+        path = smoke(1.6, 0.2) if a.dumbbell else smoke()
+    else:
+        path = run(a.scene, a.sets, _bench.folder())
     print("| measured | value |\n|---|---|")
     for k, v in bars(path).items():
         print(f"| {k} | {v if isinstance(v, str) else np.round(v, 12).tolist()} |")
+    if a.rounding or a.dumbbell:
+        print()
+        print(rounding(path))
 
 
 if __name__ == "__main__":

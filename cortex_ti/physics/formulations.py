@@ -97,6 +97,7 @@ def _rayleigh_p1(geometry, physics, zeta, faces, numerics, dt, implicit_rate=Non
         pressure_weights=numerics.pressure_weights,
         active_force=numerics.active_force,
         implicit_rate=implicit_rate,
+        implicit_weight=numerics.implicit_tension_weight,
     )
 
 
@@ -131,7 +132,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "stationary point of the discrete Rayleighian, piecewise-linear velocities integrated "
         "exactly on the flat triangles: symmetric positive semidefinite, no growing spurious modes; second order",
         _rayleigh_p1,
-        keys=("pressure_weights", "active_force"),
+        keys=("pressure_weights", "active_force", "implicit_tension_weight"),
         centred_implicit=True,
     ),
     "rayleigh_p2": Formulation(

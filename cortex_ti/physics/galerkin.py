@@ -115,12 +115,13 @@ def assemble_p1(
     pressure_weights: str = "petrov",
     active_force: str = "balanced",
     implicit_rate: np.ndarray | None = None,
+    implicit_weight: float = 1.0,
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the shape ``geometry`` (module
     docstring): the ``rayleigh_p1`` method of each of their terms, then one matrix;
     ``implicit_dt > 0``: the semi-implicit tension of a step of that length, acting on the change
-    of the normal velocity from the nodes' rate ``implicit_rate`` (N, 3) when given
-    (:mod:`cortex_ti.physics.terms.implicit_tension`)."""
+    of the normal velocity from the nodes' rate ``implicit_rate`` (N, 3) when given, its drag
+    times ``implicit_weight`` (:mod:`cortex_ti.physics.terms.implicit_tension`)."""
     if pressure_weights not in PRESSURE_WEIGHTS:
         raise SolverError(f"unknown pressure_weights {pressure_weights!r}: choose one of {', '.join(PRESSURE_WEIGHTS)}")
     if active_force not in ACTIVE_FORCES:
@@ -135,6 +136,7 @@ def assemble_p1(
         zeta,
         implicit_dt=float(implicit_dt),
         implicit_rate=implicit_rate,
+        implicit_weight=float(implicit_weight),
         faces=faces,
         area=area,
         tnormal=tnormal,

@@ -318,7 +318,18 @@ def _check_division(data: dict) -> None:
     """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles with normal or lagrangian nodes and
     no fluids (the cut and the solve by body, cortex_ti.surface.division), a neck the remeshing resolves
     (at least :data:`DIVISION_MIN_EDGES` smallest target edges, ``h_min``), and above ``time.stop_neck``."""
-    neck = (data.get("division") or {}).get("neck_radius")
+    division = data.get("division") or {}
+    neck = division.get("neck_radius")
+    after = [
+        f"division.{k} = {fmt_value(division[k])}"
+        for k, default in (("ring", "keep"), ("implicit_tension_weight", None))
+        if division.get(k, default) != default
+    ]
+    if after and (neck is None or data["model"] == "axisymmetric"):
+        raise SceneError(
+            f"{after[0]} acts on the daughters of a 3D cut: "
+            + ("set division.neck_radius" if neck is None else "the axisymmetric model stops at its cut; remove it")
+        )
     if neck is None:
         return
     where = f"division.neck_radius = {fmt_value(neck)}"

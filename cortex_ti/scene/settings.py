@@ -130,6 +130,7 @@ class NumericsSettings:
     fit_residual_weight: float
     pressure_weights: str
     active_force: str = "balanced"
+    implicit_tension_weight: float = 1.0  # rayleigh_p1: the factor on the semi-implicit tension's drag
 
     @property
     def formulation_entry(self):
@@ -201,6 +202,12 @@ def _division_neck(data: dict) -> float | None:
     return None if value is None else float(value)
 
 
+def _division_weight(data: dict) -> float | None:
+    """``division.implicit_tension_weight`` (None: the numerics' weight after a cut too)."""
+    value = (data.get("division") or {}).get("implicit_tension_weight")
+    return None if value is None else float(value)
+
+
 @dataclass(frozen=True)
 class RunSettings:
     """Everything a run needs from its scene, resolved once (see the module docstring)."""
@@ -221,6 +228,8 @@ class RunSettings:
     rigidity: RigiditySettings = RigiditySettings()
     fluid: Fluid | None = None  # the fluids (cortex_ti.physics.model.Fluid) with the effect fluids; None without
     division_neck: float | None = None  # division.neck_radius: cut the surface in two at this neck (R0); None: never
+    division_ring: str = "keep"  # division.ring: "keep" the patterns' extra tension at the cut, or "dissolve" it
+    division_weight: float | None = None  # division.implicit_tension_weight: the daughters' (None: the numerics')
 
     @classmethod
     def from_data(cls, data: dict) -> RunSettings:
@@ -269,6 +278,7 @@ class RunSettings:
                 fit_residual_weight=float(num["fit_residual_weight"] or 0.0),
                 pressure_weights=num["pressure_weights"],
                 active_force=num["active_force"],
+                implicit_tension_weight=float(num["implicit_tension_weight"]),
             ),
             solver=SolverSettings(
                 backend=choose_factorization(sol["backend"]).name,
@@ -306,6 +316,8 @@ class RunSettings:
             if "fluids" in effects
             else None,
             division_neck=_division_neck(data),
+            division_ring=(data.get("division") or {}).get("ring", "keep"),
+            division_weight=_division_weight(data),
         )
 
     @property

@@ -15,7 +15,9 @@ before.
 (:func:`cortex_ti.surface.division.cut_at_plane`), the run goes on with the two daughters on a new
 segment of its trajectory, whose group records the cut (:data:`CUT_ATTRS`). The neck is searched
 (about 0.1 s at 2562 nodes) at every step only once a frame's neck is within :data:`NEAR` times the
-threshold, at the frames before.
+threshold, at the frames before. With ``division.ring: dissolve`` the patterns' extra tension (the
+ring) is gone from the daughters at the cut (:func:`dissolved_tension`): the ring disassembles at
+abscission, and the daughters round up under the base tension.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 
 from ..analysis.sections import neck_radius
 from ..dynamics.state import State
+from ..physics.patterns import evaluate_active_stress
 from ..solve.constrained import ConstrainedSolver
 from ..solve.system import SolveInfo
 from ..surface.division import body_labels, cut_at_plane, face_labels, remesh_bodies
@@ -45,6 +48,7 @@ __all__ = [
     "split_bodies",
     "solve_by_body",
     "divide_due",
+    "dissolved_tension",
     "remesh_by_body",
     "body_diagnostics",
     "NEAR",
@@ -208,13 +212,28 @@ def divide_due(sim: Simulation, state: State, t: float) -> State | None:
         after,
     )
     sim.use_mesh(res.points, res.faces)
-    fields = res.fields
+    fields = dict(res.fields)
+    if sim.settings.division_ring == "dissolve" and "prescribed_tension" in fields:
+        fields["prescribed_tension"] = dissolved_tension(sim.settings.patterns, res.points)
+        log.info("t = %.4g: the ring dissolved at the cut (division.ring: dissolve)", t)
     if flow is not None:
         x, fields, moved, steps = sim._settle(state, flow, res.points, res.faces, fields, kinds, rem, list(res.volumes))
         sim.use_mesh(x, res.faces)
         log.info("t = %.4g: the daughters settled in %d pseudo-steps, nodes moved %.2e at most", t, steps, moved)
     sim.segment += 1
     return State(sim.mesh.points, fields, sim.mesh.faces)
+
+
+def dissolved_tension(patterns, points: np.ndarray) -> np.ndarray:
+    """The prescribed tension of the daughters once the ring has dissolved (``division.ring:
+    dissolve``): the patterns evaluated on ``points`` with every ``amplitude`` set to 0 (a ring or a
+    fold leaves its base tension ``zeta0``; a pattern without an amplitude is kept as it is).
+
+    >>> pat = {"type": "ring", "zeta0": 1.0, "amplitude": 12.0, "sigma": 10.0, "p": 4}
+    >>> dissolved_tension([pat], np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])).tolist()
+    [1.0, 1.0]
+    """
+    return evaluate_active_stress(points, [dict(p, amplitude=0.0) if "amplitude" in p else dict(p) for p in patterns])
 
 
 def remesh_by_body(sim: Simulation):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -338,8 +338,11 @@ class Simulation:
     def system(self, geometry, dt: float = 0.0, zeta: np.ndarray | None = None, implicit_rate=None, faces=None):
         """The formulation's linear system on a shape (``dt > 0``: the semi-implicit step, centred on
         the nodes' rate ``implicit_rate`` if given) with the tension ``zeta`` (default: the initial
-        state's; ``faces``: the triangles of the shape, default the mesh's)."""
+        state's; ``faces``: the triangles of the shape, default the mesh's). Once the mesh holds
+        several bodies (after a cut), ``division.implicit_tension_weight`` replaces the numerics' weight."""
         num = self.settings.numerics
+        if self.bodies is not None and self.settings.division_weight is not None:  # the daughters' weight
+            num = replace(num, implicit_tension_weight=self.settings.division_weight)
         zeta = self.zeta if zeta is None else zeta
         faces = self.mesh.faces if faces is None else faces
         return num.formulation_entry.system(geometry, self.physics, zeta, faces, num, dt, implicit_rate)

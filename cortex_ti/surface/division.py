@@ -56,6 +56,7 @@ __all__ = [
     "body_labels",
     "face_labels",
     "euler_characteristic",
+    "body_roundness",
     "side_volumes",
     "CutResult",
     "cut_at_plane",
@@ -90,6 +91,28 @@ def euler_characteristic(faces: np.ndarray) -> int:
     f = np.asarray(faces, dtype=np.int64)
     e = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
     return int(np.unique(f).size - e.shape[0] + f.shape[0])
+
+
+def body_roundness(points: np.ndarray, faces: np.ndarray) -> list[tuple[float, float]]:
+    """``(roundness, volume)`` of each body (in :func:`body_labels` order): the roundness the largest
+    ``|r / mean r - 1|`` of its nodes' distances ``r`` from its area centroid (0 on a sphere).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> [(round(r, 12), round(v, 2)) for r, v in body_roundness(m.points, m.faces)]
+    [(0.0, 4.05)]
+    """
+    from .measures import area_centroid
+
+    points, faces = np.asarray(points, dtype=float), np.asarray(faces)
+    n, labels = body_labels(faces, len(points))
+    flab = face_labels(faces, labels)
+    out = []
+    for b in range(n):
+        f = faces[flab == b]
+        r = np.linalg.norm(points[labels == b] - area_centroid(points, f), axis=1)
+        out.append((float(np.max(np.abs(r / r.mean() - 1.0))), float(enclosed_volume(points, f))))
+    return out
 
 
 def _tet(a, b, c) -> np.ndarray:

@@ -129,6 +129,7 @@ def test_shipped_scene_values(name):
         "fit_residual_weight": 0.0,  # not null
         "pressure_weights": "petrov",
         "active_force": "balanced",
+        "implicit_tension_weight": 1.0,
     }
 
 

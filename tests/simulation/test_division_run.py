@@ -1,6 +1,7 @@
 """A run across a division (division.neck_radius): a 642-node dumbbell under a uniform tension, cut at
-its first step, then evolved as two bodies; resumed across the cut; the solve by body against the
-solves of each body alone; and the scenes the division refuses, in one line with exit 2."""
+its first step, then evolved as two bodies; resumed across the cut; the daughters rounding up (with
+a ring that dissolves at the cut and the weighted semi-implicit tension); the solve by body against
+the solves of each body alone; and the scenes the division refuses, in one line with exit 2."""
 
 from __future__ import annotations
 
@@ -81,6 +82,65 @@ def test_a_run_resumed_across_the_cut(runs):
     assert float(ds["time"].values[-1]) == pytest.approx(0.0012)
 
 
+@pytest.fixture(scope="module")
+def rounded(tmp_path_factory):
+    """The dumbbell under the uniform tension with division.implicit_tension_weight = 2: a run to t = 0.006
+    (frames every 0.001), whose steps after the cut are checked first, and one to t = 2."""
+    tmp = tmp_path_factory.mktemp("rounding")
+    p, f = dumbbell(642, neck=0.25)
+    meshio.write(tmp / "db.obj", meshio.Mesh(p, [("triangle", f)]))
+    weight = ["--set", "division.implicit_tension_weight=2"]
+    assert _run(tmp, tmp / "early.h5", 0.006, *weight, "--set", "time.save_every=0.001") == 0
+    early = Trajectory(tmp / "early.h5").ds
+    n = early["n_bodies"].values
+    smallest = float(np.min(early["dt"].values[n == 2]))
+    if smallest < 1e-5:  # the step collapsed: the run to t = 2 would crawl for hours
+        pytest.fail(f"the step fell to {smallest:.2g} after the cut (docs/derivations/implicit_tension_weight.md)")
+    assert _run(tmp, tmp / "round.h5", 2.0, *weight, "--set", "time.save_every=1.0") == 0
+    return smallest, Trajectory(tmp / "round.h5").ds
+
+
+@pytest.mark.slow  # the fixture's runs: ~9 CPU s
+def test_the_daughters_round_up(rounded):
+    """A closed cortex under a uniform tension relaxes to a sphere: each daughter is round within the
+    issue's 1e-2 at t = 2 (0.0092 and 0.0079 at t = 1.6, measured; the meshes' own equilibrium, about
+    0.007, is reached by t = 2-4), keeping its volume. Without the weight the step fell to ~1e-7 within
+    0.004 t_a of the cut (docs/derivations/implicit_tension_weight.md: stable only below ~3e-7 there);
+    with it the frames after the cut have steps of at least 4.8e-5 to t = 0.006 (measured), 1e-4 later."""
+    from cortex_ti.io.trajectory import frame_mesh
+    from cortex_ti.surface.division import body_roundness
+
+    smallest, ds = rounded
+    assert smallest > 1e-5
+    n = ds["n_bodies"].values
+    assert n[0] == 1 and n[-1] == 2
+    last = body_roundness(*frame_mesh(ds, len(n) - 1))
+    assert all(r < 1e-2 for r, _ in last), last
+    v = ds["body_volume"].values
+    assert np.all(np.abs(v[-1] / v[np.flatnonzero(n == 2)[0]] - 1.0) < 1e-4)
+    assert float(np.min(ds["dt"].values[n == 2])) > 1e-4
+
+
+def test_the_ring_dissolves_at_the_cut(tmp_path):
+    """division.ring: dissolve: the daughters' prescribed tension is the ring's base tension zeta0 = 1 on
+    every node (before the cut the dumbbell's neck carries 1 + 5)."""
+    import cortex_ti as ct
+    from cortex_ti.simulation.bodies import divide_due
+    from cortex_ti.simulation.core import Simulation
+
+    p, f = dumbbell(642, neck=0.25)
+    meshio.write(tmp_path / "db.obj", meshio.Mesh(p, [("triangle", f)]))
+    sets = [f"mesh.file={tmp_path / 'db.obj'}", *SETS, "active_stress.0.amplitude=5", "division.ring=dissolve"]
+    sets += ["mesh.remesh.settle_steps=0"]
+    sim = Simulation(ct.load_scene("constriction_p4", sets))
+    before = sim.state0.fields["prescribed_tension"]
+    assert before.max() > 5.0
+    sim.neck_seen = 0.0  # the neck as a frame would have seen it (the run searches it once it is near)
+    after = divide_due(sim, sim.state0, 0.0)
+    assert sim.bodies is not None and len(sim.bodies) == 2
+    np.testing.assert_array_equal(after.fields["prescribed_tension"], np.ones(after.n_nodes))
+
+
 def test_the_solve_by_body_equals_each_body_alone():
     """A consistency check (the code against itself): two bodies (a sphere and an ellipsoid) solved
     together, body by body, give each body's velocity and pressure of its own one-body solve."""
@@ -110,6 +170,14 @@ def test_the_solve_by_body_equals_each_body_alone():
         (["division.neck_radius=0.001", "model=axisymmetric", "mesh.remesh.min_angle=null"], "points resolve"),
         (["division.neck_radius=0.2", "numerics.formulation=paper"], "cannot be cut"),
         (["division.neck_radius=0.05", "time.stop_neck=0.1"], "before the cut"),
+        (["numerics.implicit_tension_weight=0.5"], ">= 1"),
+        (["numerics.implicit_tension_weight=2", "numerics.formulation=paper"], "rayleigh_p1 only"),
+        (["division.neck_radius=0.2", "division.ring=melt"], "division.ring"),
+        (["division.implicit_tension_weight=2"], "set division.neck_radius"),
+        (
+            ["division.ring=dissolve", "model=axisymmetric", "mesh.remesh.min_angle=null", "division.neck_radius=0.1"],
+            "axisymmetric model stops",
+        ),
     ],
 )
 def test_division_refusals(tmp_path, capsys, sets, said):

@@ -175,6 +175,7 @@ class P1Context(Context):
     grads: np.ndarray = None
     pressure_weights: str = "petrov"
     active_force: str = "balanced"
+    implicit_weight: float = 1.0  # numerics.implicit_tension_weight: the factor on the semi-implicit tension's drag
     shear: float = 0.0  # eta_s of A_T eta_s |U~_T|^2
     bulk: float = 0.0  # eta_b of A_T eta_b / 2 (tr U_T)^2
     normal_form: np.ndarray | None = None  # B^cd (N, 2, 2) of 1/2 int B^cd d_c v_n d_d v_n dA

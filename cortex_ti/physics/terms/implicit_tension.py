@@ -35,6 +35,19 @@ with ``r`` the nodes' rate over the last step, i.e. the drag acts on the *change
 velocity, ``O(dt^2)`` on a smooth flow, and still holds down every stiff mode. Only
 ``rayleigh_p1`` implements it (the scene rules refuse ``bdf2`` with ``numerics.formulation:
 paper``).
+
+**Its weight** (``numerics.implicit_tension_weight``, ``theta``, default 1): ``rayleigh_p1`` multiplies
+the drag by ``theta``. The drag is the continuum Hessian's leading part, not the discrete tension's
+stiffness: on a mode the viscous dissipation hardly resists (a mesh-scale near-isometry of a saddle,
+where the stub of a just-divided daughter meets its lobe), extrapolated BDF2 maps the mode by
+``z^2 - 2 a z + a = 0``, ``a = 1 - rho / theta``, ``rho`` the ratio of the discrete tension's
+stiffness to the drag on it, stable only for ``rho < 4 theta / 3``; on flat triangles with the nodes
+moving along their normals ``rho`` reaches 2.0 (icospheres) to 3.2 (the daughters' MMG meshes), so
+``theta = 1`` lets the mode oscillate from step to step and the error control shrinks the step to
+that of the explicit scheme (docs/derivations/implicit_tension_weight.md). Centred on the rate the
+weighted drag stays ``O(dt^2)``, but it pulls the state toward the extrapolation the error estimate
+compares it with, hiding part of the step's error: the daughters of a division get ``theta = 2.5``
+from the cut on (``division.implicit_tension_weight``), the rest keeps 1.
 """
 
 from __future__ import annotations
@@ -73,8 +86,9 @@ class ImplicitTension(Term):
         ctx.Wn0[:, ROW_NORMAL] += w0
 
     def rayleigh_p1(self, ctx: P1Context) -> None:
-        # dt zeta |grad v_n|^2, zeta clipped at 0: positive semidefinite whatever dt
-        bform = (ctx.implicit_dt * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv
+        # theta dt zeta |grad v_n|^2, zeta clipped at 0: positive semidefinite whatever dt (theta: module docstring)
+        scale = ctx.implicit_weight * ctx.implicit_dt
+        bform = (scale * np.clip(ctx.zeta, 0.0, None))[:, None, None] * ctx.geometry.metric_inv
         ctx.add_normal_form(bform)
         if ctx.implicit_rate is not None:
             ctx.add_triangle_force(
