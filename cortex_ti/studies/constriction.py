@@ -22,8 +22,6 @@ import pandas as pd
 import xarray as xr
 from matplotlib.figure import Figure
 
-from ..axisymmetric.dynamics import first_unresolved
-
 __all__ = [
     "ARREST_RATE",
     "neck",
@@ -87,6 +85,8 @@ def _unresolved_time(ds: xr.Dataset, i: int) -> float:
         return float(t[bad[0]]) if bad.size else math.inf
     if "material_stretch" not in ds:
         return math.inf
+    from ..axisymmetric.dynamics import first_unresolved  # here: every figure job imports this module
+
     t, s = _series(ds, i, "material_stretch")
     k = first_unresolved(s) if s.size else None
     return math.inf if k is None else float(t[k])
