@@ -36,11 +36,26 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from ..errors import SolverError
-from .stokes_bie import near_pairs, node_areas, radon7
+from .stokes_bie import duffy_rule, node_areas, radon7, split_rule
 
-__all__ = ["DIRECT_BACKEND", "FMM_BACKEND", "FMM_EPS", "FmmFluid", "fmm_fluid", "require_fmm", "FMM_MISSING"]
+__all__ = [
+    "LUMP_RADIUS",
+    "lumped_pairs",
+    "lumped_corrections",
+    "DIRECT_BACKEND",
+    "FMM_BACKEND",
+    "FMM_EPS",
+    "FmmFluid",
+    "fmm_fluid",
+    "require_fmm",
+    "FMM_MISSING",
+]
+
+#: the radius (in triangle sizes) of the exact pairs around the lumped far field (docs/method)
+LUMP_RADIUS = 8.0
 
 #: the FMM's requested relative precision (below the Krylov tolerance of the coupled solve)
 FMM_EPS = 1e-9
@@ -72,10 +87,22 @@ class FmmFluid:
     each node's area three times), ``far`` (3N) the far-field velocity at the nodes or None. The
     coupled solve (:class:`cortex_ti.solve.fluid_krylov.FluidKrylov`) reads these. ``backend``:
     ``fmm`` (fmm3dpy) or ``direct`` (every pair summed by a Taichi kernel,
-    :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory)."""
+    :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory). ``lump``: the radius,
+    in units of a triangle's size ``rho``, within which a (node, triangle) pair is integrated exactly
+    (as the dense path does) and beyond which the lumped far field takes it (:data:`LUMP_RADIUS`;
+    ``math.inf``: every pair exact, the dense path's operator)."""
 
     def __init__(
-        self, points, faces, normals, mu: float, far=None, eps: float = FMM_EPS, backend: str = "fmm", **quadrature
+        self,
+        points,
+        faces,
+        normals,
+        mu: float,
+        far=None,
+        eps: float = FMM_EPS,
+        backend: str = "fmm",
+        lump: float = None,
+        **quadrature,
     ):
         self.backend = backend
         self.name = FMM_BACKEND if backend == "fmm" else DIRECT_BACKEND
@@ -83,34 +110,17 @@ class FmmFluid:
         t0 = time.perf_counter()
         x = np.ascontiguousarray(points, float)
         faces = np.asarray(faces, np.int64)
-        n, nf = len(x), len(faces)
         self.mu = float(mu)
         self.eps = float(eps)
+        self.lump = LUMP_RADIUS if lump is None else float(lump)
         area = node_areas(x, faces)
         self.areas3 = np.repeat(area, 3)
-        tri = x[faces]
-        tarea = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        bary, w = radon7()
-        nq = len(w)
-        y = np.einsum("qk,fkc->fqc", bary, tri).reshape(-1, 3)
-        # quadrature weights: nodal values (N,) -> strengths at the quadrature points (7F,)
-        self._weights = sp.csr_matrix(
-            (
-                (tarea[:, None, None] * w[None, :, None] * bary[None]).ravel(),
-                (np.repeat(np.arange(nf * nq), 3), np.repeat(faces[:, None, :], nq, axis=1).ravel()),
-            ),
-            shape=(nf * nq, n),
-        )
-        self._sources = np.ascontiguousarray(np.concatenate([y, x]).T)  # (3, 7F + N)
-        self._x, self._y = x, np.ascontiguousarray(y)
-        self._nq = nf * nq
-        pi, pf, corr, plain = near_pairs(x, faces, False, **quadrature)
-        accurate = corr + plain
-        self.correction = _scatter(pi, faces[pf], corr, n) / (8.0 * math.pi)
-        # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks)
-        c_local = _scatter(pi, faces[pf], accurate, n) / (8.0 * math.pi)
-        self.local = sp.diags(self.areas3 * c_local.diagonal()).tocsc()
-        self._correction_t = self.correction.T.tocsr()
+        self._x = x
+        self.correction, self.n_pairs = lumped_corrections(x, faces, self.lump, **quadrature)
+        # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks:
+        # the lumped far field has no self term, so the correction's diagonal is the accurate one)
+        self.local = sp.diags(self.areas3 * self.correction.diagonal()).tocsc()
+        self._correction_t = self.correction.T.tobsr()
         self._w = (area[:, None] * np.asarray(normals, float)).ravel()
         radius = math.sqrt(area.sum() / (4.0 * math.pi))
         self._c = area.mean() * radius / float(self._w @ self._w)  # the dense path's completion
@@ -124,40 +134,32 @@ class FmmFluid:
         return self.areas3.size
 
     def single(self, f: np.ndarray) -> np.ndarray:
-        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,)."""
+        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = L + C_near``: the
+        lumped far field ``L = G A`` (so ``A L f = L^T A f = A G A f``: one sum) and the corrections."""
         t0 = time.perf_counter()
         f = np.asarray(f, float)
-        n = f.size // 3
         g = self.areas3 * f
-        if self._fmm is None:
-            cf, ctg = self._direct(f.reshape(n, 3), g.reshape(n, 3))
-        else:
-            cf, ctg = self._fmm_sums(f.reshape(n, 3), g.reshape(n, 3))
-        cf = cf + self.correction @ f
-        ctg = ctg + self._correction_t @ g
+        s = np.ascontiguousarray(g.reshape(-1, 3))
+        far = self._fmm_sum(s) if self._fmm is not None else self._direct(s)
+        out = self.areas3 * (far + 0.5 * (self.correction @ f)) + 0.5 * (self._correction_t @ g)
         self.n_fmm += 1
         self.fmm_seconds += time.perf_counter() - t0
-        return 0.5 * (self.areas3 * cf + ctg) + self._c * self._w * (self._w @ f)
+        return out + self._c * self._w * (self._w @ f)
 
-    def _direct(self, f, g):
-        """``(C_7 f, C_7^T g)`` (3N each) by the direct sums."""
-        from .stokes_kernel import stokeslet_sums
+    def _direct(self, s):
+        """``G s / 8 pi`` (3N) over the node pairs, by the direct sums."""
+        from .stokes_kernel import stokeslet_nodes
 
-        s = np.ascontiguousarray(self._weights @ f)
         u = np.zeros_like(self._x)
-        t = np.zeros_like(self._y)
-        stokeslet_sums(self._x, self._y, s, np.ascontiguousarray(g), u, t)
-        scale = 1.0 / (8.0 * math.pi)
-        return scale * u.ravel(), scale * (self._weights.T @ t).ravel()
+        stokeslet_nodes(self._x, s, u)
+        return u.ravel() / (8.0 * math.pi)
 
-    def _fmm_sums(self, f, g):
-        """``(C_7 f, C_7^T g)`` (3N each) by one FMM with two densities."""
-        strength = np.zeros((2, self._sources.shape[1], 3))
-        strength[0, : self._nq] = self._weights @ f
-        strength[1, self._nq :] = g
-        stoklet = np.ascontiguousarray(strength.transpose(0, 2, 1))
-        pot = self._fmm.stfmm3d(eps=self.eps, sources=self._sources, stoklet=stoklet, ifppreg=1, nd=2).pot
-        return pot[0][:, self._nq :].T.ravel(), (self._weights.T @ pot[1][:, : self._nq].T).ravel()
+    def _fmm_sum(self, s):
+        """``G s / 8 pi`` (3N) by one FMM (sources and targets the nodes; no self term)."""
+        pot = self._fmm.stfmm3d(
+            eps=self.eps, sources=np.ascontiguousarray(self._x.T), stoklet=np.ascontiguousarray(s.T), ifppreg=1
+        ).pot
+        return pot.T.ravel()  # fmm3dpy's Stokeslet has the 1 / 8 pi
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
@@ -173,12 +175,62 @@ class FmmFluid:
         return self.mu * self.areas3 * f
 
 
-def _scatter(pi: np.ndarray, corners: np.ndarray, blocks: np.ndarray, n: int) -> sp.csr_matrix:
-    """Blocks (P, 3 corners, 3, 3) of (node pi, corner node) pairs as a sparse (3N, 3N) matrix."""
-    a = np.arange(3)
-    rows = np.broadcast_to(pi[:, None, None, None] * 3 + a[None, None, :, None], blocks.shape)
-    cols = np.broadcast_to(corners[:, :, None, None] * 3 + a[None, None, None, :], blocks.shape)
-    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * n))
+def lumped_pairs(x, faces, lump: float, *, near: float = 3.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (node, triangle) pairs integrated exactly, ``(pi, pf, kind)``: the node within
+    ``max(lump, near)`` triangle sizes ``rho`` (the largest centroid-vertex distance) of the triangle's
+    centroid (so a triangle's own corners always); ``kind`` the rule
+    (:func:`~cortex_ti.physics.stokes_kernel.near_blocks`): 0-2 the node is that corner (Duffy), 3
+    within ``near`` sizes (split; :func:`~cortex_ti.physics.stokes_bie.near_pairs`'s test), 4 the 7-point
+    rule."""
+    tri = x[faces]
+    cen = tri.mean(1)
+    rho = np.linalg.norm(tri - cen[:, None, :], axis=2).max(1)
+    radius = max(lump, near) * rho
+    if np.isfinite(lump):
+        found = cKDTree(cen).sparse_distance_matrix(cKDTree(x), radius.max(), output_type="ndarray")
+        pf, pi, d = found["i"].astype(np.int64), found["j"].astype(np.int64), found["v"]
+        keep = d < radius[pf]
+        pf, pi, d = pf[keep], pi[keep], d[keep]
+    else:
+        pf, pi = (a.ravel() for a in np.meshgrid(np.arange(len(faces)), np.arange(len(x)), indexing="ij"))
+        d = np.linalg.norm(x[pi] - cen[pf], axis=1)
+    vert = faces[pf] == pi[:, None]
+    kind = np.where(d < near * rho[pf], 3, 4)
+    own = vert.any(1)
+    kind[own] = np.argmax(vert[own], axis=1)
+    return pi, pf, kind
+
+
+def lumped_corrections(
+    x, faces, lump: float, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
+) -> tuple[sp.bsr_matrix, int]:
+    """The corrections of the lumped far field as a sparse (3N, 3N) matrix of 3 x 3 blocks (the
+    accurate integrals of the pairs of :func:`lumped_pairs` minus their lumped values, summed over a
+    node pair's triangles; ``1 / 8 pi`` included; a Taichi kernel) and the number of pairs."""
+    from .stokes_kernel import near_blocks
+
+    x = np.ascontiguousarray(x, float)
+    faces = np.asarray(faces, np.int64)
+    n = len(x)
+    pi, pf, kind = lumped_pairs(x, faces, lump, near=near)
+    # the node pairs (i, corner j) as block slots: sorted keys i N + j, one slot per distinct pair
+    key = (pi[:, None] * n + faces[pf]).ravel()
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    new = np.ones(len(key), bool)
+    new[1:] = sorted_key[1:] != sorted_key[:-1]
+    slot = np.empty(len(key), np.int32)
+    slot[order] = np.cumsum(new) - 1
+    pairs = sorted_key[new]
+    data = np.zeros((len(pairs), 9))
+    rules = [radon7(), duffy_rule(duffy_points), split_rule(near_levels)]
+    args = [np.ascontiguousarray(a, float) for r in rules for a in r]
+    i32 = [np.ascontiguousarray(a, np.int32) for a in (faces, pi, pf, kind)]
+    near_blocks(x, *i32, *args, slot.reshape(-1, 3), data)
+    indptr = np.searchsorted(pairs // n, np.arange(n + 1))
+    data *= 1.0 / (8.0 * math.pi)
+    mat = sp.bsr_matrix((data.reshape(-1, 3, 3), pairs % n, indptr), shape=(3 * n, 3 * n))
+    return mat, len(pi)
 
 
 def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, backend="fmm", **kw) -> FmmFluid:
