@@ -103,23 +103,35 @@ class FluidKrylov:
         return x, system.pressure(lam), lam, info
 
     def _factor(self, k, g, fr, op) -> None:
-        mu = op.mu
-        a = sp.diags(op.areas3)
+        """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
+        diagonal), ``f`` eliminated (``f = (A v) / L - r_f / (mu L)``): the sparse LU of the reduced
+        ``[[K + mu A L^-1 A, F^T], [G, 0]]`` (half the unknowns)."""
+        mu, a3 = op.mu, op.areas3
+        local = op.local.diagonal()
+        n3 = a3.size
         mat = sp.bmat(
-            [[k, mu * a, sp.csr_matrix(fr).T], [mu * a, -mu * op.local, None], [sp.csr_matrix(g), None, None]],
-            format="csc",
+            [[k + sp.diags(mu * a3 * a3 / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
         )
         try:
-            self._lu = spla.splu(mat, permc_spec="MMD_AT_PLUS_A")
+            lu = spla.splu(mat, permc_spec="COLAMD")
         except RuntimeError as err:
             raise SolverError(
                 f"the fluids' preconditioner could not be factorised ({err}): check the viscosities"
             ) from None
+
+        def solve(r):
+            rf = r[n3 : 2 * n3]
+            red = np.concatenate([r[:n3] + a3 * rf / local, r[2 * n3 :]])
+            z = lu.solve(red)
+            v = z[:n3]
+            return np.concatenate([v, (a3 * v) / local - rf / (mu * local), z[n3:]])
+
+        self._lu = solve
         self.n_factorizations += 1
 
     def _gmres(self, apply, rhs, x0, nt) -> tuple[np.ndarray, int]:
         op = spla.LinearOperator((nt, nt), matvec=apply)
-        pre = spla.LinearOperator((nt, nt), matvec=self._lu.solve)
+        pre = spla.LinearOperator((nt, nt), matvec=self._lu)
         count = [0]
 
         def step(_):
