@@ -183,7 +183,7 @@ def whole_run(nodes: int, solver: str, t_end: float) -> str:
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
     return (
         f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
-        f"{after.ru_maxrss / 2**20:.2f} | {data.get('solver_backend', '?')} |"
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('solver_backend', '?')} |"
     )
 
 
@@ -221,9 +221,10 @@ def main(argv: list[str] | None = None) -> None:
     solvers = ["dense", "direct"] if args.smoke else args.solvers
     if args.run:
         print(
-            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | solver_name |"
+            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | "
+            "GMRES iterations | solver_name |"
         )
-        print("|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|")
         for n in nodes:
             for s in solvers:
                 print(whole_run(n, s, 0.1 if args.smoke else args.t_end), flush=True)

@@ -55,7 +55,11 @@ __all__ = [
 ]
 
 #: the radius (in triangle sizes) of the exact pairs around the lumped far field (docs/method)
-LUMP_RADIUS = 8.0
+LUMP_RADIUS = 3.0
+
+#: the far field's weight on the triangles' centroids (0: the vertex rule; 3/4: with the vertices' 1/4,
+#: exact for quadratics)
+FAR_CENTROID = 0.75
 
 #: the FMM's requested relative precision (below the Krylov tolerance of the coupled solve)
 FMM_EPS = 1e-9
@@ -116,7 +120,16 @@ class FmmFluid:
         area = node_areas(x, faces)
         self.areas3 = np.repeat(area, 3)
         self._x = x
-        self.correction, self.n_pairs = lumped_corrections(x, faces, self.lump, **quadrature)
+        self.centroid = FAR_CENTROID
+        self.correction, self.n_pairs = lumped_corrections(x, faces, self.lump, self.centroid, **quadrature)
+        tri = x[faces]
+        tarea = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        self._centroids = np.ascontiguousarray(tri.mean(1))
+        self._sources = np.ascontiguousarray(np.concatenate([x, self._centroids]))
+        n = len(x)
+        self._wc = sp.csr_matrix(
+            (np.repeat(tarea / 3.0, 3), (np.repeat(np.arange(len(faces)), 3), faces.ravel())), shape=(len(faces), n)
+        )
         # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks:
         # the lumped far field has no self term, so the correction's diagonal is the accurate one)
         self.local = sp.diags(self.areas3 * self.correction.diagonal()).tocsc()
@@ -134,32 +147,49 @@ class FmmFluid:
         return self.areas3.size
 
     def single(self, f: np.ndarray) -> np.ndarray:
-        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = L + C_near``: the
-        lumped far field ``L = G A`` (so ``A L f = L^T A f = A G A f``: one sum) and the corrections."""
+        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = C_far + C_near``: the far
+        field (module docstring) and the corrections."""
         t0 = time.perf_counter()
         f = np.asarray(f, float)
         g = self.areas3 * f
-        s = np.ascontiguousarray(g.reshape(-1, 3))
-        far = self._fmm_sum(s) if self._fmm is not None else self._direct(s)
-        out = self.areas3 * (far + 0.5 * (self.correction @ f)) + 0.5 * (self._correction_t @ g)
+        a = self._far_sums(g.reshape(-1, 3), self._wc @ f.reshape(-1, 3))
+        out = self.areas3 * (a[0] + 0.5 * (self.correction @ f)) + 0.5 * (self._correction_t @ g)
+        if self.centroid:
+            out += (self._wc.T @ a[1]).ravel()
         self.n_fmm += 1
         self.fmm_seconds += time.perf_counter() - t0
         return out + self._c * self._w * (self._w @ f)
 
-    def _direct(self, s):
-        """``G s / 8 pi`` (3N) over the node pairs, by the direct sums."""
-        from .stokes_kernel import stokeslet_nodes
+    def _far_sums(self, g, wf):
+        """The far field's two sums (module docstring), with ``g = A f`` (N, 3) and ``wf = W f`` (F,
+        3): at the nodes ``(1 - c) G_nn g + (c / 2) G_nc wf`` (3N,), at the centroids ``(c / 2) G_cn g``
+        (F, 3), ``c`` the centroids' weight, ``1 / 8 pi`` included."""
+        c, n = self.centroid, len(self._x)
+        if c:
+            sources = self._sources
+            density = np.concatenate([(1.0 - c) * g, (0.5 * c) * wf])
+        else:
+            sources, density = self._x, g
+        if self._fmm is not None:  # one FMM, two densities; fmm3dpy's Stokeslet has the 1 / 8 pi
+            both = np.zeros((2, len(sources), 3))
+            both[0] = density
+            both[1, :n] = (0.5 * c) * g
+            pot = self._fmm.stfmm3d(
+                eps=self.eps,
+                sources=np.ascontiguousarray(sources.T),
+                stoklet=np.ascontiguousarray(both.transpose(0, 2, 1)),
+                ifppreg=1,
+                nd=2,
+            ).pot
+            return pot[0][:, :n].T.ravel(), pot[1][:, n:].T
+        from .stokes_kernel import stokeslet_sums
 
         u = np.zeros_like(self._x)
-        stokeslet_nodes(self._x, s, u)
-        return u.ravel() / (8.0 * math.pi)
-
-    def _fmm_sum(self, s):
-        """``G s / 8 pi`` (3N) by one FMM (sources and targets the nodes; no self term)."""
-        pot = self._fmm.stfmm3d(
-            eps=self.eps, sources=np.ascontiguousarray(self._x.T), stoklet=np.ascontiguousarray(s.T), ifppreg=1
-        ).pot
-        return pot.T.ravel()  # fmm3dpy's Stokeslet has the 1 / 8 pi
+        stokeslet_sums(self._x, sources, np.ascontiguousarray(density), u)
+        t = np.zeros_like(self._centroids)
+        if c:
+            stokeslet_sums(self._centroids, self._x, np.ascontiguousarray((0.5 * c) * g), t)
+        return u.ravel() / (8.0 * math.pi), t / (8.0 * math.pi)
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
@@ -202,7 +232,7 @@ def lumped_pairs(x, faces, lump: float, *, near: float = 3.0) -> tuple[np.ndarra
 
 
 def lumped_corrections(
-    x, faces, lump: float, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
+    x, faces, lump: float, centroid: float = 0.0, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
 ) -> tuple[sp.bsr_matrix, int]:
     """The corrections of the lumped far field as a sparse (3N, 3N) matrix of 3 x 3 blocks (the
     accurate integrals of the pairs of :func:`lumped_pairs` minus their lumped values, summed over a
@@ -226,7 +256,7 @@ def lumped_corrections(
     rules = [radon7(), duffy_rule(duffy_points), split_rule(near_levels)]
     args = [np.ascontiguousarray(a, float) for r in rules for a in r]
     i32 = [np.ascontiguousarray(a, np.int32) for a in (faces, pi, pf, kind)]
-    near_blocks(x, *i32, *args, slot.reshape(-1, 3), data)
+    near_blocks(x, *i32, *args, slot.reshape(-1, 3), float(centroid), data)
     indptr = np.searchsorted(pairs // n, np.arange(n + 1))
     data *= 1.0 / (8.0 * math.pi)
     mat = sp.bsr_matrix((data.reshape(-1, 3, 3), pairs % n, indptr), shape=(3 * n, 3 * n))

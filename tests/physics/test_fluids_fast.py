@@ -80,37 +80,35 @@ def test_direct_sedimentation_converges_642(sediment162):
     assert abs(sediment_error(*sediment162["direct"])) / e642 > 3.0
 
 
-def test_lumped_far_field_within_its_interpolation_bound_162():
-    """The lumped far field against the exact pairs (docs/derivations/lumped_far_field.md): on a
-    triangle ``T`` at distance ``r`` from the target the lumped (vertex) rule is the integral of the P1
-    interpolant, off by at most ``|T| (h^2 / 6) 28 |e| / r^3 / (8 pi)`` for a constant density ``e``
-    (``h`` the longest edge). Summed over the lumped triangles: a bound at every node, checked at two
-    radii; and the error shrinks as the radius grows."""
+def test_far_field_within_its_quadrature_bound_162():
+    """The far field (vertices 1/4, centroid 3/4: exact for quadratics) against the exact pairs
+    (docs/derivations/lumped_far_field.md): on a triangle ``T`` whose nearest point is ``r`` from the
+    target, a rule exact for quadratics with positive weights is off by at most ``|T| rho^3 M3 / 3``
+    (``rho`` the largest centroid-to-corner distance, ``M3 <= 156 |e| / r^4`` the third directional
+    derivative of the Stokeslet times a constant density ``e``), ``/ 8 pi``. Summed over the far
+    triangles: a bound at every node, at two radii; and the error shrinks as the radius grows. (The
+    far sums themselves are checked against the corrections' own values of the rule by
+    test_every_pair_exact_is_the_dense_single_layer_regression.)"""
     sim = Simulation(load_scene("sedimenting_cell", ["mesh.nodes=162"]))
     x, faces = sim.mesh.points, np.asarray(sim.mesh.faces)
     normal = sim.shape_geometry(x).normal
     f = np.tile([0.3, -0.5, 1.0], len(x))
 
-    def apply(op):  # C f: the far sum and the corrections (no symmetrisation)
-        s = (op.areas3 * f).reshape(-1, 3)
-        return op._direct(np.ascontiguousarray(s)) + op.correction @ f
+    def apply(op):  # C f less the far sums (the same at every radius): the corrections
+        return op.correction @ f
 
     exact = apply(fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=math.inf))
     tri = x[faces]
     cen = tri.mean(1)
     rho = np.linalg.norm(tri - cen[:, None], axis=2).max(1)
-    edge = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(1)
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     d = np.linalg.norm(x[:, None, :] - cen[None], axis=2)  # (N, F)
     errors = []
     for lump in (3.0, 5.0):
-        err = np.linalg.norm(
-            (apply(fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=lump)) - exact).reshape(-1, 3),
-            axis=1,
-        )
-        far = d >= lump * rho[None]
-        r = np.where(far, d - rho[None], np.inf)  # the nearest point of T is at least this far
-        bound = (area * edge**2 / 6.0 * 28.0 / r**3).sum(1) * np.linalg.norm(f[:3]) / (8 * math.pi)
+        op = fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=lump)
+        err = np.linalg.norm((apply(op) - exact).reshape(-1, 3), axis=1)
+        r = np.where(d >= lump * rho[None], d - rho[None], np.inf)  # the nearest point of T is at least this far
+        bound = (area * rho**3 * 52.0 / r**4).sum(1) * np.linalg.norm(f[:3]) / (8 * math.pi)
         assert (err <= bound).all()
         errors.append(err.max())
     assert errors[1] < errors[0]
