@@ -1,23 +1,31 @@
-r"""The fluids' single layer applied without a matrix: fmm3dpy's Stokes FMM plus sparse near corrections.
+r"""The fluids' single layer applied without a matrix: a far field on nodes and centroids plus sparse corrections.
 
 The dense path (:mod:`cortex_ti.physics.fluids`) builds the collocation matrix ``C`` of the single
 layer (``(3N)^2`` doubles), its symmetrised, completed Galerkin form ``V' = (A C + C^T A) / 2 +
-c w w^T`` and ``D = mu A V'^{-1} A``. This module applies the same ``V'`` to a vector in ``O(N log N)``
-memory and time, so that ``D`` is never formed (the coupled Krylov solve of
+c w w^T`` and ``D = mu A V'^{-1} A``. This module applies ``V'`` to a vector in ``O(N)`` memory (and
+``O(N^2)`` time by direct sums or ``O(N log N)`` by the FMM), so that ``D`` is never formed (the coupled Krylov solve of
 :mod:`cortex_ti.solve.fluid_krylov` carries the traction density ``f = V'^{-1} A v`` as unknowns):
 
-* ``C = C_7 + C_near``: ``C_7`` the 7-point rule of every triangle against every node (the plain far
-  field), ``C_near`` the sparse correction on the pairs :func:`~cortex_ti.physics.stokes_bie.near_pairs`
-  replaces (own triangles: Duffy; near triangles: subdivided), the accurate value minus the 7-point
-  one. The dense matrix is ``C_7 + C_near`` exactly (:func:`~cortex_ti.physics.stokes_bie._layer`),
-  so the two paths discretise the same operator and differ by the FMM's and the Krylov solve's
-  tolerances only.
-* ``C_7 f`` and ``C_7^T g`` in one call of ``fmm3dpy.stfmm3d`` with two densities: the sources are
-  the ``7F`` quadrature points and the ``N`` nodes, the first density the quadrature weights times
-  ``f`` at the quadrature points (read at the nodes: ``C_7 f``), the second ``g = A f`` at the nodes
-  (read at the quadrature points and summed back by the weights: ``C_7^T g``; the Stokeslet is
-  symmetric). fmm3dpy's Stokeslet is ``(1 / 8 pi) (I / r + r r^T / r^3)``, the factor of ``C`` at
-  ``mu = 1``.
+* ``C = C_far + C_near``. ``C_far``, the far field, needs no 7-point rule per triangle: every triangle
+  is integrated by the 4-point rule with weights 1/4 on its corners (the vertex rule, the P1 mass
+  lumped onto the nodes) and 3/4 on its centroid, exact for quadratics, so its error on a triangle
+  at distance ``r`` is ``O(rho^3 / r^4)`` (docs/derivations/lumped_far_field.md). ``C_near``
+  (:func:`lumped_corrections`, a Taichi kernel) is sparse: on every (node, triangle) pair within
+  :data:`LUMP_RADIUS` triangle sizes (the node's own triangles: Duffy; the near ones: subdivided; the
+  rest of the radius: the 7-point rule, as the dense build) the accurate value minus the far field's.
+  With an infinite radius ``C`` is the dense path's matrix to round-off (checked in
+  tests/physics/test_fluids_fast.py); with the default 3 (the dense build's own near radius) it
+  differs from it by the far rule's error, measured 1e-5 of ``|V' f|`` for smooth densities at 642
+  nodes and 2.3e-6 in the furrow radius of furrow_in_fluid to t = 3 (its discretisation error 8.9e-4;
+  the vertex rule alone, 1.6 times cheaper a product, moved it by 2.3e-4).
+* The far field in two sums over the nodes and the ``F`` centroids (``W`` (F, N): ``|T| / 3`` at a
+  triangle's corners): ``(A C_far f + C_far^T A f) / 2 = A [(1 - c) G_nn A f + (c / 2) G_nc W f] +
+  W^T (c / 2) G_cn A f``, ``c`` = :data:`FAR_CENTROID`, ``G`` the Stokeslet between the points (no
+  self term): ``N (N + F) + F N``, about ``5 N^2`` pairs, against ``28 N^2`` for the 7-point rule at
+  both ends. By the Taichi kernel :func:`~cortex_ti.physics.stokes_kernel.stokeslet_sums`
+  (``direct``; 0.08 CPU s at 2562 nodes) or one call of ``fmm3dpy.stfmm3d`` with two densities
+  (``fmm``: sources the nodes and the centroids; its Stokeslet is ``(1 / 8 pi) (I / r + r r^T /
+  r^3)``, the factor of ``C`` at ``mu = 1``).
 * ``V_local``: the diagonal of ``V'`` without the completion, ``A_i C_ii`` (a node's accurate
   self-interaction, Duffy quadrature on its own triangles): the local part of ``V'`` the
   preconditioner factorises. Measured on furrow_in_fluid (GMRES iterations to 1e-9, factorisation CPU
