@@ -101,8 +101,9 @@ class FmmFluid:
     ``fmm`` (fmm3dpy) or ``direct`` (every pair summed by a Taichi kernel,
     :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory). ``lump``: the radius,
     in units of a triangle's size ``rho``, within which a (node, triangle) pair is integrated exactly
-    (as the dense path does) and beyond which the lumped far field takes it (:data:`LUMP_RADIUS`;
-    ``math.inf``: every pair exact, the dense path's operator)."""
+    (as the dense path does) and beyond which the far field's rule takes it (:data:`LUMP_RADIUS`;
+    ``math.inf``: every pair exact, the dense path's operator); the centroids' weight in that rule is
+    :data:`FAR_CENTROID` when the operator is built."""
 
     def __init__(
         self,
@@ -113,7 +114,7 @@ class FmmFluid:
         far=None,
         eps: float = FMM_EPS,
         backend: str = "fmm",
-        lump: float = None,
+        lump: float | None = None,
         **quadrature,
     ):
         self.backend = backend
