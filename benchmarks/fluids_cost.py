@@ -183,7 +183,7 @@ def whole_run(nodes: int, solver: str, t_end: float) -> str:
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
     return (
         f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
-        f"{after.ru_maxrss / 2**20:.2f} | {data.get('solver_backend', '?')} |"
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('solver_backend', '?')} |"
     )
 
 
@@ -194,11 +194,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--solvers", nargs="+", default=["dense"], help="fluid.solver values (dense direct fmm)")
     parser.add_argument("--run", action="store_true", help="whole runs of furrow_in_fluid instead (docstring)")
     parser.add_argument("--t-end", type=float, default=3.0, help="the runs' end time (--run)")
+    parser.add_argument(
+        "--lump", type=float, help="the matrix-free solvers' exact radius (fluids_fast.LUMP_RADIUS; inf: every pair)"
+    )
     parser.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = parser.parse_args(argv)
+    if args.lump is not None:  # in this process (the --run children keep the default)
+        import cortex_ti.physics.fluids_fast as ff
+
+        ff.LUMP_RADIUS = args.lump
     nodes = [162] if args.smoke else args.nodes
     threads = os.environ.get("OMP_NUM_THREADS", "unset")
-    print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}"))
+    lump = "" if args.lump is None else f", LUMP_RADIUS={args.lump:g}"
+    print(_bench.header(note=f"OMP_NUM_THREADS={threads}, load average {os.getloadavg()[0]:.1f}{lump}"))
     if args.sediment or args.smoke:
         print(
             "| solver | nodes | centroid rate | error against Boussinesq-Scriven | non-rigid normal speed | "
@@ -213,9 +221,10 @@ def main(argv: list[str] | None = None) -> None:
     solvers = ["dense", "direct"] if args.smoke else args.solvers
     if args.run:
         print(
-            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | solver_name |"
+            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | "
+            "GMRES iterations | solver_name |"
         )
-        print("|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|")
         for n in nodes:
             for s in solvers:
                 print(whole_run(n, s, 0.1 if args.smoke else args.t_end), flush=True)

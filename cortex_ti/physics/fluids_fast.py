@@ -1,23 +1,31 @@
-r"""The fluids' single layer applied without a matrix: fmm3dpy's Stokes FMM plus sparse near corrections.
+r"""The fluids' single layer applied without a matrix: a far field on nodes and centroids plus sparse corrections.
 
 The dense path (:mod:`cortex_ti.physics.fluids`) builds the collocation matrix ``C`` of the single
 layer (``(3N)^2`` doubles), its symmetrised, completed Galerkin form ``V' = (A C + C^T A) / 2 +
-c w w^T`` and ``D = mu A V'^{-1} A``. This module applies the same ``V'`` to a vector in ``O(N log N)``
-memory and time, so that ``D`` is never formed (the coupled Krylov solve of
+c w w^T`` and ``D = mu A V'^{-1} A``. This module applies ``V'`` to a vector in ``O(N)`` memory (and
+``O(N^2)`` time by direct sums or ``O(N log N)`` by the FMM), so that ``D`` is never formed (the coupled Krylov solve of
 :mod:`cortex_ti.solve.fluid_krylov` carries the traction density ``f = V'^{-1} A v`` as unknowns):
 
-* ``C = C_7 + C_near``: ``C_7`` the 7-point rule of every triangle against every node (the plain far
-  field), ``C_near`` the sparse correction on the pairs :func:`~cortex_ti.physics.stokes_bie.near_pairs`
-  replaces (own triangles: Duffy; near triangles: subdivided), the accurate value minus the 7-point
-  one. The dense matrix is ``C_7 + C_near`` exactly (:func:`~cortex_ti.physics.stokes_bie._layer`),
-  so the two paths discretise the same operator and differ by the FMM's and the Krylov solve's
-  tolerances only.
-* ``C_7 f`` and ``C_7^T g`` in one call of ``fmm3dpy.stfmm3d`` with two densities: the sources are
-  the ``7F`` quadrature points and the ``N`` nodes, the first density the quadrature weights times
-  ``f`` at the quadrature points (read at the nodes: ``C_7 f``), the second ``g = A f`` at the nodes
-  (read at the quadrature points and summed back by the weights: ``C_7^T g``; the Stokeslet is
-  symmetric). fmm3dpy's Stokeslet is ``(1 / 8 pi) (I / r + r r^T / r^3)``, the factor of ``C`` at
-  ``mu = 1``.
+* ``C = C_far + C_near``. ``C_far``, the far field, needs no 7-point rule per triangle: every triangle
+  is integrated by the 4-point rule with weights 1/4 on its corners (the vertex rule, the P1 mass
+  lumped onto the nodes) and 3/4 on its centroid, exact for quadratics, so its error on a triangle
+  at distance ``r`` is ``O(rho^3 / r^4)`` (docs/derivations/lumped_far_field.md). ``C_near``
+  (:func:`lumped_corrections`, a Taichi kernel) is sparse: on every (node, triangle) pair within
+  :data:`LUMP_RADIUS` triangle sizes (the node's own triangles: Duffy; the near ones: subdivided; the
+  rest of the radius: the 7-point rule, as the dense build) the accurate value minus the far field's.
+  With an infinite radius ``C`` is the dense path's matrix to round-off (checked in
+  tests/physics/test_fluids_fast.py); with the default 3 (the dense build's own near radius) it
+  differs from it by the far rule's error, measured 1e-5 of ``|V' f|`` for smooth densities at 642
+  nodes and 2.3e-6 in the furrow radius of furrow_in_fluid to t = 3 (its discretisation error 8.9e-4;
+  the vertex rule alone, 1.6 times cheaper a product, moved it by 2.3e-4).
+* The far field in two sums over the nodes and the ``F`` centroids (``W`` (F, N): ``|T| / 3`` at a
+  triangle's corners): ``(A C_far f + C_far^T A f) / 2 = A [(1 - c) G_nn A f + (c / 2) G_nc W f] +
+  W^T (c / 2) G_cn A f``, ``c`` = :data:`FAR_CENTROID`, ``G`` the Stokeslet between the points (no
+  self term): ``N (N + F) + F N``, about ``5 N^2`` pairs, against ``28 N^2`` for the 7-point rule at
+  both ends. By the Taichi kernel :func:`~cortex_ti.physics.stokes_kernel.stokeslet_sums`
+  (``direct``; 0.08 CPU s at 2562 nodes) or one call of ``fmm3dpy.stfmm3d`` with two densities
+  (``fmm``: sources the nodes and the centroids; its Stokeslet is ``(1 / 8 pi) (I / r + r r^T /
+  r^3)``, the factor of ``C`` at ``mu = 1``).
 * ``V_local``: the diagonal of ``V'`` without the completion, ``A_i C_ii`` (a node's accurate
   self-interaction, Duffy quadrature on its own triangles): the local part of ``V'`` the
   preconditioner factorises. Measured on furrow_in_fluid (GMRES iterations to 1e-9, factorisation CPU
@@ -36,11 +44,30 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from ..errors import SolverError
-from .stokes_bie import near_pairs, node_areas, radon7
+from .stokes_bie import duffy_rule, node_areas, radon7, split_rule
 
-__all__ = ["DIRECT_BACKEND", "FMM_BACKEND", "FMM_EPS", "FmmFluid", "fmm_fluid", "require_fmm", "FMM_MISSING"]
+__all__ = [
+    "LUMP_RADIUS",
+    "lumped_pairs",
+    "lumped_corrections",
+    "DIRECT_BACKEND",
+    "FMM_BACKEND",
+    "FMM_EPS",
+    "FmmFluid",
+    "fmm_fluid",
+    "require_fmm",
+    "FMM_MISSING",
+]
+
+#: the radius (in triangle sizes) of the exact pairs around the lumped far field (docs/method)
+LUMP_RADIUS = 3.0
+
+#: the far field's weight on the triangles' centroids (0: the vertex rule; 3/4: with the vertices' 1/4,
+#: exact for quadratics)
+FAR_CENTROID = 0.75
 
 #: the FMM's requested relative precision (below the Krylov tolerance of the coupled solve)
 FMM_EPS = 1e-9
@@ -72,10 +99,23 @@ class FmmFluid:
     each node's area three times), ``far`` (3N) the far-field velocity at the nodes or None. The
     coupled solve (:class:`cortex_ti.solve.fluid_krylov.FluidKrylov`) reads these. ``backend``:
     ``fmm`` (fmm3dpy) or ``direct`` (every pair summed by a Taichi kernel,
-    :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory)."""
+    :mod:`cortex_ti.physics.stokes_kernel`: ``O(N^2)`` time, ``O(N)`` memory). ``lump``: the radius,
+    in units of a triangle's size ``rho``, within which a (node, triangle) pair is integrated exactly
+    (as the dense path does) and beyond which the far field's rule takes it (:data:`LUMP_RADIUS`;
+    ``math.inf``: every pair exact, the dense path's operator); the centroids' weight in that rule is
+    :data:`FAR_CENTROID` when the operator is built."""
 
     def __init__(
-        self, points, faces, normals, mu: float, far=None, eps: float = FMM_EPS, backend: str = "fmm", **quadrature
+        self,
+        points,
+        faces,
+        normals,
+        mu: float,
+        far=None,
+        eps: float = FMM_EPS,
+        backend: str = "fmm",
+        lump: float | None = None,
+        **quadrature,
     ):
         self.backend = backend
         self.name = FMM_BACKEND if backend == "fmm" else DIRECT_BACKEND
@@ -83,34 +123,26 @@ class FmmFluid:
         t0 = time.perf_counter()
         x = np.ascontiguousarray(points, float)
         faces = np.asarray(faces, np.int64)
-        n, nf = len(x), len(faces)
         self.mu = float(mu)
         self.eps = float(eps)
+        self.lump = LUMP_RADIUS if lump is None else float(lump)
         area = node_areas(x, faces)
         self.areas3 = np.repeat(area, 3)
+        self._x = x
+        self.centroid = FAR_CENTROID
+        self.correction, self.n_pairs = lumped_corrections(x, faces, self.lump, self.centroid, **quadrature)
         tri = x[faces]
         tarea = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        bary, w = radon7()
-        nq = len(w)
-        y = np.einsum("qk,fkc->fqc", bary, tri).reshape(-1, 3)
-        # quadrature weights: nodal values (N,) -> strengths at the quadrature points (7F,)
-        self._weights = sp.csr_matrix(
-            (
-                (tarea[:, None, None] * w[None, :, None] * bary[None]).ravel(),
-                (np.repeat(np.arange(nf * nq), 3), np.repeat(faces[:, None, :], nq, axis=1).ravel()),
-            ),
-            shape=(nf * nq, n),
+        self._centroids = np.ascontiguousarray(tri.mean(1))
+        self._sources = np.ascontiguousarray(np.concatenate([x, self._centroids]))
+        n = len(x)
+        self._wc = sp.csr_matrix(
+            (np.repeat(tarea / 3.0, 3), (np.repeat(np.arange(len(faces)), 3), faces.ravel())), shape=(len(faces), n)
         )
-        self._sources = np.ascontiguousarray(np.concatenate([y, x]).T)  # (3, 7F + N)
-        self._x, self._y = x, np.ascontiguousarray(y)
-        self._nq = nf * nq
-        pi, pf, corr, plain = near_pairs(x, faces, False, **quadrature)
-        accurate = corr + plain
-        self.correction = _scatter(pi, faces[pf], corr, n) / (8.0 * math.pi)
-        # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks)
-        c_local = _scatter(pi, faces[pf], accurate, n) / (8.0 * math.pi)
-        self.local = sp.diags(self.areas3 * c_local.diagonal()).tocsc()
-        self._correction_t = self.correction.T.tocsr()
+        # the local part: the diagonal of V' without its completion, A_i C_ii (the accurate self-blocks:
+        # the lumped far field has no self term, so the correction's diagonal is the accurate one)
+        self.local = sp.diags(self.areas3 * self.correction.diagonal()).tocsc()
+        self._correction_t = self.correction.T.tobsr()
         self._w = (area[:, None] * np.asarray(normals, float)).ravel()
         radius = math.sqrt(area.sum() / (4.0 * math.pi))
         self._c = area.mean() * radius / float(self._w @ self._w)  # the dense path's completion
@@ -124,40 +156,49 @@ class FmmFluid:
         return self.areas3.size
 
     def single(self, f: np.ndarray) -> np.ndarray:
-        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,)."""
+        """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = C_far + C_near``: the far
+        field (module docstring) and the corrections."""
         t0 = time.perf_counter()
         f = np.asarray(f, float)
-        n = f.size // 3
         g = self.areas3 * f
-        if self._fmm is None:
-            cf, ctg = self._direct(f.reshape(n, 3), g.reshape(n, 3))
-        else:
-            cf, ctg = self._fmm_sums(f.reshape(n, 3), g.reshape(n, 3))
-        cf = cf + self.correction @ f
-        ctg = ctg + self._correction_t @ g
+        a = self._far_sums(g.reshape(-1, 3), self._wc @ f.reshape(-1, 3))
+        out = self.areas3 * (a[0] + 0.5 * (self.correction @ f)) + 0.5 * (self._correction_t @ g)
+        if self.centroid:
+            out += (self._wc.T @ a[1]).ravel()
         self.n_fmm += 1
         self.fmm_seconds += time.perf_counter() - t0
-        return 0.5 * (self.areas3 * cf + ctg) + self._c * self._w * (self._w @ f)
+        return out + self._c * self._w * (self._w @ f)
 
-    def _direct(self, f, g):
-        """``(C_7 f, C_7^T g)`` (3N each) by the direct sums."""
+    def _far_sums(self, g, wf):
+        """The far field's two sums (module docstring), with ``g = A f`` (N, 3) and ``wf = W f`` (F,
+        3): at the nodes ``(1 - c) G_nn g + (c / 2) G_nc wf`` (3N,), at the centroids ``(c / 2) G_cn g``
+        (F, 3), ``c`` the centroids' weight, ``1 / 8 pi`` included."""
+        c, n = self.centroid, len(self._x)
+        if c:
+            sources = self._sources
+            density = np.concatenate([(1.0 - c) * g, (0.5 * c) * wf])
+        else:
+            sources, density = self._x, g
+        if self._fmm is not None:  # one FMM, two densities; fmm3dpy's Stokeslet has the 1 / 8 pi
+            both = np.zeros((2, len(sources), 3))
+            both[0] = density
+            both[1, :n] = (0.5 * c) * g
+            pot = self._fmm.stfmm3d(
+                eps=self.eps,
+                sources=np.ascontiguousarray(sources.T),
+                stoklet=np.ascontiguousarray(both.transpose(0, 2, 1)),
+                ifppreg=1,
+                nd=2,
+            ).pot
+            return pot[0][:, :n].T.ravel(), pot[1][:, n:].T
         from .stokes_kernel import stokeslet_sums
 
-        s = np.ascontiguousarray(self._weights @ f)
         u = np.zeros_like(self._x)
-        t = np.zeros_like(self._y)
-        stokeslet_sums(self._x, self._y, s, np.ascontiguousarray(g), u, t)
-        scale = 1.0 / (8.0 * math.pi)
-        return scale * u.ravel(), scale * (self._weights.T @ t).ravel()
-
-    def _fmm_sums(self, f, g):
-        """``(C_7 f, C_7^T g)`` (3N each) by one FMM with two densities."""
-        strength = np.zeros((2, self._sources.shape[1], 3))
-        strength[0, : self._nq] = self._weights @ f
-        strength[1, self._nq :] = g
-        stoklet = np.ascontiguousarray(strength.transpose(0, 2, 1))
-        pot = self._fmm.stfmm3d(eps=self.eps, sources=self._sources, stoklet=stoklet, ifppreg=1, nd=2).pot
-        return pot[0][:, self._nq :].T.ravel(), (self._weights.T @ pot[1][:, : self._nq].T).ravel()
+        stokeslet_sums(self._x, sources, np.ascontiguousarray(density), u)
+        t = np.zeros_like(self._centroids)
+        if c:
+            stokeslet_sums(self._centroids, self._x, np.ascontiguousarray((0.5 * c) * g), t)
+        return u.ravel() / (8.0 * math.pi), t / (8.0 * math.pi)
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
@@ -173,12 +214,62 @@ class FmmFluid:
         return self.mu * self.areas3 * f
 
 
-def _scatter(pi: np.ndarray, corners: np.ndarray, blocks: np.ndarray, n: int) -> sp.csr_matrix:
-    """Blocks (P, 3 corners, 3, 3) of (node pi, corner node) pairs as a sparse (3N, 3N) matrix."""
-    a = np.arange(3)
-    rows = np.broadcast_to(pi[:, None, None, None] * 3 + a[None, None, :, None], blocks.shape)
-    cols = np.broadcast_to(corners[:, :, None, None] * 3 + a[None, None, None, :], blocks.shape)
-    return sp.csr_matrix((blocks.ravel(), (rows.ravel(), cols.ravel())), shape=(3 * n, 3 * n))
+def lumped_pairs(x, faces, lump: float, *, near: float = 3.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (node, triangle) pairs integrated exactly, ``(pi, pf, kind)``: the node within
+    ``max(lump, near)`` triangle sizes ``rho`` (the largest centroid-vertex distance) of the triangle's
+    centroid (so a triangle's own corners always); ``kind`` the rule
+    (:func:`~cortex_ti.physics.stokes_kernel.near_blocks`): 0-2 the node is that corner (Duffy), 3
+    within ``near`` sizes (split; :func:`~cortex_ti.physics.stokes_bie.near_pairs`'s test), 4 the 7-point
+    rule."""
+    tri = x[faces]
+    cen = tri.mean(1)
+    rho = np.linalg.norm(tri - cen[:, None, :], axis=2).max(1)
+    radius = max(lump, near) * rho
+    if np.isfinite(lump):
+        found = cKDTree(cen).sparse_distance_matrix(cKDTree(x), radius.max(), output_type="ndarray")
+        pf, pi, d = found["i"].astype(np.int64), found["j"].astype(np.int64), found["v"]
+        keep = d < radius[pf]
+        pf, pi, d = pf[keep], pi[keep], d[keep]
+    else:
+        pf, pi = (a.ravel() for a in np.meshgrid(np.arange(len(faces)), np.arange(len(x)), indexing="ij"))
+        d = np.linalg.norm(x[pi] - cen[pf], axis=1)
+    vert = faces[pf] == pi[:, None]
+    kind = np.where(d < near * rho[pf], 3, 4)
+    own = vert.any(1)
+    kind[own] = np.argmax(vert[own], axis=1)
+    return pi, pf, kind
+
+
+def lumped_corrections(
+    x, faces, lump: float, centroid: float = 0.0, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
+) -> tuple[sp.bsr_matrix, int]:
+    """The corrections of the lumped far field as a sparse (3N, 3N) matrix of 3 x 3 blocks (the
+    accurate integrals of the pairs of :func:`lumped_pairs` minus their lumped values, summed over a
+    node pair's triangles; ``1 / 8 pi`` included; a Taichi kernel) and the number of pairs."""
+    from .stokes_kernel import near_blocks
+
+    x = np.ascontiguousarray(x, float)
+    faces = np.asarray(faces, np.int64)
+    n = len(x)
+    pi, pf, kind = lumped_pairs(x, faces, lump, near=near)
+    # the node pairs (i, corner j) as block slots: sorted keys i N + j, one slot per distinct pair
+    key = (pi[:, None] * n + faces[pf]).ravel()
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    new = np.ones(len(key), bool)
+    new[1:] = sorted_key[1:] != sorted_key[:-1]
+    slot = np.empty(len(key), np.int32)
+    slot[order] = np.cumsum(new) - 1
+    pairs = sorted_key[new]
+    data = np.zeros((len(pairs), 9))
+    rules = [radon7(), duffy_rule(duffy_points), split_rule(near_levels)]
+    args = [np.ascontiguousarray(a, float) for r in rules for a in r]
+    i32 = [np.ascontiguousarray(a, np.int32) for a in (faces, pi, pf, kind)]
+    near_blocks(x, *i32, *args, slot.reshape(-1, 3), float(centroid), data)
+    indptr = np.searchsorted(pairs // n, np.arange(n + 1))
+    data *= 1.0 / (8.0 * math.pi)
+    mat = sp.bsr_matrix((data.reshape(-1, 3, 3), pairs % n, indptr), shape=(3 * n, 3 * n))
+    return mat, len(pi)
 
 
 def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, backend="fmm", **kw) -> FmmFluid:

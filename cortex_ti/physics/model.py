@@ -45,17 +45,18 @@ FLUID_SOLVERS: dict[str, str] = {
     "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else direct",
     "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
     "solve/dense.py)",
-    "direct": "matrix-free as fmm, the single layer's far field summed pair by pair by a Taichi kernel (O(N^2) time, "
-    "O(N) memory; no extra)",
+    "direct": "matrix-free as fmm, the single layer's far field (nodes and triangle centroids as sources) summed pair "
+    "by pair by a Taichi kernel (O(N^2) time, O(N) memory; no extra)",
     "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
     "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
     "fluids; equal viscosities)",
 }
 
 #: ``auto`` takes the dense solve up to this many nodes, ``direct`` above (docs/validation/fluids.md, "Cost
-#: of a step": at 642 nodes the two cost about the same, at 2562 ``direct`` about half the dense solve's CPU
-#: time in 1/100 of its memory; fmm3dpy's FMM is slower than the direct sums up to 10242 nodes on this machine)
-FLUID_AUTO_DENSE_MAX = 642
+#: of a step": one solve at 642 nodes 0.23 CPU s direct against 1.6 dense, furrow_in_fluid's furrow radius
+#: within 2.3e-6 of the dense path's there, its discretisation error 8.9e-4; the dense path stays the truth
+#: at 162 nodes; fmm3dpy's FMM is slower than the direct sums up to 10242 nodes on this machine)
+FLUID_AUTO_DENSE_MAX = 162
 
 
 def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: float) -> str:
@@ -63,7 +64,7 @@ def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: f
     :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not
     known yet; else direct).
 
-    >>> resolve_fluid_solver("auto", 642, 1.0, 1.0), resolve_fluid_solver("auto", 2562, 1.0, 1.0)
+    >>> resolve_fluid_solver("auto", 162, 1.0, 1.0), resolve_fluid_solver("auto", 642, 1.0, 1.0)
     ('dense', 'direct')
     """
     if choice != "auto":

@@ -11,18 +11,25 @@ traction density ``f = V'^{-1} A (v - u_inf)`` is carried as unknowns and the co
 
 (eliminating ``f`` gives the dense path's ``(K + D) v + F^T lambda = b + D u_inf``, ``G v = 0``) is
 solved by GMRES, ``V'`` applied matrix-free by the fluid operator (``op.single``: the FMM and the
-sparse near corrections, :mod:`cortex_ti.physics.fluids_fast`). Preconditioner: the sparse LU
-(``scipy.sparse.linalg.splu``, minimum-degree ordering of ``A + A^T``) of the same block matrix with
-``V'`` replaced by its local part ``op.local`` (the self-interactions, a diagonal): the cortex
-operator exact, the fluids' DtN map by its local part; an approximation of the fluids' single layer
-by the sphere's translation coefficient ``2 R / 3`` instead took 42-50 iterations at 642 nodes for
-``mu`` = 0.1, 1, 10 (docs/validation/fluids.md). The factorisation is redone on every solve (it
-costs 0.35 CPU s at 2562 nodes: little beside one product), the previous solution ``(v, f,
-lambda)`` is the initial guess (:class:`FluidKrylov`).
+sparse near corrections, :mod:`cortex_ti.physics.fluids_fast`). Preconditioner: the same block matrix
+with ``V'`` replaced by its local part ``op.local`` (the self-interactions, a diagonal ``L``): the
+cortex operator exact, the fluids' DtN map by its local part. ``f`` is eliminated from it (``L``
+is diagonal), leaving ``[[K + mu A L^-1 A, F^T], [G, 0]]``, half the unknowns, factorised by
+``scipy.sparse.linalg.splu`` with the COLAMD ordering (0.12 CPU s at 2562 nodes against 0.39 for the
+whole block matrix with minimum degree on ``A + A^T``; the same preconditioner, so the same
+iterations). An approximation of the fluids' single layer by the sphere's translation coefficient
+``2 R / 3`` instead took 42-50 iterations at 642 nodes for ``mu`` = 0.1, 1, 10
+(docs/validation/fluids.md). The factorisation is redone on every solve; the initial guess is the
+previous two solutions' linear extrapolation ``2 z_n - z_(n-1)`` (the previous one after a new
+mesh: 268 iterations over furrow_in_fluid's 27 solves at 642 nodes against 286 with ``z_n``).
 
-Tolerance :data:`KRYLOV_RTOL` on the coupled residual: the velocities then agree with the dense
-solve's to about that (1e-9 measured at rtol 1e-9, 162 and 642 nodes), far below the
-discretisation's error (1e-3 at 2562 nodes).
+Tolerance :data:`KRYLOV_RTOL` on the coupled residual, tied to the time scheme's error: the velocity
+is then off by about ``rtol |v|`` (measured 8.1e-8 of max |v| at 1e-7, 162 nodes), a step's
+displacement by ``dt rtol |v|`` (< 2e-8 with ``dt`` < 0.2, ``|v|`` < 0.1 in furrow_in_fluid), two
+hundred times below bdf2's local error target ``time.tol`` (4e-6 at 10242 nodes, 1.6e-5 at 2562).
+Measured at 642 nodes over furrow_in_fluid to t = 3: rtol 1e-6 instead of 1e-7 moves every node by
+at most 4.5e-8 and the furrow radius by 2.4e-8 (its discretisation error 8.9e-4), in 206 GMRES
+iterations instead of 268.
 """
 
 from __future__ import annotations
@@ -39,7 +46,7 @@ from .system import EnergySystem, SolveInfo
 __all__ = ["FluidKrylov", "KRYLOV_RTOL"]
 
 #: GMRES's relative tolerance on the coupled system's residual
-KRYLOV_RTOL = 1e-7
+KRYLOV_RTOL = 1e-6
 
 
 class FluidKrylov:
@@ -50,11 +57,12 @@ class FluidKrylov:
         self.max_iterations = max_iterations
         self._lu = None
         self._previous: np.ndarray | None = None
+        self._before: np.ndarray | None = None
         self.n_factorizations = 0
         self.n_iterations = 0
 
     def new_mesh(self) -> None:
-        self._lu, self._previous = None, None
+        self._lu, self._previous, self._before = None, None, None
 
     def solve(self, system: EnergySystem, op):
         """``(x, pressure, multipliers, info)`` of ``system`` with the fluid operator ``op``."""
@@ -77,8 +85,10 @@ class FluidKrylov:
         self._factor(k, g, fr, op)
         t1 = time.perf_counter()
         x0 = self._previous if self._previous is not None and self._previous.size == nt else None
+        if x0 is not None and self._before is not None and self._before.size == nt:
+            x0 = 2.0 * x0 - self._before
         z, its = self._gmres(apply, rhs, x0, nt)
-        self._previous = z
+        self._before, self._previous = self._previous, z
         self.n_iterations += its
         t2 = time.perf_counter()
         res = apply(z) - rhs
@@ -103,23 +113,35 @@ class FluidKrylov:
         return x, system.pressure(lam), lam, info
 
     def _factor(self, k, g, fr, op) -> None:
-        mu = op.mu
-        a = sp.diags(op.areas3)
+        """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
+        diagonal), ``f`` eliminated (``f = (A v) / L - r_f / (mu L)``): the sparse LU of the reduced
+        ``[[K + mu A L^-1 A, F^T], [G, 0]]`` (half the unknowns)."""
+        mu, a3 = op.mu, op.areas3
+        local = op.local.diagonal()
+        n3 = a3.size
         mat = sp.bmat(
-            [[k, mu * a, sp.csr_matrix(fr).T], [mu * a, -mu * op.local, None], [sp.csr_matrix(g), None, None]],
-            format="csc",
+            [[k + sp.diags(mu * a3 * a3 / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
         )
         try:
-            self._lu = spla.splu(mat, permc_spec="MMD_AT_PLUS_A")
+            lu = spla.splu(mat, permc_spec="COLAMD")
         except RuntimeError as err:
             raise SolverError(
                 f"the fluids' preconditioner could not be factorised ({err}): check the viscosities"
             ) from None
+
+        def solve(r):
+            rf = r[n3 : 2 * n3]
+            red = np.concatenate([r[:n3] + a3 * rf / local, r[2 * n3 :]])
+            z = lu.solve(red)
+            v = z[:n3]
+            return np.concatenate([v, (a3 * v) / local - rf / (mu * local), z[n3:]])
+
+        self._lu = solve
         self.n_factorizations += 1
 
     def _gmres(self, apply, rhs, x0, nt) -> tuple[np.ndarray, int]:
         op = spla.LinearOperator((nt, nt), matvec=apply)
-        pre = spla.LinearOperator((nt, nt), matvec=self._lu.solve)
+        pre = spla.LinearOperator((nt, nt), matvec=self._lu)
         count = [0]
 
         def step(_):

@@ -10,13 +10,16 @@ velocity by about that (measured 8.1e-8 of max |v| at 162 nodes): the bounds are
 plus ~15 %, and the two node counts must give a ratio above 3 (order > 1.6).
 """
 
+import math
 import sys
 
 import numpy as np
 import pytest
 
 from cortex_ti.errors import SceneError, SolverError
+from cortex_ti.physics import fluids_fast
 from cortex_ti.physics.fluids_fast import FMM_MISSING, fmm_fluid, require_fmm
+from cortex_ti.physics.stokes_bie import node_areas, single_layer_matrix
 from cortex_ti.scene import load_scene
 from cortex_ti.simulation import Simulation
 from cortex_ti.solve.fluid_krylov import KRYLOV_RTOL
@@ -45,14 +48,21 @@ def sediment_error(sim, x, sol) -> float:
 
 @pytest.fixture(scope="module")
 def sediment162():
-    return {s: solve("sedimenting_cell", 162, s) for s in ("dense", "direct")}
+    """The dense solve, the direct one as it runs (lumped far field) and with every pair exact
+    (``LUMP_RADIUS`` infinite: the dense path's operator)."""
+    out = {s: solve("sedimenting_cell", 162, s) for s in ("dense", "direct")}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(fluids_fast, "LUMP_RADIUS", math.inf)
+        out["exact"] = solve("sedimenting_cell", 162, "direct")
+    return out
 
 
-def test_direct_agrees_with_dense_to_the_krylov_tolerance_regression(sediment162):
-    """Consistency (not a truth): the same discrete operator, so the velocities differ by the
-    GMRES tolerance; measured 8.1e-8 of max |v| (furrow_in_fluid, 162 nodes) at rtol 1e-7."""
+def test_direct_with_every_pair_exact_agrees_with_dense_to_the_krylov_tolerance_regression(sediment162):
+    """Consistency (not a truth): with every pair exact the same discrete operator, so the
+    velocities differ by the GMRES tolerance; measured 8.1e-8 of max |v| (furrow_in_fluid, 162 nodes)
+    at rtol 1e-7."""
     vd = sediment162["dense"][2].velocity
-    sim, _, sol = sediment162["direct"]
+    sim, _, sol = sediment162["exact"]
     assert sol.info.backend == "gmres-direct" == sim.settings.solver_name
     assert np.abs(sol.velocity - vd).max() < 10 * KRYLOV_RTOL * np.abs(vd).max()
 
@@ -68,6 +78,40 @@ def test_direct_sedimentation_converges_642(sediment162):
     e642 = abs(sediment_error(*solve("sedimenting_cell", 642, "direct")))
     assert e642 < 1.0e-2
     assert abs(sediment_error(*sediment162["direct"])) / e642 > 3.0
+
+
+def test_far_field_within_its_quadrature_bound_162():
+    """The far field (vertices 1/4, centroid 3/4: exact for quadratics) against the exact pairs
+    (docs/derivations/lumped_far_field.md): on a triangle ``T`` whose nearest point is ``r`` from the
+    target, a rule exact for quadratics with positive weights is off by at most ``|T| rho^3 M3 / 3``
+    (``rho`` the largest centroid-to-corner distance, ``M3 <= 156 |e| / r^4`` the third directional
+    derivative of the Stokeslet times a constant density ``e``), ``/ 8 pi``. Summed over the far
+    triangles: a bound at every node, at two radii; and the error shrinks as the radius grows. (The
+    far sums themselves are checked against the corrections' own values of the rule by
+    test_every_pair_exact_is_the_dense_single_layer_regression.)"""
+    sim = Simulation(load_scene("sedimenting_cell", ["mesh.nodes=162"]))
+    x, faces = sim.mesh.points, np.asarray(sim.mesh.faces)
+    normal = sim.shape_geometry(x).normal
+    f = np.tile([0.3, -0.5, 1.0], len(x))
+
+    def apply(op):  # C f less the far sums (the same at every radius): the corrections
+        return op.correction @ f
+
+    exact = apply(fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=math.inf))
+    tri = x[faces]
+    cen = tri.mean(1)
+    rho = np.linalg.norm(tri - cen[:, None], axis=2).max(1)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    d = np.linalg.norm(x[:, None, :] - cen[None], axis=2)  # (N, F)
+    errors = []
+    for lump in (3.0, 5.0):
+        op = fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=lump)
+        err = np.linalg.norm((apply(op) - exact).reshape(-1, 3), axis=1)
+        r = np.where(d >= lump * rho[None], d - rho[None], np.inf)  # the nearest point of T is at least this far
+        bound = (area * rho**3 * 52.0 / r**4).sum(1) * np.linalg.norm(f[:3]) / (8 * math.pi)
+        assert (err <= bound).all()
+        errors.append(err.max())
+    assert errors[1] < errors[0]
 
 
 def test_direct_turns_at_the_faxen_rate_162():
@@ -86,6 +130,20 @@ def test_direct_turns_at_the_faxen_rate_162():
     mean = (a[:, None] * v).sum(0) / a.sum()
     assert np.abs(omega - [0.0, 0.0, -0.5]).max() < 10 * KRYLOV_RTOL
     assert np.abs(mean).max() < 10 * KRYLOV_RTOL
+
+
+def test_every_pair_exact_is_the_dense_single_layer_regression():
+    """Consistency (not a truth): with an infinite radius every (node, triangle) pair is integrated
+    exactly and the lumped far field is subtracted again, so ``V' f`` is the dense path's
+    ``(A C f + C^T A f) / 2 + c w (w . f)`` to round-off."""
+    sim = Simulation(load_scene("sedimenting_cell", ["mesh.nodes=162"]))
+    x, faces = sim.mesh.points, sim.mesh.faces
+    normal = sim.shape_geometry(x).normal
+    op = fluids_fast.FmmFluid(x, faces, normal, 1.0, backend="direct", lump=math.inf)
+    c, a3 = single_layer_matrix(x, faces), np.repeat(node_areas(x, faces), 3)
+    f = np.random.default_rng(1).standard_normal(3 * len(x))
+    dense = 0.5 * (a3 * (c @ f) + c.T @ (a3 * f)) + op._c * op._w * (op._w @ f)
+    assert np.abs(op.single(f) - dense).max() < 1e-12 * np.abs(dense).max()
 
 
 def test_fmm_applies_the_same_single_layer_as_the_direct_sums():
