@@ -28,6 +28,7 @@ from ..scene.loader import Scene
 from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface import curved_remesh
+from ..surface.curved import midpoint_mask
 from ..surface.curved_transport import cell_quadrature, curved_advective_rate
 from ..surface.division import body_volumes, restore_body_volumes
 from ..surface.fits import StencilChooser
@@ -94,8 +95,8 @@ class Simulation:
         self.physics = self.settings.physics
         setup = SceneSetup(scene, mesh)  # what check sets up too (no Taichi): the same refusals
         self.topology: Topology = setup.topology
-        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
         self.mesh = setup.mesh
+        self.stencils = self._stencils()
         self.state0 = setup.state0
         self.fields = setup.fields
         self.transport = setup.transport
@@ -134,7 +135,7 @@ class Simulation:
         what belonged to the old mesh (its symbolic analysis is redone for the new pattern)."""
         self.mesh = Mesh(points, faces)
         self.topology = build_topology(self.mesh)
-        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
+        self.stencils = self._stencils()
         ref = points if reference is None else reference
         self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
         self.solver.new_mesh()
@@ -307,6 +308,12 @@ class Simulation:
     def state_at(self, points: np.ndarray) -> State:
         """The initial state's fields on the shape ``points``."""
         return self.state0.with_points(points)
+
+    def _stencils(self) -> StencilChooser:
+        """The fit stencils of the current mesh: on curved cells the midpoints fitted through midpoints only
+        (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode")."""
+        apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes) if self.curved else None
+        return StencilChooser(self.topology, self.settings.numerics.fit, apart)
 
     @property
     def curved(self) -> bool:

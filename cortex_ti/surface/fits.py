@@ -103,19 +103,40 @@ class StencilChooser:
     neighbours on a conic through the node) is moved one ring out and stays there.
     The stencil is topological, so it is fixed while the shape evolves unless such a
     degeneracy appears.
+
+    ``apart`` (a boolean mask of the nodes, optional): those nodes are fitted through each other
+    only, on the masked nodes of a ring one wider than the others' (the curved cells' edge
+    midpoints, :func:`cortex_ti.surface.curved.midpoint_mask`: why, in
+    :mod:`cortex_ti.physics.galerkin_p2`). The other nodes keep their whole ring.
     """
 
     MAX_EXTRA_RINGS = 2
 
-    def __init__(self, topo: Topology, scheme: FitScheme | str = "quadratic"):
+    def __init__(self, topo: Topology, scheme: FitScheme | str = "quadratic", apart: np.ndarray | None = None):
         self.topo = topo
         self.scheme = FIT_SCHEMES[scheme] if isinstance(scheme, str) else scheme
         self._rings: dict[int, list[np.ndarray]] = {}
         n = len(topo.valence)
+        self.apart = None if apart is None else np.asarray(apart, dtype=bool)
+        if self.apart is not None and self.apart.shape != (n,):
+            raise ValueError(f"a mask of {self.apart.shape} for {n} nodes")
         self.level = np.full(n, self.scheme.rings, dtype=np.int32)
-        small = np.array([len(r) for r in self._ring(self.scheme.rings)]) < self.scheme.n_terms
+        small = np.array([len(r) for r in self._rows(self.level)]) < self.scheme.n_terms
         self.level[small] += 1
         self._cache = None
+
+    def _rows(self, level: np.ndarray) -> list[np.ndarray]:
+        """Each node's stencil at its ring ``level`` (the masked nodes: the masked nodes one ring wider)."""
+        if self.apart is None:
+            return [self._ring(int(lv))[i] for i, lv in enumerate(level)]
+        rows = []
+        for i, lv in enumerate(level):
+            if self.apart[i]:
+                r = self._ring(int(lv) + 1)[i]
+                rows.append(r[self.apart[r]].astype(np.int32))
+            else:
+                rows.append(self._ring(int(lv))[i])
+        return rows
 
     def _ring(self, k: int) -> list[np.ndarray]:
         if k not in self._rings:
@@ -128,8 +149,7 @@ class StencilChooser:
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if self._cache is None:
-            rows = [self._ring(int(lv))[i] for i, lv in enumerate(self.level)]
-            self._cache = _pad(rows)
+            self._cache = _pad(self._rows(self.level))
         return self._cache
 
     def widen(self, nodes: np.ndarray) -> bool:
