@@ -31,7 +31,7 @@ from ..surface import curved_remesh
 from ..surface.curved import midpoint_mask
 from ..surface.curved_transport import cell_quadrature, curved_advective_rate
 from ..surface.division import body_volumes, restore_body_volumes
-from ..surface.fits import StencilChooser
+from ..surface.fits import FIT_SCHEMES, StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
@@ -310,10 +310,14 @@ class Simulation:
         return self.state0.with_points(points)
 
     def _stencils(self) -> StencilChooser:
-        """The fit stencils of the current mesh: on curved cells the midpoints fitted through midpoints only
-        (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode")."""
-        apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes) if self.curved else None
-        return StencilChooser(self.topology, self.settings.numerics.fit, apart)
+        """The fit stencils of the current mesh: on curved cells with the quartic fit the midpoints fitted
+        through midpoints only (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode"; with the
+        quadratic fit, whose curvature is second order anyway, the wider stencil only lost accuracy)."""
+        fit = self.settings.numerics.fit
+        apart = None
+        if self.curved and FIT_SCHEMES[fit].order >= 4:
+            apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes)
+        return StencilChooser(self.topology, fit, apart)
 
     @property
     def curved(self) -> bool:
