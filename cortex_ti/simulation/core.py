@@ -317,7 +317,7 @@ class Simulation:
         apart = None
         if self.curved and FIT_SCHEMES[fit].order >= 4:
             apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes)
-        return StencilChooser(self.topology, fit, apart)
+        return StencilChooser(self.topology, fit, apart, self.mesh.points)
 
     @property
     def curved(self) -> bool:
