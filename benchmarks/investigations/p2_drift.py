@@ -10,12 +10,12 @@ per unit of corner offset the smooth part of v_n grows 15 / 44 / 183 (rms). The 
 excites the mode within 0.01-0.03 t_a and its smooth pull is an O(h^2) velocity error that the late,
 slowly settling furrow integrates. Started from the twin's exact shape at t = 1, the run reaches the
 same error at t = 3 as the whole run (so it is not the early history), and the corner-midpoint offset
-alone, put on the twin's shape, gives 70-80 % of the smooth velocity error of the run's own shape at
-t = 1.03 (2562 nodes). Fitting the midpoints' surface through midpoints only (what
-``Simulation`` now does for curved cells with the quartic fit) removes the coupling (10.8 -> 12 and
-44 -> 18 at 642 / 2562) and the drift: time-converged, the largest pole error at t <= 3 is 8.9e-5 at
-2562 and 1.1e-5 at 10242 nodes (before 3.4e-4 and 9.3e-5). Measured on 2026-12-07 (branch p2-drift,
-docs/validation/curved.md, "The late-furrow drift").
+alone, put on the twin's shape, gives 68-80 % of the smooth velocity error of the run's own shape at
+t = 1.03 (2562 nodes). Fitting the midpoints' surface through midpoints only (the 16 nearest of the
+three-ring: what ``Simulation`` now does for curved cells with the quartic fit) removes the coupling
+(15 -> 12, 44 -> 18, 183 -> 21 at 642 / 2562 / 10242) and the drift: started at t = 1 from the twin's
+shape, the error at t = 3 is +6.3e-4 / +5.8e-5 at 642 / 2562 nodes (before -8.3e-4 / -3.4e-4).
+Measured on 2026-12-07 (branch p2-drift, docs/validation/curved.md, "The late-furrow drift").
 
 Two experiments (``--part``), each optionally with the stencils of before (``--stencils all``: every
 node fitted through all the nodes of its ring):

@@ -50,12 +50,12 @@ where a mesh-scale mode's should grow like h^-2). With the fits on all the nodes
 same offset bends the midpoints' fitted surface by ~eps / h^2, and with it the smooth flow: the O(h^3)
 error of a solve excites the mode, whose pull is an O(h^2) error of the smooth normal speed, which
 the furrow's slow late phase integrates into its shape (docs/validation/curved.md, "The late-furrow
-drift"). So with the quartic fit each midpoint's surface is fitted through the midpoints of its
-three-ring only (:func:`cortex_ti.surface.curved.midpoint_mask`, ``StencilChooser(..., apart=...)``;
-the corners keep their two-ring): a corner offset no longer moves it, the mode stays weakly restored
-through the corners' own fits but pulls on nothing, and the furrow converges at third order. The
-price is a wider stencil for three quarters of the nodes: its curvature's error constant is ~4x
-larger (the t = 0 ring flows 2-3x less accurate at 642 / 2562 nodes, the same at 10242).
+drift"). So with the quartic fit each midpoint's surface is fitted through midpoints only, the 16
+nearest of its three-ring (:func:`cortex_ti.surface.curved.midpoint_mask`, ``StencilChooser(...,
+apart=...)``; the corners keep their two-ring): a corner offset no longer moves it, the mode stays
+weakly restored through the corners' own fits but pulls on little, and the late furrow converges at
+third order. The price, a wider stencil for three quarters of the nodes, shows at 642 nodes only
+(the t = 0 ring flows 1.1-1.5x less accurate there, the same at 2562 and 10242).
 
 **The active force** (``numerics.active_force``): ``balanced``, the power ``int zeta tr u dA`` less each
 node's own tangential part (:mod:`cortex_ti.physics.terms.active`), or ``gradient``, minus the exact
