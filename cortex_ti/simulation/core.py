@@ -135,8 +135,8 @@ class Simulation:
         what belonged to the old mesh (its symbolic analysis is redone for the new pattern)."""
         self.mesh = Mesh(points, faces)
         self.topology = build_topology(self.mesh)
-        self.stencils = self._stencils()
         ref = points if reference is None else reference
+        self.stencils = self._stencils(ref)  # chosen on the nodes right after the remeshing, also on resume
         self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
         self.solver.new_mesh()
         self.bodies = split_bodies(self, self.mesh)
@@ -309,15 +309,16 @@ class Simulation:
         """The initial state's fields on the shape ``points``."""
         return self.state0.with_points(points)
 
-    def _stencils(self) -> StencilChooser:
+    def _stencils(self, points: np.ndarray | None = None) -> StencilChooser:
         """The fit stencils of the current mesh: on curved cells with the quartic fit the midpoints fitted
-        through midpoints only (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode"; with the
-        quadratic fit, whose curvature is second order anyway, the wider stencil only lost accuracy)."""
+        through midpoints only, the nearest on ``points`` (default: the mesh's)
+        (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode"; with the quadratic fit, whose
+        curvature is second order anyway, the wider stencil only lost accuracy)."""
         fit = self.settings.numerics.fit
         apart = None
         if self.curved and FIT_SCHEMES[fit].order >= 4:
             apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes)
-        return StencilChooser(self.topology, fit, apart, self.mesh.points)
+        return StencilChooser(self.topology, fit, apart, self.mesh.points if points is None else points)
 
     @property
     def curved(self) -> bool:
