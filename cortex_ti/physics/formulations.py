@@ -146,8 +146,8 @@ FORMULATIONS: dict[str, Formulation] = {
         dynamic_caveat="with numerics.active_force balanced (the default) its shape dynamics is not stable by "
         "construction: on shear_075's sheared start the spectrum tool finds 238 normal modes growing faster than "
         "1/t_a at 642 nodes (rayleigh_p1: 33) and the mesh collapses by t = 0.2-0.3; 'gradient' (a gradient flow) "
-        "runs it, but its t = 0 flows are less accurate than rayleigh_p1's; on the paper's furrows its radii are "
-        "not better than rayleigh_p1's (docs/validation/curved.md)",
+        "runs it, but its t = 0 flows are less accurate than rayleigh_p1's; on furrow_p4_a1 its radii are 1.8-2.8x "
+        "closer to the axisymmetric twin's than rayleigh_p1's at 642-10242 nodes (docs/validation/curved_cost.md)",
     ),
 }
 

@@ -42,6 +42,21 @@ as ``int [2 eta_s u:u + (eta_b - eta_s) (tr u)^2] / 2 dA``, the tension's power 
 tension; ``B`` clipped to its positive semidefinite part at each quadrature point), and the
 constraint rows. The solution is the velocity at every node of the mesh.
 
+**The corner-midpoint mode: the midpoints fitted through midpoints.** Moving the cells' corners
+against their edge midpoints (a mesh-scale scallop, corners in and midpoints out) is hardly restored:
+a corner's shape function integrates to about zero over its cells, so neither the pressure nor the
+tension's normal force at a corner sees it (its rate stays ~60-80 / t_a from 642 to 10242 nodes
+where a mesh-scale mode's should grow like h^-2). With the fits on all the nodes of the two-ring, the
+same offset bends the midpoints' fitted surface by ~eps / h^2, and with it the smooth flow: the O(h^3)
+error of a solve excites the mode, whose pull is an O(h^2) error of the smooth normal speed, which
+the furrow's slow late phase integrates into its shape (docs/validation/curved.md, "The late-furrow
+drift"). So with the quartic fit each midpoint's surface is fitted through midpoints only, the 16
+nearest of its three-ring (:func:`cortex_ti.surface.curved.midpoint_mask`, ``StencilChooser(...,
+apart=...)``; the corners keep their two-ring): a corner offset no longer moves it, the mode stays
+weakly restored through the corners' own fits but pulls on little, and the late furrow converges at
+third order. The price, a wider stencil for three quarters of the nodes, shows at 642 nodes only
+(the t = 0 ring flows 1.1-1.5x less accurate there, the same at 2562 and 10242).
+
 **The active force** (``numerics.active_force``): ``balanced``, the power ``int zeta tr u dA`` less each
 node's own tangential part (:mod:`cortex_ti.physics.terms.active`), or ``gradient``, minus the exact
 gradient of ``int zeta dA`` over the curved cells through the nodes

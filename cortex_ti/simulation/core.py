@@ -28,9 +28,10 @@ from ..scene.loader import Scene
 from ..scene.settings import BUDGET_H_MAX  # noqa: F401  (its old home)
 from ..solve.constrained import ConstrainedSolver, SolveInfo
 from ..surface import curved_remesh
+from ..surface.curved import midpoint_mask
 from ..surface.curved_transport import cell_quadrature, curved_advective_rate
 from ..surface.division import body_volumes, restore_body_volumes
-from ..surface.fits import StencilChooser
+from ..surface.fits import FIT_SCHEMES, StencilChooser
 from ..surface.geometry import compute_geometry
 from ..surface.mesh import Mesh
 from ..surface.remesh import (
@@ -94,8 +95,8 @@ class Simulation:
         self.physics = self.settings.physics
         setup = SceneSetup(scene, mesh)  # what check sets up too (no Taichi): the same refusals
         self.topology: Topology = setup.topology
-        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
         self.mesh = setup.mesh
+        self.stencils = self._stencils()
         self.state0 = setup.state0
         self.fields = setup.fields
         self.transport = setup.transport
@@ -134,8 +135,8 @@ class Simulation:
         what belonged to the old mesh (its symbolic analysis is redone for the new pattern)."""
         self.mesh = Mesh(points, faces)
         self.topology = build_topology(self.mesh)
-        self.stencils = StencilChooser(self.topology, self.settings.numerics.fit)
         ref = points if reference is None else reference
+        self.stencils = self._stencils(ref)  # chosen on the nodes right after the remeshing, also on resume
         self.motion_context = MotionContext(self.mesh.faces, np.array(ref, dtype=float), self.settings.mesh.ale_time)
         self.solver.new_mesh()
         self.bodies = split_bodies(self, self.mesh)
@@ -307,6 +308,17 @@ class Simulation:
     def state_at(self, points: np.ndarray) -> State:
         """The initial state's fields on the shape ``points``."""
         return self.state0.with_points(points)
+
+    def _stencils(self, points: np.ndarray | None = None) -> StencilChooser:
+        """The fit stencils of the current mesh: on curved cells with the quartic fit the midpoints fitted
+        through midpoints only, the nearest on ``points`` (default: the mesh's)
+        (:mod:`cortex_ti.physics.galerkin_p2`, "the corner-midpoint mode"; with the quadratic fit, whose
+        curvature is second order anyway, the wider stencil only lost accuracy)."""
+        fit = self.settings.numerics.fit
+        apart = None
+        if self.curved and FIT_SCHEMES[fit].order >= 4:
+            apart = midpoint_mask(self.mesh.faces, self.mesh.n_nodes)
+        return StencilChooser(self.topology, fit, apart, self.mesh.points if points is None else points)
 
     @property
     def curved(self) -> bool:

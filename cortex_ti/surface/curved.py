@@ -33,6 +33,7 @@ __all__ = [
     "NOT_SPLIT",
     "CurvedSurface",
     "curved_surface",
+    "midpoint_mask",
     "node_curvature",
     "p2_cells",
     "p2_shape",
@@ -148,6 +149,21 @@ def _read_cells(f: np.ndarray) -> np.ndarray:
     if np.intersect1d(corners, mids).size:
         raise MeshError(f"{NOT_SPLIT}: a node is both a corner and a midpoint")
     return np.ascontiguousarray(cells)
+
+
+def midpoint_mask(faces: np.ndarray, n_nodes: int) -> np.ndarray:
+    """(N,) bool: the nodes of the split mesh ``faces`` that are the curved cells' edge midpoints (the
+    others are their corners). ``rayleigh_p2`` fits the midpoints' surface through midpoints only
+    (:class:`~cortex_ti.surface.fits.StencilChooser`, ``apart``; why: :mod:`cortex_ti.physics.galerkin_p2`).
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(162)
+    >>> int(midpoint_mask(m.faces, 162).sum())     # 120 edges of the 42-node mesh
+    120
+    """
+    mask = np.zeros(n_nodes, dtype=bool)
+    mask[p2_cells(faces)[:, 3:].ravel()] = True
+    return mask
 
 
 def split_mesh(points: np.ndarray, faces: np.ndarray, geometry) -> tuple[np.ndarray, np.ndarray]:

@@ -103,19 +103,54 @@ class StencilChooser:
     neighbours on a conic through the node) is moved one ring out and stays there.
     The stencil is topological, so it is fixed while the shape evolves unless such a
     degeneracy appears.
+
+    ``apart`` (a boolean mask of the nodes, optional, with the node positions ``points`` it is
+    chosen on): those nodes are fitted through each other only, on the :attr:`APART_SIZE` masked
+    nodes nearest to them (by distance on ``points``) within a ring one wider than the others'
+    (the curved cells' edge midpoints, :func:`cortex_ti.surface.curved.midpoint_mask`: why, in
+    :mod:`cortex_ti.physics.galerkin_p2`). The other nodes keep their whole ring.
     """
 
     MAX_EXTRA_RINGS = 2
+    #: how many of the masked nodes a masked node is fitted on (the quartic fit's 14 monomials and two
+    #: more: 16 gave the t = 0 rings 1.0e-3 / 8.9e-5 at 642 / 2562 nodes, all 24-26 of the three-ring
+    #: 2.4e-3 / 1.7e-4, 18 and 20 in between; docs/validation/curved.md, "The late-furrow drift")
+    APART_SIZE = 16
 
-    def __init__(self, topo: Topology, scheme: FitScheme | str = "quadratic"):
+    def __init__(
+        self,
+        topo: Topology,
+        scheme: FitScheme | str = "quadratic",
+        apart: np.ndarray | None = None,
+        points: np.ndarray | None = None,
+    ):
         self.topo = topo
         self.scheme = FIT_SCHEMES[scheme] if isinstance(scheme, str) else scheme
         self._rings: dict[int, list[np.ndarray]] = {}
         n = len(topo.valence)
+        self.apart = None if apart is None else np.asarray(apart, dtype=bool)
+        if self.apart is not None and (self.apart.shape != (n,) or points is None or len(points) != n):
+            raise ValueError(f"a mask of {self.apart.shape} for {n} nodes, and their positions")
+        self.points = None if points is None else np.asarray(points, dtype=float)
         self.level = np.full(n, self.scheme.rings, dtype=np.int32)
-        small = np.array([len(r) for r in self._ring(self.scheme.rings)]) < self.scheme.n_terms
+        small = np.array([len(r) for r in self._rows(self.level)]) < self.scheme.n_terms
         self.level[small] += 1
         self._cache = None
+
+    def _rows(self, level: np.ndarray) -> list[np.ndarray]:
+        """Each node's stencil at its ring ``level`` (the masked nodes: the nearest masked nodes one ring wider)."""
+        if self.apart is None:
+            return [self._ring(int(lv))[i] for i, lv in enumerate(level)]
+        rows = []
+        for i, lv in enumerate(level):
+            if self.apart[i]:
+                r = self._ring(int(lv) + 1)[i]
+                r = r[self.apart[r]]
+                near = np.argsort(np.linalg.norm(self.points[r] - self.points[i], axis=1), kind="stable")
+                rows.append(r[near[: self.APART_SIZE]].astype(np.int32))
+            else:
+                rows.append(self._ring(int(lv))[i])
+        return rows
 
     def _ring(self, k: int) -> list[np.ndarray]:
         if k not in self._rings:
@@ -128,8 +163,7 @@ class StencilChooser:
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if self._cache is None:
-            rows = [self._ring(int(lv))[i] for i, lv in enumerate(self.level)]
-            self._cache = _pad(rows)
+            self._cache = _pad(self._rows(self.level))
         return self._cache
 
     def widen(self, nodes: np.ndarray) -> bool:

@@ -152,14 +152,16 @@ def test_the_relaxation_run_keeps_the_power_balance(tmp_path):
     """With no activity, nodes that move with the material and the pressure along the exact volume
     rows, the lost energy ``E_h(0) - E_h(T)`` equals the dissipation's time integral (Simpson on every
     step) up to the time scheme's error: Heun at 42 nodes from an ellipsoid, T = 0.004, relative
-    differences measured 9.8e-3, 2.2e-3, 5.1e-4 at dt = 4e-4, 2e-4, 1e-4 (orders 2.2, 2.1), while
-    the energy falls by 1.7 %."""
+    differences measured 4.1e-2, 7.9e-3, 1.7e-3 at dt = 4e-4, 2e-4, 1e-4 (orders 2.4, 2.2; 9.8e-3,
+    2.2e-3, 5.1e-4 before the midpoints were fitted apart, p2-drift: at 42 nodes their 16 nearest
+    midpoints span half the sphere, a rougher flow for the same time scheme), while the energy falls
+    by 1.7 %."""
     rel = []
     for dt in (4e-4, 2e-4, 1e-4):
         lost, dissipated = _energy_and_dissipation(tmp_path, dt, 0.004)
         rel.append(abs(lost - dissipated) / dissipated)
     assert lost > 0.01 * 25.0
-    assert rel[-1] < 1e-3, rel
+    assert rel[-1] < 3e-3, rel
     assert (_orders(rel) > 1.6).all(), rel
 
 
