@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import CortexError
 from ..io.trajectory import Trajectory
+from ..physics.formulations import FORMULATIONS
 from ..scene import scene_from_dict
 from .evolve import simulate
 from .fluids import axisymmetric_fluids
@@ -26,12 +27,16 @@ PROFILE_TIMES = (0.1, 1.5, 3.0)
 
 
 def twin_of(tr: Trajectory):
-    """The axisymmetric solution of the trajectory's scene at its frame times."""
+    """The axisymmetric solution of the trajectory's scene at its frame times, with the bending
+    viscosity's normal force in the form the trajectory's formulation discretises
+    (:attr:`~cortex_ti.physics.formulations.Formulation.bending_form`)."""
     run = AxisymmetricRun(scene_from_dict(dict(tr.scene.data, model="axisymmetric")))
     s = run.settings
+    form = FORMULATIONS[tr.settings.numerics.formulation].bending_form
     return simulate(
         run.zeta,
         **viscosities(s),
+        bending_form=form,
         radius=s.mesh.radius,
         t_end=float(tr.times[-1]),
         save_times=tr.times,

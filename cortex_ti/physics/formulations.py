@@ -60,6 +60,12 @@ class Formulation:
     #: its surface is made of curved six-node cells (a mesh in the split layout of
     #: :mod:`cortex_ti.surface.curved`), on which the run's shape measures are taken
     curved: bool = False
+    #: the bending viscosity's normal force it discretises, by the axisymmetric model's name
+    #: (``simulate(bending_form=...)``): ``"paper"``, paper Eq. 45 as written, or ``"dissipation"``,
+    #: the derivative of the dissipation ``1/2 int B^cd d_c v_n d_d v_n dA`` (Eq. 45 plus
+    #: ``(nabla_c B^cd) d_d v_n``, zero on a sphere); a run's axisymmetric twin solves the same
+    #: (docs/validation/curved.md, "The furrow's dynamics")
+    bending_form: str = "dissipation"
 
     def system(
         self,
@@ -126,6 +132,7 @@ FORMULATIONS: dict[str, Formulation] = {
         _paper,
         keys=("fit_residual_weight",),
         uses_fit_residual=lambda numerics: numerics.fit_residual_weight > 0,
+        bending_form="paper",
     ),
     "rayleigh_p1": Formulation(
         "rayleigh_p1",

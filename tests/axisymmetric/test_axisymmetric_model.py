@@ -200,10 +200,12 @@ def test_trajectory_has_the_3d_layout_and_plots(tmp_path, capsys):
 @pytest.mark.slow
 def test_3d_furrow_converges_to_the_axisymmetric_solution(tmp_path):
     """furrow_p4_a1 to t = 0.3 in 3D (the default formulation, rayleigh_p1; Euler, dt = 5e-3) against
-    its axisymmetric twin. Measured: largest radius error over the run 2.54e-3 R0 at 642 nodes and
+    its axisymmetric twin (which solves the bending viscosity in the formulation's dissipation form).
+    Measured: largest radius error over the run 2.54e-3 R0 at 642 nodes and
     6.36e-4 at 2562 (ratio 4.0: the furrow radius of the initial polyhedron, whose equatorial
-    section lies inside the sphere by O(h^2)); pole radius at t = 0.3 1.14e-3 and 6.15e-4 (at 2562
-    half of it is the time error of the step: 3.0e-4 with dt = 1e-3). Bounds: those plus 10 %."""
+    section lies inside the sphere by O(h^2)); pole radius at t = 0.3 9.52e-4 and 5.36e-4 (1.14e-3
+    and 6.15e-4 against the Eq. 45 twin; at 2562 half of it is the time error of the step).
+    Bounds: those plus 10 %."""
     from cortex_ti.axisymmetric.compare import compare
 
     errors, pole = {}, {}
@@ -233,7 +235,7 @@ def test_3d_furrow_converges_to_the_axisymmetric_solution(tmp_path):
         pole[nodes] = r["pole_radius"][2]
     assert errors[642] <= 1.1 * 2.54e-3 and errors[2562] <= 1.1 * 6.36e-4
     assert errors[642] / errors[2562] >= 3.5
-    assert pole[642] <= 1.1 * 1.14e-3 and pole[2562] <= 1.1 * 6.15e-4
+    assert pole[642] <= 1.1 * 9.52e-4 and pole[2562] <= 1.1 * 5.36e-4
 
 
 def test_a_failed_step_keeps_the_frames_before_it(tmp_path, capsys, monkeypatch):
