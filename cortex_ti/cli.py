@@ -50,7 +50,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     run.add_argument("--arch", default=None, help="Taichi architecture: cpu (default), gpu, cuda, vulkan, metal")
     run.add_argument(
-        "--threads", default=None, help="CPU threads for Taichi (default: $CORTEX_TI_THREADS, else all cores)"
+        "--threads", default=None, help="CPU threads for Taichi and BLAS (default: $CORTEX_TI_THREADS, else all cores)"
     )
     run.add_argument(
         "--resume",
