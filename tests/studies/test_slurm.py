@@ -154,6 +154,7 @@ def test_small_configuration_through_the_slurm_profile(cluster, tmp_path):
     xr = pytest.importorskip("xarray")
     from cortex_ti.studies.registry import TABLES, stores_of
 
+    config = yaml.safe_load(CONFIG.read_text())
     workdir = tmp_path / "work"
     workdir.mkdir()
     since = time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(time.time() - 60))
@@ -172,7 +173,7 @@ def test_small_configuration_through_the_slurm_profile(cluster, tmp_path):
         # the stores and tables, not the figures: they are drawn locally, the same code as in
         # test_workflow.py's tiny configuration, and would only add local CPU time here
         # (targets before --configfile, which takes every word after it)
-        *[f"results/aggregate/{name}.nc" for name in stores_of(yaml.safe_load(CONFIG.read_text()))],
+        *[f"results/aggregate/{name}.nc" for name in stores_of(config)],
         *[f"results/figures/{table}.html" for table in TABLES],
         "--configfile",
         str(CONFIG),
@@ -186,7 +187,6 @@ def test_small_configuration_through_the_slurm_profile(cluster, tmp_path):
     assert res.returncode == 0, log[-5000:]
 
     # every simulation job went through SLURM, the light rules ran here
-    config = yaml.safe_load(CONFIG.read_text())
     n_jobs = _n_simulation_jobs(config)
     submitted = re.findall(r"has been submitted with SLURM jobid (\d+)", log)
     assert len(submitted) == n_jobs, f"{len(submitted)} submissions, expected {n_jobs}"
