@@ -381,7 +381,9 @@ class Simulation:
         """:meth:`solve` on the closed surface ``x`` with its ``topology``, fit ``stencils``, triangles
         ``faces`` and ``solver`` (the whole mesh's, or one body's)."""
         t0 = time.perf_counter()
-        geometry = compute_geometry(x, topology, stencils, residual=self.settings.numerics.uses_fit_residual)
+        geometry = compute_geometry(
+            x, topology, stencils, residual=self.settings.numerics.uses_fit_residual, operators=not self.curved
+        )
         t1 = time.perf_counter()
         system = self.system(geometry, dt, zeta, implicit_rate, faces)
         t2 = time.perf_counter()
