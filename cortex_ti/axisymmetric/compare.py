@@ -30,13 +30,14 @@ def twin_of(tr: Trajectory):
     """The axisymmetric solution of the trajectory's scene at its frame times, with the bending
     viscosity's normal force in the form the trajectory's formulation discretises
     (:attr:`~cortex_ti.physics.formulations.Formulation.bending_form`)."""
-    run = AxisymmetricRun(scene_from_dict(dict(tr.scene.data, model="axisymmetric")))
-    s = run.settings
     form = FORMULATIONS[tr.settings.numerics.formulation].bending_form
+    data = dict(tr.scene.data, model="axisymmetric")
+    data["axisymmetric"] = dict(data.get("axisymmetric") or {}, bending_form=form)
+    run = AxisymmetricRun(scene_from_dict(data))
+    s = run.settings
     return simulate(
         run.zeta,
         **viscosities(s),
-        bending_form=form,
         radius=s.mesh.radius,
         t_end=float(tr.times[-1]),
         save_times=tr.times,

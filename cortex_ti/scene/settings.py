@@ -194,6 +194,13 @@ class AxisymmetricSettings:
     stop_neck: float = 0.05  # the run stops when the neck radius falls to this (R0)
     points: str = "normal"  # "normal": meridian points move with v_n n; "arclength": equally spaced;
     # "adaptive": equidistributing curvature, the label's stretch rate and the tension's gradient
+    bending_form: str = "dissipation"  # the bending viscosity's normal force: Eq. 45 ("paper") or "dissipation"
+    # (the scene's "auto" resolved: numerics.formulation's form)
+
+
+def _bending_form(setting: str, formulation: str) -> str:
+    """``axisymmetric.bending_form`` resolved: ``auto`` is the form ``numerics.formulation`` discretises."""
+    return FORMULATIONS[formulation].bending_form if setting == "auto" else setting
 
 
 def _division_neck(data: dict) -> float | None:
@@ -307,6 +314,7 @@ class RunSettings:
                 neck_resolution=float(ax["neck_resolution"]),
                 stop_neck=float(ax["stop_neck"]),
                 points=ax["points"],
+                bending_form=_bending_form(ax["bending_form"], num["formulation"]),
             ),
             rigidity=RigiditySettings(
                 float(data["rigidity"]["bending"]) if "bending_rigidity" in effects else 0.0,

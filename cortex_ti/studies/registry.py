@@ -99,9 +99,10 @@ _STUDIES = (
     ),
     Study(
         "axisymmetric",
-        ("scene", "model", "zeta_hat", "p", "t_end"),
+        ("scene", "model", "zeta_hat", "p", "bending_form", "t_end"),
         "The axisymmetric twin of every axisymmetric run of the furrow and accuracy studies: the same scene "
-        "solved by the spectral meridian solver (model: axisymmetric), to the latest end time of its 3D runs. "
+        "solved by the spectral meridian solver (model: axisymmetric), to the latest end time of its 3D runs, "
+        "with the bending viscosity's force in the form their formulation discretises (bending_form). "
         "It is the truth the 3D radii and velocity profiles are measured against.",
         variables=("pole_radius", "furrow_radius", "volume", "area", "max_normal_speed", "max_tangential_speed"),
         twin_of=("furrow", "accuracy"),

@@ -32,6 +32,8 @@ gamma        ``mesh.shear``                     initial simple shear x -> x + ga
 tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (degrees)
                                                 about +y, toward +x (the shear direction)
 model        ``model``                          3d or axisymmetric (the same scene's twin)
+bending_form ``axisymmetric.bending_form``      paper (Eq. 45) or dissipation: the twin's
+                                                bending-viscosity force, its 3D runs' form
 remesh       ``mesh.remesh.min_angle``          remesh below this angle (deg); null: never
                                                 (the axisymmetric model has no mesh)
 degree       ``fields.myosin.initial.0.         degree l of the myosin's seeded harmonic
@@ -55,6 +57,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from ..errors import SceneError
+from ..physics.formulations import FORMULATIONS
 from ..scene import load_scene
 from .registry import STUDIES
 
@@ -87,6 +90,7 @@ PARAMETERS: dict[str, str] = {
     "gamma": "mesh.shear",
     "tilt": "active_stress.0.axis",
     "model": "model",
+    "bending_form": "axisymmetric.bending_form",
     "remesh": "mesh.remesh.min_angle",
     "degree": "fields.myosin.initial.0.terms.0.l",
     "seed": "fields.myosin.initial.0.terms.0.coeff",
@@ -180,6 +184,7 @@ def _settings_value(settings, column: str):
         "dt_max": ("time", "dt_max"),
         "t_end": ("time", "t_end"),
         "gamma": ("mesh", "shear"),
+        "bending_form": ("axisymmetric", "bending_form"),
     }[column]
     return getattr(getattr(settings, section), key)
 
@@ -218,26 +223,36 @@ def expand_runs(study: str, records: Iterable[Mapping]) -> list[dict[str, str]]:
     return rows
 
 
-def twin_key(row: Mapping) -> tuple[str, str, str]:
-    """What identifies a run's axisymmetric twin: its scene, ring amplitude and exponent."""
+def twin_key(row: Mapping) -> tuple[str, str, str, str]:
+    """What identifies a run's axisymmetric twin: its scene, ring amplitude and exponent, and the
+    bending viscosity's normal force (a 3D run's: its formulation's
+    :attr:`~cortex_ti.physics.formulations.Formulation.bending_form`; a twin's: its ``bending_form``)."""
     settings = load_scene(str(row["scene"])).settings
+    if "bending_form" in row:
+        form = str(row["bending_form"])
+    else:
+        form = FORMULATIONS[str(row.get("formulation", settings.numerics.formulation))].bending_form
     return (
         str(row["scene"]),
         str(row.get("zeta_hat", format_value(_settings_value(settings, "zeta_hat")))),
         str(row.get("p", format_value(_settings_value(settings, "p")))),
+        form,
     )
 
 
 def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str, str]]:
     """The axisymmetric twins of the runs ``rows`` (of any studies): one row per distinct
-    (scene, zeta_hat, p) whose scene the axisymmetric model accepts, to the latest ``t_end``
-    of its runs (:func:`twin_key`). Runs whose scene is not axisymmetric have no twin."""
+    (scene, zeta_hat, p, bending form) whose scene the axisymmetric model accepts, to the latest
+    ``t_end`` of its runs (:func:`twin_key`). Runs whose scene is not axisymmetric have no twin."""
     latest: dict[tuple, float] = {}
     for row in rows:
         key = twin_key(row)
         if key not in latest:
             try:
-                load_scene(key[0], scene_overrides({"zeta_hat": key[1], "p": key[2], "model": "axisymmetric"}))
+                load_scene(
+                    key[0],
+                    scene_overrides({"zeta_hat": key[1], "p": key[2], "model": "axisymmetric", "bending_form": key[3]}),
+                )
             except SceneError:
                 continue
             latest[key] = float(row["t_end"])
@@ -245,7 +260,9 @@ def twin_rows(rows: Iterable[Mapping], columns: Sequence[str]) -> list[dict[str,
     values = {"model": "axisymmetric"}
     return [
         {
-            col: {"scene": k[0], "zeta_hat": k[1], "p": k[2], "t_end": format_value(t)}.get(col, values.get(col))
+            col: {"scene": k[0], "zeta_hat": k[1], "p": k[2], "bending_form": k[3], "t_end": format_value(t)}.get(
+                col, values.get(col)
+            )
             for col in columns
         }
         for k, t in latest.items()

@@ -17,6 +17,7 @@ from cortex_ti.studies.sweeps import (
     scene_overrides,
     tilt_axis,
     twin_key,
+    twin_rows,
 )
 
 
@@ -194,7 +195,7 @@ def test_a_scene_without_a_pattern_has_null_pattern_columns_and_its_twin():
     assert not any(o.startswith("active_stress") for o in scene_overrides(rows[0]))
     settings = load_scene("myosin_constriction", scene_overrides(rows[1])).settings
     assert not settings.patterns and settings.mesh.remesh.min_angle == 25
-    assert twin_key(rows[1]) == twin_key(rows[0]) == ("myosin_constriction", "null", "null")
+    assert twin_key(rows[1]) == twin_key(rows[0]) == ("myosin_constriction", "null", "null", "dissipation")
     with pytest.raises(SceneError, match="myosin_constriction"):
         expand_runs("constriction", [{"scene": "myosin_constriction", "zeta_hat": 6}])
 
@@ -241,3 +242,22 @@ def test_the_self_organisation_store_holds_each_degrees_amplitude(tmp_path):
     assert a.values[0, 2] == pytest.approx(0.05, abs=1e-13) and a.values[0, [1, 3, 4]].max() < 1e-13
     assert a.values[0, 0] == pytest.approx(math.sqrt(4 * math.pi), rel=1e-13)
     assert 0.0 < a.values[-1, 2] < a.values[0, 2]  # below onset it decays
+
+
+def test_twins_solve_the_bending_form_of_the_runs_they_serve():
+    """A 3D run's twin solves the bending viscosity its formulation discretises (rayleigh_p1: the
+    dissipation's derivative; paper: Eq. 45), so runs of the two formulations get two twins, and a
+    scene run with ``model: axisymmetric`` resolves ``auto`` to its formulation's form."""
+    rows = [
+        {"scene": "furrow_p4_a1", "formulation": "rayleigh_p1", "t_end": "3"},
+        {"scene": "furrow_p4_a1", "formulation": "paper", "t_end": "1"},
+        {"scene": "furrow_p4_a1", "formulation": "rayleigh_p2", "t_end": "2"},
+    ]
+    twins = twin_rows(rows, STUDIES["axisymmetric"].columns)
+    assert sorted((t["bending_form"], t["t_end"]) for t in twins) == [("dissipation", "3"), ("paper", "1")]
+    for twin in twins:
+        settings = load_scene(twin["scene"], scene_overrides(twin)).settings
+        assert settings.model == "axisymmetric" and settings.axisymmetric.bending_form == twin["bending_form"]
+    for formulation, form in (("rayleigh_p1", "dissipation"), ("paper", "paper")):
+        overrides = ["model=axisymmetric", f"numerics.formulation={formulation}"]
+        assert load_scene("furrow_p4_a1", overrides).settings.axisymmetric.bending_form == form

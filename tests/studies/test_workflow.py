@@ -138,7 +138,8 @@ def test_tiny_configuration_end_to_end(tmp_path):
         assert angle[-1] < angle[0]  # turning back toward the pattern axis
 
     cost = open_store("cost")
-    n_runs = 4 + 1 + 1 + 2 + 4 + 1 + 1  # + the twin of furrow_p8_a1 (both studies run it), + constriction
+    # + furrow_p8_a1's two twins (its rayleigh_p1 runs' bending form and its paper runs'), + constriction
+    n_runs = 4 + 1 + 1 + 2 + 4 + 2 + 1
     assert cost.sizes["run"] == n_runs
     deep = open_store("constriction")
     assert deep["model"].values.tolist() == ["axisymmetric"]
@@ -146,7 +147,13 @@ def test_tiny_configuration_end_to_end(tmp_path):
     assert np.all(np.diff(deep["furrow_radius"].values[0]) < 0)  # the ring pulls the neck in
 
     twin = cost["study"].values == "axisymmetric"
-    assert twin.sum() == 1 and cost["model"].values[twin][0] == "axisymmetric" and cost["wall_s"].values[twin][0] > 0
+    assert (
+        twin.sum() == 2
+        and set(cost["model"].values[twin]) == {"axisymmetric"}
+        and np.all(cost["wall_s"].values[twin] > 0)
+    )
+    # one twin per bending form: the rayleigh_p1 runs' and the paper runs' (the label holds the parameters)
+    assert sorted("bending_form~paper" in str(label) for label in cost["run"].values[twin]) == [False, True]
     assert np.all(cost["wall_s"].values > 0) and np.all(cost["max_rss_mb"].values > 0)
     failed = cost["status"].values == "failed"
     assert failed.sum() == 1 and cost["nodes"].values[failed][0] == 642
