@@ -167,10 +167,9 @@ GAUGES = {"mean_velocity": "velocity", "centroid": "centroid"}
 
 
 def evolution_options(settings: RunSettings) -> dict:
-    """The shape evolution's keywords from the scene: the tension carried by the material or
-    glued to the normally moving points, the meridian points (normally moving, equally spaced
-    in arc length, weighted by curvature with ``neck_resolution``, or adaptive), the neck stop and
-    the bending viscosity's normal force (``axisymmetric.bending_form``)."""
+    """The shape evolution's keywords from the scene: the tension carried by the material or glued to the
+    normally moving points, the meridian points (normally moving, equally spaced in arc length, weighted by
+    curvature with ``neck_resolution``, or adaptive), the neck stop and ``axisymmetric.bending_form``."""
     a = settings.axisymmetric
     if a.points == "adaptive":
         parametrization = "adaptive"
