@@ -98,8 +98,7 @@ def _twin(t_end, save, bending_form="paper"):
         n=s.axisymmetric.n,
         rtol=s.axisymmetric.rtol,
         interpolate=True,
-        bending_form=bending_form,
-        **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False),
+        **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False, bending_form=bending_form),
     )
 
 

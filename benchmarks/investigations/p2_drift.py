@@ -64,8 +64,7 @@ def _twin(times):
         n=s.axisymmetric.n,
         rtol=s.axisymmetric.rtol,
         interpolate=True,
-        bending_form="dissipation",
-        **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False),
+        **dict(evolution_options(s), stop_neck=None, stop_ill_posed=False, bending_form="dissipation"),
     )
 
 

@@ -5,7 +5,7 @@ Each function returns a :class:`matplotlib.figure.Figure`; the workflow saves it
 each figure (what it shows, which paper figure it matches) is in ``workflow/report/``.
 
 The drawing functions live in the modules of their studies (``figures_shapes``, ``figures_cost``,
-``figures_pictures``, ``figures_myosin``, ``constriction``); this module imports each by name, so
+``figures_pictures``, ``figures_myosin``, ``constriction``, ``fluids``); this module imports each by name, so
 that :func:`draw_figure` finds the function a figure of the registry names, and they stay
 importable from here.
 """
@@ -29,6 +29,7 @@ from .figures_shapes import (
     radii_figure,
     reference_check_figure,
 )
+from .fluids import fluids_figure  # noqa: F401  (issue 36's figure, drawn by name)
 from .registry import FIGURES
 
 __all__ = [

@@ -17,6 +17,7 @@ import xarray as xr
 
 from ..io.trajectory import Trajectory
 from .constriction import constriction_numbers
+from .fluids import fluids_numbers
 from .registry import FIGURES
 
 __all__ = ["figure_numbers", "numbers_html"]
@@ -299,6 +300,7 @@ _NUMBERS = {
     "reference_check_figure": _reference_check,
     "accuracy_cost_figure": _accuracy,
     "constriction_figure": constriction_numbers,
+    "fluids_figure": fluids_numbers,
 }
 
 

@@ -123,6 +123,16 @@ _STUDIES = (
 # Issue 18: deep rings to the brink of division (its own block, so other studies merge beside it).
 _STUDIES += (
     Study(
+        "fluids",
+        ("scene", "model", "inner", "outer", "nodes", "t_end"),
+        "The cell in a fluid (issue 36): the paper's furrow with a cytoplasm and a medium (furrow_in_fluid) and a "
+        "cell that swims by its cortex's polarised flow (polarised_swimmer), with the fluids' viscosities inner and "
+        "outer (eta_s / R0) swept: the hydrodynamic length eta_s / mu. 3D runs and the axisymmetric model (the "
+        "truth; model: axisymmetric). Per frame the radii, the volume and the volume centroid along the axis.",
+        variables=("furrow_radius", "pole_radius", "volume"),
+        optional=True,
+    ),
+    Study(
         "constriction",
         ("scene", "model", "zeta_hat", "p", "bending", "remesh", "nodes", "t_end"),
         "Deep rings without bending viscosity (issue 18; with bending rigidity `bending`, issue 35): the neck "
@@ -354,6 +364,24 @@ _FIGURES += (
         "the ring-to-pole tension ratio 1 + zeta_hat: closed (reached 0.1 R0), arrested (slower than 1e-4 R0/t_a "
         "at the end) or still closing, and the threshold between the largest ratio that arrests and the smallest "
         "that closes. Store: ``results/aggregate/constriction.nc``.",
+    ),
+)
+
+# Issue 36: the cell in a fluid.
+_FIGURES += (
+    FigureSpec(
+        "fluids",
+        "store",
+        ("fluids",),
+        "fluids_figure",
+        "9. The cell in a fluid",
+        "Not in the paper (issue 36): the cortex between a cytoplasm and a medium (Stokes fluids, boundary "
+        "integrals), over the hydrodynamic length ell = eta_s / mu (R0). Left: the furrow radius of furrow_in_fluid "
+        "against time (lines: the axisymmetric model, the truth; markers: 3D). Middle: the furrow's depth "
+        "R_f(0) - R_f(t_end) and the time it took to reach half of it, against ell: the fluids slow the "
+        "furrow, the vacuum's is the limit of large ell. Right: the speed of polarised_swimmer (the slope of its "
+        "volume centroid over the second half of the run) against ell, with Lamb's speed of the sphere at "
+        "t = 0 (docs/derivations/fluid_sphere.md). Store: ``results/aggregate/fluids.nc``.",
     ),
 )
 

@@ -27,6 +27,7 @@ from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, fold_radii, neck_radius
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
+from ..surface.measures import volume_centroid
 from .registry import STUDIES
 from .sweeps import PATTERN_COLUMNS
 
@@ -78,6 +79,25 @@ def neck_series(tr: Trajectory) -> np.ndarray:
         return np.asarray(tr.ds["neck_radius"].values, dtype=float)
     axis = tr.settings.pattern_axis
     return np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(tr.ds.sizes["time"])])
+
+
+def centroid_series(tr: Trajectory) -> np.ndarray:
+    """The enclosed volume's centroid along the pattern axis, per frame
+    (:func:`~cortex_ti.surface.measures.volume_centroid` of each frame's triangles): how far a cell
+    in a fluid has moved."""
+    axis = np.asarray(tr.settings.pattern_axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    return np.array([volume_centroid(*tr.mesh(k)) @ axis for k in range(tr.ds.sizes["time"])])
+
+
+_CENTROID_ATTRS = {
+    "centroid_axial": {
+        "units": "R0",
+        "long_name": "volume centroid along the pattern axis",
+        "description": "the centroid of the volume the frame's triangles enclose (surface.measures.volume_centroid), "
+        "projected on the pattern axis",
+    }
+}
 
 
 #: The degrees of the myosin whose amplitude a self_organisation store keeps per frame.
@@ -154,6 +174,9 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             if study == "self_organisation":
                 data.update(myosin_series(tr))
                 attrs.update(_MYOSIN_ATTRS)
+            if study == "fluids":
+                data["centroid_axial"] = centroid_series(tr)
+                attrs.update(_CENTROID_ATTRS)
             if study == "constriction" and "neck_radius" not in data:
                 data["neck_radius"] = neck_series(tr)
                 attrs.update(NECK_ATTRS)

@@ -34,6 +34,8 @@ tilt         ``active_stress.0.axis``           pattern axis rotated by tilt (de
 model        ``model``                          3d or axisymmetric (the same scene's twin)
 bending_form ``axisymmetric.bending_form``      paper (Eq. 45) or dissipation: the twin's
                                                 bending-viscosity force, its 3D runs' form
+inner        ``fluid.inner``                    the cytoplasm's viscosity (eta_s / R0)
+outer        ``fluid.outer``                    the medium's viscosity (eta_s / R0)
 remesh       ``mesh.remesh.min_angle``          remesh below this angle (deg); null: never
                                                 (the axisymmetric model has no mesh)
 degree       ``fields.myosin.initial.0.         degree l of the myosin's seeded harmonic
@@ -97,6 +99,8 @@ PARAMETERS: dict[str, str] = {
     "myosin_gamma": "fields.myosin.tension.gamma",
     "turnover": "fields.myosin.turnover",
     "bending": "rigidity.bending",
+    "inner": "fluid.inner",
+    "outer": "fluid.outer",
 }
 
 #: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
@@ -161,6 +165,8 @@ def _settings_value(settings, column: str):
         return settings.rigidity.bending
     if column == "remesh":
         return None if settings.mesh.remesh is None else settings.mesh.remesh.min_angle
+    if column in ("inner", "outer"):  # null without the effect fluids
+        return None if settings.fluid is None else getattr(settings.fluid, column)
     if column in _MYOSIN:
         value = settings.field("myosin")
         try:

@@ -34,6 +34,7 @@ __all__ = [
     "face_areas",
     "surface_area",
     "area_centroid",
+    "volume_centroid",
     "mesh_quality",
     "min_angles",
     "second_moment",
@@ -180,6 +181,20 @@ def surface_area(points, faces) -> float:
 def area_centroid(points, faces) -> np.ndarray:
     """Area centroid ``c = (1/A) sum_f A_f (x_0 + x_1 + x_2) / 3`` of the surface, shape (3,)."""
     return FlatSurface(points, faces).centroid.copy()
+
+
+def volume_centroid(points, faces) -> np.ndarray:
+    """Centroid of the volume a closed surface with outward faces encloses, shape (3,): the tetrahedra
+    (c, x_0, x_1, x_2) from the area centroid c, their signed volumes times their centroids
+    (c + x_0 + x_1 + x_2) / 4, over their sum (exact for the polyhedron)."""
+    s = FlatSurface(points, faces)
+    c = s.centroid
+    x0, x1, x2 = (sub(x, c) for x in s.x)
+    v = dot(x0, cross(x1, x2)) / 6.0
+    total = v.sum()
+    if not total != 0.0:
+        raise ValueError("the surface encloses no volume")
+    return c + np.array([(v @ (x0[i] + x1[i] + x2[i])) / (4.0 * total) for i in range(3)])
 
 
 def _smallest_angles(x0, x1, x2):

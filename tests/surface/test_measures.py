@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from cortex_ti.surface.measures import area_centroid, enclosed_volume, face_areas, surface_area
+from cortex_ti.surface.measures import area_centroid, enclosed_volume, face_areas, surface_area, volume_centroid
+from cortex_ti.surface.mesh import icosphere
 
 POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
 FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # outward
@@ -32,3 +33,14 @@ def test_the_area_centroid_weights_each_face_by_its_area():
     centroids = POINTS[FACES].mean(axis=1)
     a = np.array([0.5, 0.5, 0.5, math.sqrt(3) / 2])
     np.testing.assert_allclose(area_centroid(POINTS, FACES), a @ centroids / a.sum(), rtol=1e-14)
+
+
+def test_volume_centroid_of_a_tetrahedron_and_of_a_moved_symmetric_polyhedron():
+    """A tetrahedron's volume centroid is the mean of its corners; an icosphere's (symmetric under
+    x -> -x) moved by d and stretched about it has its centroid at d, to round-off."""
+    pts = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) * 2.0 + 0.5
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    np.testing.assert_allclose(volume_centroid(pts, faces), pts.mean(axis=0), atol=1e-15)
+    m = icosphere(642)
+    moved = m.points * np.array([1.5, 1.0, 0.7]) + np.array([0.1, -0.2, 0.3])
+    np.testing.assert_allclose(volume_centroid(moved, m.faces), [0.1, -0.2, 0.3], atol=1e-14)
