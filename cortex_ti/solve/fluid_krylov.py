@@ -41,6 +41,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from ..errors import SolverError
+from .krylov import gmres_left
 from .system import EnergySystem, SolveInfo
 
 __all__ = ["FluidKrylov", "KRYLOV_RTOL"]
@@ -87,11 +88,10 @@ class FluidKrylov:
         x0 = self._previous if self._previous is not None and self._previous.size == nt else None
         if x0 is not None and self._before is not None and self._before.size == nt:
             x0 = 2.0 * x0 - self._before
-        z, its = self._gmres(apply, rhs, x0, nt)
+        z, res, its = self._gmres(apply, rhs, x0)
         self._before, self._previous = self._previous, z
         self.n_iterations += its
         t2 = time.perf_counter()
-        res = apply(z) - rhs
         if not np.all(np.isfinite(z)):
             raise SolverError("the fluids' coupled GMRES produced non-finite values: check the viscosities and time.dt")
         x, lam = z[:n3], z[2 * n3 :]
@@ -139,29 +139,13 @@ class FluidKrylov:
         self._lu = solve
         self.n_factorizations += 1
 
-    def _gmres(self, apply, rhs, x0, nt) -> tuple[np.ndarray, int]:
-        op = spla.LinearOperator((nt, nt), matvec=apply)
-        pre = spla.LinearOperator((nt, nt), matvec=self._lu)
-        count = [0]
-
-        def step(_):
-            count[0] += 1
-
-        z, info = spla.gmres(
-            op,
-            rhs,
-            x0=x0,
-            M=pre,
-            rtol=self.rtol,
-            atol=0.0,
-            restart=200,
-            maxiter=self.max_iterations // 200 + 1,
-            callback=step,
-            callback_type="pr_norm",
-        )
-        if info > 0 and count[0] >= self.max_iterations:
+    def _gmres(self, apply, rhs, x0) -> tuple[np.ndarray, np.ndarray, int]:
+        """``(z, A z - rhs, iterations)`` by :func:`~cortex_ti.solve.krylov.gmres_left` (SciPy's
+        left-preconditioned iterates, one product an iteration; the residual from its kept products)."""
+        z, r, its, ok = gmres_left(apply, self._lu, rhs, x0, self.rtol, self.max_iterations)
+        if not ok and its >= self.max_iterations:
             raise SolverError(
-                f"the fluids' coupled GMRES did not converge in {count[0]} iterations (tolerance {self.rtol:g}): "
+                f"the fluids' coupled GMRES did not converge in {its} iterations (tolerance {self.rtol:g}): "
                 "use fluid.solver: dense on this mesh"
             )
-        return z, count[0]
+        return z, -r, its
