@@ -44,26 +44,34 @@ from ..errors import SolverError
 from .krylov import gmres_left
 from .system import EnergySystem, SolveInfo
 
-__all__ = ["FluidKrylov", "KRYLOV_RTOL"]
+__all__ = ["FluidKrylov", "KRYLOV_RTOL", "REFACTOR_EVERY", "lagrange_extrapolate", "step_ratio"]
 
 #: GMRES's relative tolerance on the coupled system's residual
 KRYLOV_RTOL = 1e-6
+
+#: the preconditioner's LU is redone every this many solves (and on a new mesh): measured on
+#: furrow_in_fluid at 2562 nodes, 186 GMRES iterations over 35 solves refactorising every solve, 186
+#: every second, 188 every fourth, 202 never (docs/validation/fluids.md); at 10242 nodes the LU costs
+#: 0.84 CPU s, two thirds of a product
+REFACTOR_EVERY = 4
 
 
 class FluidKrylov:
     """The coupled GMRES solve with what it reuses from one solve to the next (module docstring)."""
 
-    def __init__(self, rtol: float = KRYLOV_RTOL, max_iterations: int = 600):
+    def __init__(self, rtol: float = KRYLOV_RTOL, max_iterations: int = 600, refactor_every: int = REFACTOR_EVERY):
         self.rtol = rtol
         self.max_iterations = max_iterations
-        self._lu = None
-        self._previous: np.ndarray | None = None
-        self._before: np.ndarray | None = None
+        self.refactor_every = refactor_every
         self.n_factorizations = 0
         self.n_iterations = 0
+        self.new_mesh()
 
     def new_mesh(self) -> None:
-        self._lu, self._previous, self._before = None, None, None
+        """Forget the preconditioner and the earlier solutions (a new mesh, or the start)."""
+        self._lu, self._lu_size, self._age = None, -1, 0
+        self._solutions: list[np.ndarray] = []  # the last three solutions, oldest first
+        self._shapes: list[np.ndarray | None] = []  # the shapes of their solves and of this one
 
     def solve(self, system: EnergySystem, op):
         """``(x, pressure, multipliers, info)`` of ``system`` with the fluid operator ``op``."""
@@ -83,13 +91,15 @@ class FluidKrylov:
         rhs[:n3] = system.rhs
         if op.far is not None:
             rhs[n3 : 2 * n3] = mu * a3 * op.far
-        self._factor(k, g, fr, op)
+        refactor = self._lu is None or self._lu_size != nt or self._age >= self.refactor_every
+        if refactor:
+            self._factor(k, g, fr, op)
+            self._lu_size, self._age = nt, 0
+        self._age += 1
         t1 = time.perf_counter()
-        x0 = self._previous if self._previous is not None and self._previous.size == nt else None
-        if x0 is not None and self._before is not None and self._before.size == nt:
-            x0 = 2.0 * x0 - self._before
+        x0 = self._guess(nt, getattr(op, "points", None))
         z, res, its = self._gmres(apply, rhs, x0)
-        self._before, self._previous = self._previous, z
+        self._solutions = (self._solutions + [z])[-3:]
         self.n_iterations += its
         t2 = time.perf_counter()
         if not np.all(np.isfinite(z)):
@@ -107,10 +117,31 @@ class FluidKrylov:
             constraint_violation=float((np.abs(gx) / (gscale * xnorm)).max()) if gx.size else 0.0,
             kkt_residual=float(np.linalg.norm(res) / max(fnorm, 1e-300)),
             iterations=its,
-            refactored=True,
+            refactored=refactor,
             seconds={"normal_equations": 0.0, "factor": t1 - t0, "iterate": t2 - t1, "factor_solve": t2 - t0},
         )
         return x, system.pressure(lam), lam, info
+
+    def _guess(self, nt: int, points) -> np.ndarray | None:
+        """The initial guess (module docstring): the last solutions extrapolated, in the solves'
+        pseudo-time (the step ratios read off their shapes, :func:`step_ratio`), to this solve's shape
+        ``points``; quadratic from three, linear from two, the last one alone, or None."""
+        shape = None if points is None else np.array(points, float)
+        self._shapes = (self._shapes + [shape])[-4:]
+        zs = [z for z in self._solutions if z.size == nt]
+        if len(zs) < len(self._solutions) or not zs:
+            return None
+        for k in range(len(zs), 1, -1):  # the most solutions whose shapes give the step ratios
+            shapes = self._shapes[-k - 1 :]
+            times = [0.0, 1.0]  # the pseudo-times of the shapes, the first step of length 1
+            for a, b, c in zip(shapes[:-2], shapes[1:-1], shapes[2:], strict=True):
+                ratio = step_ratio(a, b, c)
+                if not np.isfinite(ratio) or abs(ratio) < 1e-3:  # no motion to read a ratio from
+                    break
+                times.append(times[-1] + ratio * (times[-1] - times[-2]))
+            if len(times) == k + 1:
+                return lagrange_extrapolate(times[:k], zs[-k:], times[k])
+        return zs[-1]
 
     def _factor(self, k, g, fr, op) -> None:
         """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
@@ -149,3 +180,31 @@ class FluidKrylov:
                 "use fluid.solver: dense on this mesh"
             )
         return z, -r, its
+
+
+def step_ratio(a, b, c) -> float:
+    """The ratio of the step ``b -> c`` to the step ``a -> b`` of three shapes (N, 3) along one
+    path: the projection ``<c - b, b - a> / |b - a|^2`` (exact for points moving on straight lines at
+    speeds fixed in time; nan without motion or with another mesh)."""
+    if a is None or b is None or c is None or not a.shape == b.shape == c.shape:
+        return float("nan")
+    d = b - a
+    dd = float(np.vdot(d, d))
+    return float(np.vdot(c - b, d)) / dd if dd > 0.0 else float("nan")
+
+
+def lagrange_extrapolate(times, values, t: float) -> np.ndarray:
+    """The polynomial through ``(times[i], values[i])`` at ``t`` (Lagrange's form).
+
+    >>> import numpy as np
+    >>> lagrange_extrapolate([0.0, 1.0, 3.0], [np.array([0.0]), np.array([1.0]), np.array([9.0])], 4.0)
+    array([16.])
+    """
+    out = np.zeros_like(values[0])
+    for i, (ti, vi) in enumerate(zip(times, values, strict=True)):
+        w = 1.0
+        for j, tj in enumerate(times):
+            if j != i:
+                w *= (t - tj) / (ti - tj)
+        out += w * vi
+    return out
