@@ -15,7 +15,8 @@ factorisation and the GMRES iterations (their count in the table).
 
 ``--run``: instead, ``furrow_in_fluid`` to ``--t-end`` (3) with each solver at each node count, as
 ``cortex-ti run`` in a child process (one thread): wall and CPU seconds, steps, the child's peak
-resident memory, and the GMRES iterations (from the run summary).
+resident memory, the GMRES iterations and factorisations (from the run summary) and the furrow radius at
+the end (from the trajectory).
 
 ``--sediment``: instead (per solver), the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
 static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
@@ -179,11 +180,16 @@ def whole_run(nodes: int, solver: str, t_end: float) -> str:
         wall = time.perf_counter() - wall
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         data = json.loads(open(summary).read())
+        import h5py
+
+        with h5py.File(out, "r") as h5:
+            furrow = float(h5["furrow_radius"][-1])
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
     return (
         f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
-        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('solver_backend', '?')} |"
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('factorizations', '-')} | "
+        f"{furrow:.7f} | {data.get('solver_backend', '?')} |"
     )
 
 
@@ -222,9 +228,9 @@ def main(argv: list[str] | None = None) -> None:
     if args.run:
         print(
             "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | "
-            "GMRES iterations | solver_name |"
+            "GMRES iterations | factorisations | R_f(t_end) | solver_name |"
         )
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|")
         for n in nodes:
             for s in solvers:
                 print(whole_run(n, s, 0.1 if args.smoke else args.t_end), flush=True)
