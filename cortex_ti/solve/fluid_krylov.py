@@ -19,9 +19,20 @@ is diagonal), leaving ``[[K + mu A L^-1 A, F^T], [G, 0]]``, half the unknowns, f
 whole block matrix with minimum degree on ``A + A^T``; the same preconditioner, so the same
 iterations). An approximation of the fluids' single layer by the sphere's translation coefficient
 ``2 R / 3`` instead took 42-50 iterations at 642 nodes for ``mu`` = 0.1, 1, 10
-(docs/validation/fluids.md). The factorisation is redone on every solve; the initial guess is the
-previous two solutions' linear extrapolation ``2 z_n - z_(n-1)`` (the previous one after a new
-mesh: 268 iterations over furrow_in_fluid's 27 solves at 642 nodes against 286 with ``z_n``).
+(docs/validation/fluids.md). The factorisation is redone every :data:`REFACTOR_EVERY` solves (the
+operator moves little from a step to the next: the stale LU costs a few iterations in a hundred).
+
+The initial guess extrapolates the last three solutions to this solve's shape. The solves of an
+adaptive scheme are not equally spaced in time (bdf2's step doubles at the start of
+furrow_in_fluid, shrinks after a rejected step), and the solver is not told their times: it reads
+the step ratios off the shapes the operators were built on, ``r = <x_(k+1) - x_k, x_k - x_(k-1)> /
+|x_k - x_(k-1)|^2`` (:func:`step_ratio`, exact for nodes moving on straight lines at fixed speeds),
+and extrapolates the solutions quadratically in that pseudo-time (:func:`lagrange_extrapolate`:
+linear from two solutions, the last one alone without motion or after a new mesh). Measured on
+furrow_in_fluid to t = 3 (GMRES iterations, one product each): 173 / 148 / 135 at 642 nodes and 234
+/ 224 / 186 at 2562 with the guess ``2 z_n - z_(n-1)`` (the former), linear in the ratio, quadratic.
+The GMRES is :func:`~cortex_ti.solve.krylov.gmres_left` (SciPy's iterates with one product an
+iteration: SciPy's own took four more a solve, a third of the cost at 10242 nodes).
 
 Tolerance :data:`KRYLOV_RTOL` on the coupled residual, tied to the time scheme's error: the velocity
 is then off by about ``rtol |v|`` (measured 8.1e-8 of max |v| at 1e-7, 162 nodes), a step's

@@ -184,3 +184,37 @@ def test_gmres_left_is_scipys_with_the_residual_from_its_products():
     assert np.linalg.norm(r) <= 1e-9 * np.linalg.norm(b)
     _, _, it, ok = gmres_left(lambda v: a @ v, lambda v: v / diag, b, x0, 1e-9, 3)
     assert it == 3 and not ok
+
+
+def test_fluid_guess_extrapolates_in_the_step_ratios_read_off_the_shapes():
+    """The coupled fluid solve's initial guess (:mod:`cortex_ti.solve.fluid_krylov`): nodes moving on
+    straight lines at fixed speeds, solves at unequally spaced times (a step doubled, then shrunk, as
+    bdf2's), a solution quadratic in time: the guess from three solutions is that solution at the new
+    time (to rounding), from two the linear extrapolation in the true time ratio, and without motion
+    (the same shape twice) the last solution alone."""
+    from cortex_ti.solve.fluid_krylov import FluidKrylov
+
+    rng = np.random.default_rng(1)
+    x0, speed = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    a, b, c = rng.normal(size=(3, 25))
+
+    def z(t):
+        return a + b * t + c * t * t
+
+    times = [0.3, 0.5, 0.9, 1.2]
+    solver = FluidKrylov()
+    guesses = []
+    for t in times:
+        guesses.append(solver._guess(25, x0 + t * speed))
+        solver._solutions = (solver._solutions + [z(t)])[-3:]
+    assert guesses[0] is None and np.array_equal(guesses[1], z(0.3))
+    linear = z(0.5) + (0.9 - 0.5) / (0.5 - 0.3) * (z(0.5) - z(0.3))
+    assert np.allclose(guesses[2], linear, rtol=0, atol=1e-12)
+    assert np.allclose(guesses[3], z(1.2), rtol=0, atol=1e-12)
+    assert not np.allclose(linear, z(0.9), atol=1e-3)  # the quadratic term is there to be missed
+    solver.new_mesh()
+    for _ in range(3):
+        last = rng.normal(size=25)
+        solver._guess(25, x0)
+        solver._solutions = (solver._solutions + [last])[-3:]
+    assert np.array_equal(solver._guess(25, x0), last)
