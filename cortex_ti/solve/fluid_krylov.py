@@ -32,7 +32,8 @@ linear from two solutions, the last one alone without motion or after a new mesh
 furrow_in_fluid to t = 3 (GMRES iterations, one product each): 173 / 148 / 135 at 642 nodes and 234
 / 224 / 186 at 2562 with the guess ``2 z_n - z_(n-1)`` (the former), linear in the ratio, quadratic.
 The GMRES is :func:`~cortex_ti.solve.krylov.gmres_left` (SciPy's iterates with one product an
-iteration: SciPy's own took four more a solve, a third of the cost at 10242 nodes).
+iteration: SciPy's dtype probe, its closing true residual and the caller's were three more a
+solve, a quarter of the cost at 10242 nodes).
 
 Tolerance :data:`KRYLOV_RTOL` on the coupled residual, tied to the time scheme's error: the velocity
 is then off by about ``rtol |v|`` (measured 8.1e-8 of max |v| at 1e-7, 162 nodes), a step's

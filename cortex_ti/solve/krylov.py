@@ -20,7 +20,7 @@ residual: the fluids' coupled solve) with one product per iteration and no other
 after every cycle for the true residual, which the caller wants as well. Here the products ``A v_j``
 of the Arnoldi vectors are kept, so the true residual ``r0 - sum_j y_j A v_j`` costs no product
 (docs/validation/fluids.md: at 10242 nodes a product is 1.3 CPU s and a solve took 7.6 iterations and
-four more products).
+four more products, the initial residual's and three of these).
 """
 
 from __future__ import annotations
