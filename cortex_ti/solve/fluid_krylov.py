@@ -56,7 +56,7 @@ from ..errors import SolverError
 from .krylov import gmres_left
 from .system import EnergySystem, SolveInfo
 
-__all__ = ["FluidKrylov", "KRYLOV_RTOL", "REFACTOR_EVERY", "lagrange_extrapolate", "step_ratio"]
+__all__ = ["FluidKrylov", "KRYLOV_RTOL", "REFACTOR_EVERY", "STALE_ITERATIONS", "lagrange_extrapolate", "step_ratio"]
 
 #: GMRES's relative tolerance on the coupled system's residual
 KRYLOV_RTOL = 1e-6
@@ -66,6 +66,10 @@ KRYLOV_RTOL = 1e-6
 #: every second, 188 every fourth, 202 never (docs/validation/fluids.md); at 10242 nodes the LU costs
 #: 0.84 CPU s, two thirds of a product
 REFACTOR_EVERY = 4
+
+#: a solve with a reused LU that has not converged in this many iterations factorises its own operator
+#: and continues from there (a solve takes 3-8 with the guess, ~20 cold at 10242 nodes)
+STALE_ITERATIONS = 40
 
 
 class FluidKrylov:
@@ -110,7 +114,17 @@ class FluidKrylov:
         self._age += 1
         t1 = time.perf_counter()
         x0 = self._guess(nt, getattr(op, "points", None))
-        z, res, its = self._gmres(apply, rhs, x0)
+        z, res, its, ok = self._gmres(apply, rhs, x0, self.max_iterations if refactor else STALE_ITERATIONS)
+        if not ok and not refactor:  # the reused LU is too stale: this operator's, from where it got to
+            self._factor(k, g, fr, op)
+            self._lu_size, self._age, refactor = nt, 1, True
+            z, res, more, ok = self._gmres(apply, rhs, z, self.max_iterations)
+            its += more
+        if not ok and its >= self.max_iterations:  # (a breakdown returns what it has, as SciPy's)
+            raise SolverError(
+                f"the fluids' coupled GMRES did not converge in {its} iterations (tolerance {self.rtol:g}): "
+                "use fluid.solver: dense on this mesh"
+            )
         self._solutions = (self._solutions + [z])[-3:]
         self.n_iterations += its
         t2 = time.perf_counter()
@@ -182,16 +196,12 @@ class FluidKrylov:
         self._lu = solve
         self.n_factorizations += 1
 
-    def _gmres(self, apply, rhs, x0) -> tuple[np.ndarray, np.ndarray, int]:
-        """``(z, A z - rhs, iterations)`` by :func:`~cortex_ti.solve.krylov.gmres_left` (SciPy's
-        left-preconditioned iterates, one product an iteration; the residual from its kept products)."""
-        z, r, its, ok = gmres_left(apply, self._lu, rhs, x0, self.rtol, self.max_iterations)
-        if not ok and its >= self.max_iterations:
-            raise SolverError(
-                f"the fluids' coupled GMRES did not converge in {its} iterations (tolerance {self.rtol:g}): "
-                "use fluid.solver: dense on this mesh"
-            )
-        return z, -r, its
+    def _gmres(self, apply, rhs, x0, limit: int) -> tuple[np.ndarray, np.ndarray, int, bool]:
+        """``(z, A z - rhs, iterations, converged)`` by :func:`~cortex_ti.solve.krylov.gmres_left`
+        (SciPy's left-preconditioned iterates, one product an iteration; the residual from its kept
+        products), at most ``limit`` iterations."""
+        z, r, its, ok = gmres_left(apply, self._lu, rhs, x0, self.rtol, limit)
+        return z, -r, its, ok
 
 
 def step_ratio(a, b, c) -> float:
