@@ -28,7 +28,8 @@ furrow_in_fluid, shrinks after a rejected step), and the solver is not told thei
 the step ratios off the shapes the operators were built on, ``r = <x_(k+1) - x_k, x_k - x_(k-1)> /
 |x_k - x_(k-1)|^2`` (:func:`step_ratio`, exact for nodes moving on straight lines at fixed speeds),
 and extrapolates the solutions quadratically in that pseudo-time (:func:`lagrange_extrapolate`:
-linear from two solutions, the last one alone without motion or after a new mesh). Measured on
+linear from two solutions, the last one alone without motion or after a new mesh; a ratio outside
+:data:`RATIO_RANGE` drops the older solutions). Measured on
 furrow_in_fluid to t = 3 (GMRES iterations, one product each): 173 / 148 / 135 at 642 nodes and 234
 / 224 / 186 at 2562 with the guess ``2 z_n - z_(n-1)`` (the former), linear in the ratio, quadratic.
 The GMRES is :func:`~cortex_ti.solve.krylov.gmres_left` (SciPy's iterates with one product an
@@ -67,6 +68,10 @@ KRYLOV_RTOL = 1e-6
 #: 0.84 CPU s, two thirds of a product
 REFACTOR_EVERY = 4
 
+#: the step ratios the guess extrapolates over (an adaptive scheme's steps change by 0.2-2 times; outside,
+#: e.g. Heun's predictor and corrector shapes, which are not one path, or no motion: fewer solutions)
+RATIO_RANGE = (1.0 / 16.0, 4.0)
+
 #: a solve with a reused LU that has not converged in this many iterations factorises its own operator
 #: and continues from there (a solve takes 3-8 with the guess, ~20 cold at 10242 nodes)
 STALE_ITERATIONS = 40
@@ -88,6 +93,8 @@ class FluidKrylov:
         self._lu, self._lu_size, self._age = None, -1, 0
         self._solutions: list[np.ndarray] = []  # the last three solutions, oldest first
         self._shapes: list[np.ndarray | None] = []  # the shapes of their solves and of this one
+        self._candidates: dict[int, np.ndarray] = {}  # this solve's guesses by degree
+        self._degree = 2  # the degree of the next guess (:meth:`_score`)
 
     def solve(self, system: EnergySystem, op):
         """``(x, pressure, multipliers, info)`` of ``system`` with the fluid operator ``op``."""
@@ -125,6 +132,7 @@ class FluidKrylov:
                 f"the fluids' coupled GMRES did not converge in {its} iterations (tolerance {self.rtol:g}): "
                 "use fluid.solver: dense on this mesh"
             )
+        self._score(z)
         self._solutions = (self._solutions + [z])[-3:]
         self.n_iterations += its
         t2 = time.perf_counter()
@@ -151,23 +159,36 @@ class FluidKrylov:
     def _guess(self, nt: int, points) -> np.ndarray | None:
         """The initial guess (module docstring): the last solutions extrapolated, in the solves'
         pseudo-time (the step ratios read off their shapes, :func:`step_ratio`), to this solve's shape
-        ``points``; quadratic from three, linear from two, the last one alone, or None."""
+        ``points``, by the polynomial (degree 0, 1 or 2: from one, two or three solutions) that
+        predicted the previous solution best (:meth:`_score`); None without a solution."""
         shape = None if points is None else np.array(points, float)
         self._shapes = (self._shapes + [shape])[-4:]
         zs = [z for z in self._solutions if z.size == nt]
+        self._candidates = {}
         if len(zs) < len(self._solutions) or not zs:
             return None
-        for k in range(len(zs), 1, -1):  # the most solutions whose shapes give the step ratios
+        self._candidates[0] = zs[-1]
+        for k in range(2, len(zs) + 1):  # k solutions: degree k - 1, if the shapes give the step ratios
             shapes = self._shapes[-k - 1 :]
             times = [0.0, 1.0]  # the pseudo-times of the shapes, the first step of length 1
             for a, b, c in zip(shapes[:-2], shapes[1:-1], shapes[2:], strict=True):
                 ratio = step_ratio(a, b, c)
-                if not np.isfinite(ratio) or abs(ratio) < 1e-3:  # no motion to read a ratio from
+                if not (RATIO_RANGE[0] <= abs(ratio) <= RATIO_RANGE[1]):  # no motion, or not one path
                     break
                 times.append(times[-1] + ratio * (times[-1] - times[-2]))
-            if len(times) == k + 1:
-                return lagrange_extrapolate(times[:k], zs[-k:], times[k])
-        return zs[-1]
+            if len(times) < k + 1:
+                break
+            self._candidates[k - 1] = lagrange_extrapolate(times[:k], zs[-k:], times[k])
+        return self._candidates[min(self._degree, max(self._candidates))]
+
+    def _score(self, z: np.ndarray) -> None:
+        """After a solve: the degree whose guess was nearest its solution ``z`` guesses next (the
+        highest has the smallest truncation error, a lower one amplifies the solutions' own errors,
+        ~``rtol``, less: 1, 2.2, 4.4 times for degrees 0, 1, 2 at equal steps, which wins when the
+        steps are short)."""
+        if self._candidates:
+            errors = {d: float(np.linalg.norm(c - z)) for d, c in self._candidates.items()}
+            self._degree = min(errors, key=errors.get)
 
     def _factor(self, k, g, fr, op) -> None:
         """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
