@@ -187,8 +187,9 @@ def whole_run(nodes: int, solver: str, t_end: float, scheme: str | None = None) 
             furrow = float(h5["furrow_radius"][-1])
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
+    steps = f"{steps} ({data.get('solves', '?')})"
     return (
-        f"| {solver} | {scheme or 'bdf2'} | {nodes} | {t_end:g} | {steps} ({data.get('solves', '?')}) | {wall:.0f} | {cpu:.0f} | "
+        f"| {solver} | {scheme or 'bdf2'} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
         f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('factorizations', '-')} | "
         f"{furrow:.7f} | {data.get('solver_backend', '?')} |"
     )
@@ -229,8 +230,8 @@ def main(argv: list[str] | None = None) -> None:
     solvers = ["dense", "direct"] if args.smoke else args.solvers
     if args.run:
         print(
-            "| solver | scheme | nodes | t_end | steps (solves) | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | "
-            "GMRES iterations | factorisations | R_f(t_end) | solver_name |"
+            "| solver | scheme | nodes | t_end | steps (solves) | wall (s) | CPU (s) | "
+            "peak RSS of the runs so far (GB) | GMRES iterations | factorisations | R_f(t_end) | solver_name |"
         )
         print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in nodes:
