@@ -218,3 +218,22 @@ def test_fluid_guess_extrapolates_in_the_step_ratios_read_off_the_shapes():
         solver._guess(25, x0)
         solver._solutions = (solver._solutions + [last])[-3:]
     assert np.array_equal(solver._guess(25, x0), last)
+
+
+def test_fluid_guess_keeps_the_degree_that_predicted_best():
+    """The guess's degree follows the last prediction: solutions smooth in time (a quadratic) keep the
+    quadratic; solutions that are a constant plus independent noise (short steps, where the solutions'
+    own errors dominate) fall to the last solution alone, which amplifies the noise least."""
+    from cortex_ti.solve.fluid_krylov import FluidKrylov
+
+    rng = np.random.default_rng(2)
+    x0, speed = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
+    a, b, c = rng.normal(size=(3, 20))
+    for noisy, degree in ((False, 2), (True, 0)):
+        solver = FluidKrylov()
+        for t in np.arange(6) * 0.1:
+            solver._guess(20, x0 + t * speed)
+            z = a + 1e-6 * rng.normal(size=20) if noisy else a + b * t + c * t * t
+            solver._score(z)
+            solver._solutions = (solver._solutions + [z])[-3:]
+        assert solver._degree == degree
