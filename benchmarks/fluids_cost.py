@@ -15,7 +15,8 @@ factorisation and the GMRES iterations (their count in the table).
 
 ``--run``: instead, ``furrow_in_fluid`` to ``--t-end`` (3) with each solver at each node count, as
 ``cortex-ti run`` in a child process (one thread): wall and CPU seconds, steps, the child's peak
-resident memory, and the GMRES iterations (from the run summary).
+resident memory, the GMRES iterations and factorisations (from the run summary) and the furrow radius at
+the end (from the trajectory).
 
 ``--sediment``: instead (per solver), the bound of the run tests (``tests/simulation/test_fluids_run.py``): the
 static error of the sedimentation velocity of ``sedimenting_cell`` (no tension change: t = 0) in the
@@ -29,6 +30,7 @@ Usage::
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 162 642 2562
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 642 2562 --solvers dense direct fmm
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --run --nodes 642 2562 --solvers dense direct
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --run --nodes 642 --solvers direct --t-end 0.5 --schemes heun
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --sediment --nodes 162 642 2562
     python benchmarks/fluids_cost.py --smoke
 """
@@ -162,7 +164,7 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
-def whole_run(nodes: int, solver: str, t_end: float) -> str:
+def whole_run(nodes: int, solver: str, t_end: float, scheme: str | None = None) -> str:
     """One row of ``--run`` (module docstring): ``cortex-ti run furrow_in_fluid`` in a child process."""
     import json
     import subprocess
@@ -172,18 +174,24 @@ def whole_run(nodes: int, solver: str, t_end: float) -> str:
         out, summary = os.path.join(tmp, "f.h5"), os.path.join(tmp, "f.json")
         cmd = [sys.executable, "-m", "cortex_ti", "run", "furrow_in_fluid", "-o", out, "--threads", "1"]
         cmd += ["--summary", summary, "--set", f"mesh.nodes={nodes}", "--set", f"fluid.solver={solver}"]
-        cmd += ["--set", f"time.t_end={t_end:g}"]
+        cmd += ["--set", f"time.t_end={t_end:g}"] + ([] if scheme is None else ["--set", f"time.scheme={scheme}"])
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         wall = time.perf_counter()
         subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
         wall = time.perf_counter() - wall
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         data = json.loads(open(summary).read())
+        import h5py
+
+        with h5py.File(out, "r") as h5:
+            furrow = float(h5["furrow_radius"][-1])
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     steps = data.get("steps", data.get("stats", {}).get("steps", "?"))
+    steps = f"{steps} ({data.get('solves', '?')})"
     return (
-        f"| {solver} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
-        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('solver_backend', '?')} |"
+        f"| {solver} | {scheme or 'bdf2'} | {nodes} | {t_end:g} | {steps} | {wall:.0f} | {cpu:.0f} | "
+        f"{after.ru_maxrss / 2**20:.2f} | {data.get('krylov_iterations', '-')} | {data.get('factorizations', '-')} | "
+        f"{furrow:.7f} | {data.get('solver_backend', '?')} |"
     )
 
 
@@ -194,6 +202,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--solvers", nargs="+", default=["dense"], help="fluid.solver values (dense direct fmm)")
     parser.add_argument("--run", action="store_true", help="whole runs of furrow_in_fluid instead (docstring)")
     parser.add_argument("--t-end", type=float, default=3.0, help="the runs' end time (--run)")
+    parser.add_argument("--schemes", nargs="+", help="time.scheme values for --run (default: the scene's, bdf2)")
     parser.add_argument(
         "--lump", type=float, help="the matrix-free solvers' exact radius (fluids_fast.LUMP_RADIUS; inf: every pair)"
     )
@@ -221,13 +230,14 @@ def main(argv: list[str] | None = None) -> None:
     solvers = ["dense", "direct"] if args.smoke else args.solvers
     if args.run:
         print(
-            "| solver | nodes | t_end | steps | wall (s) | CPU (s) | peak RSS of the runs so far (GB) | "
-            "GMRES iterations | solver_name |"
+            "| solver | scheme | nodes | t_end | steps (solves) | wall (s) | CPU (s) | "
+            "peak RSS of the runs so far (GB) | GMRES iterations | factorisations | R_f(t_end) | solver_name |"
         )
-        print("|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         for n in nodes:
             for s in solvers:
-                print(whole_run(n, s, 0.1 if args.smoke else args.t_end), flush=True)
+                for scheme in args.schemes or [None]:
+                    print(whole_run(n, s, 0.1 if args.smoke else args.t_end, scheme), flush=True)
         return
     rows = []
     for n in nodes:

@@ -152,6 +152,11 @@ class FmmFluid:
         self.build_seconds = time.perf_counter() - t0
 
     @property
+    def points(self) -> np.ndarray:
+        """The shape (N, 3) the operator is built on (the coupled solve reads its motion)."""
+        return self._x
+
+    @property
     def n_unknowns(self) -> int:
         return self.areas3.size
 

@@ -143,3 +143,97 @@ def test_missing_backend_says_what_to_install(monkeypatch):
     with pytest.raises(SolverError, match=r"'cholmod' is not installed here \(pip install scikit-sparse.*use auto"):
         choose_factorization("cholmod")
     assert choose_factorization("auto").name in factorizations.AUTO_ORDER
+
+
+def test_gmres_left_is_scipys_with_the_residual_from_its_products():
+    """:func:`gmres_left` against SciPy's left-preconditioned GMRES (an independent implementation):
+    the same iterate to rounding (the same Krylov space and stopping test), the same iteration count,
+    one product an iteration plus ``x0``'s, and the residual it returns is ``b - A x`` recomputed
+    from scratch (to the recurrence's rounding, ~1e-15 |A| |x|); too few iterations: not converged."""
+    from scipy.sparse.linalg import LinearOperator, gmres
+
+    from cortex_ti.solve.krylov import gmres_left
+
+    rng = np.random.default_rng(5)
+    n = 80
+    a = np.diag(rng.uniform(1.0, 1e3, n)) + rng.normal(size=(n, n))  # rows of unrelated scales
+    b, x0 = rng.normal(size=n), rng.normal(size=n)
+    diag = np.diag(a).copy()
+    calls = [0]
+
+    def product(v):
+        calls[0] += 1
+        return a @ v
+
+    x, r, it, ok = gmres_left(product, lambda v: v / diag, b, x0, 1e-9, n)
+    count = [0]
+    ref, info = gmres(
+        LinearOperator((n, n), matvec=lambda v: a @ v, dtype=float),
+        b,
+        x0=x0,
+        M=LinearOperator((n, n), matvec=lambda v: v / diag, dtype=float),
+        rtol=1e-9,
+        atol=0.0,
+        restart=200,
+        callback=lambda _: count.__setitem__(0, count[0] + 1),
+        callback_type="pr_norm",
+    )
+    assert ok and info == 0 and it == count[0] and calls[0] == it + 1
+    assert np.linalg.norm(x - ref) <= 1e-12 * np.linalg.norm(ref)
+    assert np.linalg.norm(r - (b - a @ x)) <= 1e-14 * np.linalg.norm(a) * np.linalg.norm(x)
+    assert np.linalg.norm(r) <= 1e-9 * np.linalg.norm(b)
+    _, _, it, ok = gmres_left(lambda v: a @ v, lambda v: v / diag, b, x0, 1e-9, 3)
+    assert it == 3 and not ok
+
+
+def test_fluid_guess_extrapolates_in_the_step_ratios_read_off_the_shapes():
+    """The coupled fluid solve's initial guess (:mod:`cortex_ti.solve.fluid_krylov`): nodes moving on
+    straight lines at fixed speeds, solves at unequally spaced times (a step doubled, then shrunk, as
+    bdf2's), a solution quadratic in time: the guess from three solutions is that solution at the new
+    time (to rounding), from two the linear extrapolation in the true time ratio, and without motion
+    (the same shape twice) the last solution alone."""
+    from cortex_ti.solve.fluid_krylov import FluidKrylov
+
+    rng = np.random.default_rng(1)
+    x0, speed = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    a, b, c = rng.normal(size=(3, 25))
+
+    def z(t):
+        return a + b * t + c * t * t
+
+    times = [0.3, 0.5, 0.9, 1.2]
+    solver = FluidKrylov()
+    guesses = []
+    for t in times:
+        guesses.append(solver._guess(25, x0 + t * speed))
+        solver._solutions = (solver._solutions + [z(t)])[-3:]
+    assert guesses[0] is None and np.array_equal(guesses[1], z(0.3))
+    linear = z(0.5) + (0.9 - 0.5) / (0.5 - 0.3) * (z(0.5) - z(0.3))
+    assert np.allclose(guesses[2], linear, rtol=0, atol=1e-12)
+    assert np.allclose(guesses[3], z(1.2), rtol=0, atol=1e-12)
+    assert not np.allclose(linear, z(0.9), atol=1e-3)  # the quadratic term is there to be missed
+    solver.new_mesh()
+    for _ in range(3):
+        last = rng.normal(size=25)
+        solver._guess(25, x0)
+        solver._solutions = (solver._solutions + [last])[-3:]
+    assert np.array_equal(solver._guess(25, x0), last)
+
+
+def test_fluid_guess_keeps_the_degree_that_predicted_best():
+    """The guess's degree follows the last prediction: solutions smooth in time (a quadratic) keep the
+    quadratic; solutions that are a constant plus independent noise (short steps, where the solutions'
+    own errors dominate) fall to the last solution alone, which amplifies the noise least."""
+    from cortex_ti.solve.fluid_krylov import FluidKrylov
+
+    rng = np.random.default_rng(2)
+    x0, speed = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
+    a, b, c = rng.normal(size=(3, 20))
+    for noisy, degree in ((False, 2), (True, 0)):
+        solver = FluidKrylov()
+        for t in np.arange(6) * 0.1:
+            solver._guess(20, x0 + t * speed)
+            z = a + 1e-6 * rng.normal(size=20) if noisy else a + b * t + c * t * t
+            solver._score(z)
+            solver._solutions = (solver._solutions + [z])[-3:]
+        assert solver._degree == degree
