@@ -100,11 +100,10 @@ def _label(ds: xr.Dataset, i: int) -> str:
     return f"$\\ell$ = {ell:g}{contrast}"
 
 
-def fluids_figure(stores: list[xr.Dataset], **_) -> Figure:
+def fluids_figure(ds: xr.Dataset) -> Figure:
     """Left: the furrow radius of ``furrow_in_fluid`` against time, one colour per hydrodynamic length
     (lines: the axisymmetric model; markers: 3D). Middle: the furrow's depth at the end and its half
     time against the hydrodynamic length. Right: the swimmer's speed against it, with Lamb's."""
-    ds = stores[0]
     fig = Figure(figsize=(13.5, 4.0), layout="constrained")
     a0, a1, a2 = fig.subplots(1, 3)
     lengths = sorted({hydrodynamic_length(ds, i) for i in range(ds.sizes["run"])})
