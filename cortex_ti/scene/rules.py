@@ -339,8 +339,8 @@ def _check_division(data: dict) -> None:
     if rem.get("min_angle") is None:
         raise SceneError(f"{where} needs remeshing (mesh.remesh.min_angle): the daughters are remeshed after the cut")
     formulation = data["numerics"]["formulation"]
-    if formulation != "rayleigh_p1":
-        raise SceneError(f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1")
+    if formulation not in ("rayleigh_p1", "rayleigh_p2"):
+        raise SceneError(f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1 or rayleigh_p2")
     if data["mesh"]["motion"] not in ("normal", "lagrangian"):
         raise SceneError(f"{where}: mesh.motion = {data['mesh']['motion']} is not split by body; use normal")
     if "fluids" in data["effects"]:

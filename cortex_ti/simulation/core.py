@@ -222,7 +222,7 @@ class Simulation:
         if count == 0:
             return None
         faces = state.faces
-        points, _ = curved_remesh.restore_curved_volume(points, faces, curved_remesh.curved_volume(state.points, faces))
+        points = self._restore_curved(points, faces, state)
         fields = dict(state.fields)
         before, after = curved_remesh.curved_masses(state.points, faces), curved_remesh.curved_masses(points, faces)
         for spec in self.fields:
@@ -233,6 +233,14 @@ class Simulation:
         self.use_mesh(points, faces)
         self.segment += 1
         return State(self.mesh.points, fields, self.mesh.faces)
+
+    def _restore_curved(self, x, faces, state: State, volumes=None) -> np.ndarray:
+        """``x`` offset so that its curved cells enclose ``state``'s volume (after a cut each body its
+        own: ``volumes``, or the bodies' of ``state``)."""
+        if self.bodies is None:
+            return curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))[0]
+        volumes = volumes or body_volumes(state.points, state.faces, curved_remesh.curved_volume)
+        return restore_body_volumes(x, faces, volumes, curved_remesh.restore_curved_volume)
 
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem, volumes=None):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
@@ -273,9 +281,9 @@ class Simulation:
                 break
             last, taken = largest, k + 1
             x = x + rem.settle_dt * excess[:, None] * sol.normal
-        if self.curved:  # the curved cells' volume and the densities' totals over them
+        if self.curved:  # the curved cells' volume (each body's) and the densities' totals over them
             x, _ = curved_remesh.unfold(x, faces)  # the settling may fold a cell across a crease again
-            x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
+            x = self._restore_curved(x, faces, state, volumes)
             before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
         elif self.bodies is not None:  # each daughter its own volume (the bodies keep their order)
             x = restore_body_volumes(x, faces, volumes or body_volumes(state.points, state.faces))

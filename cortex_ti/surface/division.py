@@ -354,10 +354,12 @@ def remesh_bodies(
     fields: dict | None = None,
     kinds: dict | None = None,
     options: RemeshOptions | None = None,
+    method=remesh,
 ) -> RemeshResult:
-    """:func:`~cortex_ti.surface.remesh.remesh` of each body of ``(points, faces)`` on its own: its
-    own enclosed volume restored, a density's amount on it kept, a node budget shared by the bodies'
-    areas; the bodies in the order of :func:`body_labels`."""
+    """:func:`~cortex_ti.surface.remesh.remesh` (or ``method``, with its arguments: the curved cells'
+    :func:`~cortex_ti.surface.curved_remesh.remesh_curved`) of each body of ``(points, faces)`` on its
+    own: its own enclosed volume restored, a density's amount on it kept, a node budget shared by the
+    bodies' areas; the bodies in the order of :func:`body_labels`."""
     options = options or RemeshOptions()
     fields, kinds = dict(fields or {}), dict(kinds or {})
     n, labels = body_labels(faces, len(points))
@@ -371,7 +373,7 @@ def remesh_bodies(
         local[nodes] = np.arange(nodes.size)
         share = float(area[nodes].sum() / area.sum())
         opts = options if options.nodes is None else replace(options, nodes=max(int(round(options.nodes * share)), 12))
-        res = remesh(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
+        res = method(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
         out_p.append(res.points)
         out_f.append(res.faces.astype(np.int64) + offset)
         for name in fields:
@@ -392,16 +394,20 @@ def remesh_bodies(
     )
 
 
-def body_volumes(points: np.ndarray, faces: np.ndarray) -> list[float]:
-    """The enclosed volume of each body (in the order of :func:`body_labels`)."""
+def body_volumes(points: np.ndarray, faces: np.ndarray, measure=enclosed_volume) -> list[float]:
+    """The enclosed volume of each body (in the order of :func:`body_labels`); ``measure(points,
+    faces)`` the volume of one (the curved cells':
+    :func:`~cortex_ti.surface.curved_remesh.curved_volume`)."""
     n, labels = body_labels(faces, len(points))
     flab = face_labels(faces, labels)
-    return [enclosed_volume(points, faces[flab == b]) for b in range(n)]
+    return [measure(points, faces[flab == b]) for b in range(n)]
 
 
-def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes) -> np.ndarray:
+def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes, restore=restore_volume) -> np.ndarray:
     """Each body's nodes offset along their normals so that it encloses its ``volumes[b]``
-    (:func:`~cortex_ti.surface.remesh.restore_volume` body by body)."""
+    (``restore(points, faces, volume) -> (points, offset)`` body by body: by default
+    :func:`~cortex_ti.surface.remesh.restore_volume`; the curved cells':
+    :func:`~cortex_ti.surface.curved_remesh.restore_curved_volume`)."""
     n, labels = body_labels(faces, len(points))
     flab = face_labels(faces, labels)
     out = np.array(points, dtype=float)
@@ -409,5 +415,5 @@ def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes) -> np.n
         nodes = np.flatnonzero(labels == b)
         local = np.full(len(points), -1, dtype=np.int64)
         local[nodes] = np.arange(nodes.size)
-        out[nodes] = restore_volume(out[nodes], local[faces[flab == b]], volumes[b])[0]
+        out[nodes] = restore(out[nodes], local[faces[flab == b]], volumes[b])[0]
     return out

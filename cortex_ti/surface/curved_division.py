@@ -1,0 +1,168 @@
+r"""The cut of a surface of curved six-node cells (formulation ``rayleigh_p2``) into two at a neck.
+
+The flat cut (:func:`cortex_ti.surface.division.cut_at_plane`) done on the curved cells' terms:
+
+1. **the sides' volumes** are those of the curved cells: the split mesh's flat sides
+   (:func:`~cortex_ti.surface.division.side_volumes`, exact for its flat sub-triangles) plus each
+   cell's excess, ``1/3 int (x - p0) . n dA`` over the curved cell minus the same over its four flat
+   sub-triangles, given to the side of the cell's corners' mean (:func:`curved_side_volumes`). The
+   excesses add to the curved volume minus the flat one, so the two sides add to the curved volume
+   to round-off; the cells across the plane, whose excess goes whole to one side, carry
+   ``O(r_neck h^3 kappa)`` of volume (a sagitta over a cell), far below the flat sides' own split;
+2. **each density's amount on each side** is ``sum c_i m_i`` (``m_i = int N_i dA`` over the cells,
+   :func:`~cortex_ti.surface.curved_remesh.curved_masses`) over the nodes with ``s_i >= 0`` and
+   ``s_i < 0``: the two add to the total over the cells to round-off;
+3. the **corner mesh** (:func:`~cortex_ti.surface.curved_remesh.corner_mesh`) is clipped beyond the
+   band, capped by a dome and remeshed to the run's options for corners
+   (:func:`~cortex_ti.surface.curved_remesh.corner_options`) as the flat cut does, then split 1-to-4
+   into curved cells. A new node on the lobe (``s`` beyond the band on its side) and the midpoint of a
+   lobe edge go to their closest point on the old curved cells of that side
+   (:func:`~cortex_ti.surface.curved_remesh.curved_closest`), as the curved remeshing places them; the
+   cap's nodes stay on the dome, its midpoints on the chords (the cap is new surface). Cells folded
+   over a crease get their midpoints on their chords (:func:`~cortex_ti.surface.curved_remesh.unfold`);
+4. each daughter's **curved volume** is set to its side's by the uniform normal offset
+   (:func:`~cortex_ti.surface.curved_remesh.restore_curved_volume`), every field takes its old cells'
+   quadratic interpolant at the node's foot on its side, and each density is scaled so that its total
+   over the daughter's cells is its side's amount (:func:`~cortex_ti.surface.remesh.keep_amount`).
+
+Derivation and measurements: docs/validation/division.md ("The cut on curved cells").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import CortexError
+from .curved import p2_cells
+from .curved_remesh import (
+    _cell_quadrature,
+    _interpolate,
+    corner_mesh,
+    corner_options,
+    curved_closest,
+    curved_masses,
+    curved_volume,
+    restore_curved_volume,
+    unfold,
+)
+from .division import CutResult, _cap, _clip, _dome, _tet, body_labels, face_labels, side_volumes
+from .measures import min_angles
+from .mesh import split_faces
+from .remesh import RemeshOptions, keep_amount, triangulate
+from .transport import DENSITY
+
+__all__ = ["curved_side_volumes", "cut_curved"]
+
+
+def curved_side_volumes(points: np.ndarray, faces: np.ndarray, p0, axis) -> tuple[float, float]:
+    """``(V_minus, V_plus)`` of the curved cells of the split mesh ``(points, faces)`` on either side of
+    the plane ``(x - p0) . axis = 0`` (module docstring, step 1); they add to
+    :func:`~cortex_ti.surface.curved_remesh.curved_volume` to round-off.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> lo, hi = curved_side_volumes(m.points, m.faces, (0, 0, 0), (0, 0, 1))
+    >>> bool(abs(lo + hi - curved_volume(m.points, m.faces)) < 1e-13), bool(abs(lo - hi) < 1e-12)
+    (True, True)
+    """
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    p0 = np.asarray(p0, dtype=float)
+    x = np.asarray(points, dtype=float) - p0
+    flat = side_volumes(points, faces, p0, a)
+    cells, _, xq, nda = _cell_quadrature(x, faces)
+    curved = np.einsum("tqc,tqc->t", xq, nda) / 3.0
+    f = np.asarray(faces).reshape(-1, 4, 3)
+    sub = _tet(x[f[..., 0]].reshape(-1, 3), x[f[..., 1]].reshape(-1, 3), x[f[..., 2]].reshape(-1, 3))
+    excess = curved - sub.reshape(-1, 4).sum(axis=1)
+    plus = (x[cells[:, :3]] @ a).mean(axis=1) >= 0.0
+    return flat[0] + float(excess[~plus].sum()), flat[1] + float(excess[plus].sum())
+
+
+def cut_curved(
+    points: np.ndarray,
+    faces: np.ndarray,
+    p0,
+    axis,
+    band: float,
+    fields: dict | None = None,
+    kinds: dict | None = None,
+    options: RemeshOptions | None = None,
+) -> CutResult:
+    """:func:`~cortex_ti.surface.division.cut_at_plane` for the curved cells of the split mesh
+    ``(points, faces)`` (module docstring); ``band`` and ``options`` are the velocity nodes' (the
+    corner mesh's are twice and a quarter). Body 0 is the daughter on the ``axis``' negative side."""
+    options = options or RemeshOptions()
+    points = np.ascontiguousarray(points, dtype=float)
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    fields, kinds = dict(fields or {}), dict(kinds or {})
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    p0 = np.asarray(p0, dtype=float)
+    s = (points - p0) @ a
+    if not (np.any(s < -band) and np.any(s > band)):
+        raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
+    volumes = curved_side_volumes(points, faces, p0, a)
+    mass = curved_masses(points, faces)
+    plus_node = s >= 0.0
+    amounts = {
+        name: (float(np.dot(v[~plus_node], mass[~plus_node])), float(np.dot(v[plus_node], mass[plus_node])))
+        for name, v in fields.items()
+        if kinds.get(name) == DENSITY
+    }
+    cells = p2_cells(faces)
+    cell_plus = s[cells[:, :3]].mean(axis=1) >= 0.0
+    corners, corner_faces = corner_mesh(points, faces)
+    sc = (corners - p0) @ a
+    share = np.array([mass[~plus_node].sum(), mass[plus_node].sum()]) / mass.sum()
+    copts = corner_options(options)
+    out_p, out_f, out_lab, parts = [], [], [], {name: [] for name in fields}
+    offset, smallest = 0, math.inf
+    for side in (0, 1):
+        sign = 1.0 if side else -1.0
+        sub_points, sub = _clip(corners, corner_faces.astype(np.int64), sign * sc - band)
+        if body_labels(sub, len(sub_points))[0] != 1:
+            raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
+        outward = a if side == 0 else -a
+        p, f, rim = _cap(sub, sub_points)
+        nodes = None if options.nodes is None else max(int(round(options.nodes * share[side])), 24)
+        opts = copts if nodes is None else replace(copts, nodes=max(4, round((nodes + 6) / 4)))
+        flat = triangulate(p, f.astype(np.int32), replace(opts, min_angle=None))
+        plane = float(sub_points[rim[0]] @ outward)
+        domed = _dome(flat.points, sub_points[rim], outward, plane)
+        new = triangulate(domed, flat.faces, opts)  # the daughter's corner mesh
+        edges, split = split_faces(new.faces, len(new.points))
+        split = np.ascontiguousarray(split, dtype=np.int64)
+        mids = 0.5 * (new.points[edges[:, 0]] + new.points[edges[:, 1]])
+        x = np.vstack([new.points, mids])
+        # the old cells on this side (the band included): where the lobe's nodes and every field come from
+        old = (cells[cell_plus == bool(side)][:, [0, 3, 5, 1, 4, 3, 2, 5, 4, 3, 4, 5]]).reshape(-1, 3)
+        lobe_c = sign * ((new.points - p0) @ a) >= band - 1e-9 * max(band, 1.0)
+        lobe = np.concatenate([lobe_c, lobe_c[edges[:, 0]] & lobe_c[edges[:, 1]]])
+        cell, ref, at = curved_closest(points, old, x)
+        x[lobe] = at[lobe]
+        x, _ = unfold(x, split)
+        x, _ = restore_curved_volume(x, split, volumes[side])
+        m_new = curved_masses(x, split)
+        for name in fields:
+            v = _interpolate(points, old, fields[name], cell, ref)
+            if name in amounts:
+                v = keep_amount(v, amounts[name][side], m_new)
+            parts[name].append(v)
+        smallest = min(smallest, float(min_angles(new.points, new.faces).min()))
+        out_p.append(x)
+        out_f.append(split + offset)
+        out_lab.append(np.full(len(x), side, dtype=np.int64))
+        offset += len(x)
+    return CutResult(
+        np.vstack(out_p),
+        np.ascontiguousarray(np.vstack(out_f), dtype=np.int32),
+        {name: np.concatenate(v) for name, v in parts.items()},
+        np.concatenate(out_lab),
+        volumes,
+        amounts,
+        smallest,
+    )
