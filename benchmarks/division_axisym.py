@@ -184,7 +184,7 @@ def section_lobe():
     for kappa in kappas:
         states = []
         c0 = time.process_time()
-        r = run(A, kappa, n, t_end=t_end, stop=0.09, keep=lambda f, y: states.append(y.copy()))
+        r = run(A, kappa, n, t_end=t_end, stop=0.09, keep=lambda f, y, states=states: states.append(y.copy()))
         nk = neck(r)
         m = min(len(states), nk.size)
         rates = np.array([lobe_rate(r, states[i], kappa, A, n) if nk[i] <= 0.55 else np.nan for i in range(m)])
@@ -271,7 +271,13 @@ def section_cut():
     print()
 
 
-SECTIONS = {"neck": section_neck, "lobe": section_lobe, "asymmetric": section_asymmetric, "cut": section_cut, "map": section_map}
+SECTIONS = {
+    "neck": section_neck,
+    "lobe": section_lobe,
+    "asymmetric": section_asymmetric,
+    "cut": section_cut,
+    "map": section_map,
+}
 
 
 def main(argv=None):

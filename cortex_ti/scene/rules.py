@@ -315,8 +315,9 @@ def _check_stop_neck(data: dict) -> None:
 
 
 def _check_division(data: dict) -> None:
-    """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles with normal or lagrangian nodes and
-    no fluids (the cut and the solve by body, cortex_ti.surface.division), a neck the remeshing resolves
+    """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles (``rayleigh_p1``) or curved
+    cells (``rayleigh_p2``) with normal or lagrangian nodes and no fluids (the cut and the solve by body,
+    cortex_ti.surface.division and curved_division), a neck the remeshing resolves
     (at least :data:`DIVISION_MIN_EDGES` smallest target edges, ``h_min``), and above ``time.stop_neck``."""
     division = data.get("division") or {}
     neck = division.get("neck_radius")
@@ -339,8 +340,16 @@ def _check_division(data: dict) -> None:
     if rem.get("min_angle") is None:
         raise SceneError(f"{where} needs remeshing (mesh.remesh.min_angle): the daughters are remeshed after the cut")
     formulation = data["numerics"]["formulation"]
+    weight = division.get("implicit_tension_weight")
+    if weight is not None and "implicit_tension_weight" not in FORMULATIONS[formulation].keys:
+        raise SceneError(
+            f"division.implicit_tension_weight = {fmt_value(weight)}: numerics.formulation = {formulation} has no "
+            "weight on its semi-implicit tension (rayleigh_p1 only); remove it"
+        )
     if formulation not in ("rayleigh_p1", "rayleigh_p2"):
-        raise SceneError(f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1 or rayleigh_p2")
+        raise SceneError(
+            f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1 or rayleigh_p2"
+        )
     if data["mesh"]["motion"] not in ("normal", "lagrangian"):
         raise SceneError(f"{where}: mesh.motion = {data['mesh']['motion']} is not split by body; use normal")
     if "fluids" in data["effects"]:

@@ -101,7 +101,11 @@ def split_bodies(sim: Simulation, mesh: Mesh) -> list[Body] | None:
         local[nodes] = np.arange(nodes.size)
         sub = Mesh(mesh.points[nodes], local[mesh.faces[flab == b]])
         topology = build_topology(sub)
-        apart = midpoint_mask(sub.faces, nodes.size) if sim.curved and FIT_SCHEMES[sim.settings.numerics.fit].order >= 4 else None
+        apart = (
+            midpoint_mask(sub.faces, nodes.size)
+            if sim.curved and FIT_SCHEMES[sim.settings.numerics.fit].order >= 4
+            else None
+        )
         out.append(
             Body(
                 nodes,

@@ -238,7 +238,9 @@ class Simulation:
         """``x`` offset so that its curved cells enclose ``state``'s volume (after a cut each body its
         own: ``volumes``, or the bodies' of ``state``)."""
         if self.bodies is None:
-            return curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))[0]
+            return curved_remesh.restore_curved_volume(
+                x, faces, curved_remesh.curved_volume(state.points, state.faces)
+            )[0]
         volumes = volumes or body_volumes(state.points, state.faces, curved_remesh.curved_volume)
         return restore_body_volumes(x, faces, volumes, curved_remesh.restore_curved_volume)
 

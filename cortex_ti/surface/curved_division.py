@@ -44,11 +44,10 @@ from .curved_remesh import (
     corner_options,
     curved_closest,
     curved_masses,
-    curved_volume,
     restore_curved_volume,
     unfold,
 )
-from .division import CutResult, _cap, _clip, _dome, _tet, body_labels, face_labels, side_volumes
+from .division import CutResult, _cap, _clip, _dome, _tet, body_labels, side_volumes
 from .measures import min_angles
 from .mesh import split_faces
 from .remesh import RemeshOptions, keep_amount, triangulate
