@@ -5,10 +5,11 @@ The flat cut (:func:`cortex_ti.surface.division.cut_at_plane`) done on the curve
 1. **the sides' volumes** are those of the curved cells: the split mesh's flat sides
    (:func:`~cortex_ti.surface.division.side_volumes`, exact for its flat sub-triangles) plus each
    cell's excess, ``1/3 int (x - p0) . n dA`` over the curved cell minus the same over its four flat
-   sub-triangles, given to the side of the cell's corners' mean (:func:`curved_side_volumes`). The
-   excesses add to the curved volume minus the flat one, so the two sides add to the curved volume
-   to round-off; the cells across the plane, whose excess goes whole to one side, carry
-   ``O(r_neck h^3 kappa)`` of volume (a sagitta over a cell), far below the flat sides' own split;
+   sub-triangles, given to the two sides in the shares of the cell's flat area on each
+   (:func:`curved_side_volumes`). The excesses add to the curved volume minus the flat one, so the two
+   sides add to the curved volume to round-off; a cell's excess is ``O(h^4)`` (a sagitta over a cell)
+   plus the ``O(|x - p0| h^3)`` of its curved edges against the straight ones, so the sides converge
+   at second order (docs/validation/division.md);
 2. **each density's amount on each side** is ``sum c_i m_i`` (``m_i = int N_i dA`` over the cells,
    :func:`~cortex_ti.surface.curved_remesh.curved_masses`) over the nodes with ``s_i >= 0`` and
    ``s_i < 0``: the two add to the total over the cells to round-off;
@@ -47,7 +48,7 @@ from .curved_remesh import (
     restore_curved_volume,
     unfold,
 )
-from .division import CutResult, _cap, _clip, _dome, _tet, body_labels, side_volumes
+from .division import CutResult, _cap, _clip, _clip_triangle, _dome, _tet, body_labels, side_volumes
 from .measures import min_angles
 from .mesh import split_faces
 from .remesh import RemeshOptions, keep_amount, triangulate
@@ -61,6 +62,7 @@ def curved_side_volumes(points: np.ndarray, faces: np.ndarray, p0, axis) -> tupl
     the plane ``(x - p0) . axis = 0`` (module docstring, step 1); they add to
     :func:`~cortex_ti.surface.curved_remesh.curved_volume` to round-off.
 
+    >>> from cortex_ti.surface.curved_remesh import curved_volume
     >>> from cortex_ti.surface.mesh import icosphere
     >>> m = icosphere(642)
     >>> lo, hi = curved_side_volumes(m.points, m.faces, (0, 0, 0), (0, 0, 1))
@@ -72,13 +74,31 @@ def curved_side_volumes(points: np.ndarray, faces: np.ndarray, p0, axis) -> tupl
     p0 = np.asarray(p0, dtype=float)
     x = np.asarray(points, dtype=float) - p0
     flat = side_volumes(points, faces, p0, a)
-    cells, _, xq, nda = _cell_quadrature(x, faces)
+    _, _, xq, nda = _cell_quadrature(x, faces)
     curved = np.einsum("tqc,tqc->t", xq, nda) / 3.0
     f = np.asarray(faces).reshape(-1, 4, 3)
     sub = _tet(x[f[..., 0]].reshape(-1, 3), x[f[..., 1]].reshape(-1, 3), x[f[..., 2]].reshape(-1, 3))
     excess = curved - sub.reshape(-1, 4).sum(axis=1)
-    plus = (x[cells[:, :3]] @ a).mean(axis=1) >= 0.0
-    return flat[0] + float(excess[~plus].sum()), flat[1] + float(excess[plus].sum())
+    share = _plus_share(x, f, x @ a)
+    return flat[0] + float(excess @ (1.0 - share)), flat[1] + float(excess @ share)
+
+
+def _plus_share(x: np.ndarray, f: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """(T,): the share of each cell's flat area (its four sub-triangles ``f`` (T, 4, 3)) on the side
+    ``s >= 0``: 0 or 1 for a cell on one side, the clipped area's share for a cell across the plane (a
+    cell cut in the middle gives half its excess to each side: a mirror-symmetric surface splits
+    evenly)."""
+    share = (s[f] >= 0.0).all(axis=(1, 2)).astype(float)
+    across = np.flatnonzero((s[f] >= 0.0).any(axis=(1, 2)) & ~(s[f] >= 0.0).all(axis=(1, 2)))
+    for c in across:
+        whole = part = 0.0
+        for tri in f[c]:
+            whole += 0.5 * np.linalg.norm(np.cross(x[tri[1]] - x[tri[0]], x[tri[2]] - x[tri[0]]))
+            poly = _clip_triangle(x[tri], s[tri])
+            for k in range(1, len(poly) - 1):
+                part += 0.5 * np.linalg.norm(np.cross(poly[k] - poly[0], poly[k + 1] - poly[0]))
+        share[c] = part / whole
+    return share
 
 
 def cut_curved(

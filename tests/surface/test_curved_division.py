@@ -77,10 +77,10 @@ def test_each_daughter_is_curved_cells_of_one_closed_surface_of_good_corners(cut
 
 
 def test_curved_side_volumes_converge_to_the_spherical_caps():
-    """The cap above z = h of the unit sphere: pi (1 - h)^2 (2 + h) / 3. The cells across the plane give
-    their excess over their flat sub-triangles whole to one side: an O(h^3) error per cell along a line
-    of O(1/h) cells, second order (measured: orders 3.1 and 2.7 over 162 / 642 / 2562 nodes, 1.7 to
-    10242); the flat sides' own error is second order and 7-14 times larger."""
+    """The cap above z = h of the unit sphere: pi (1 - h)^2 (2 + h) / 3. The cells across the plane share
+    their excess over their flat sub-triangles by area: an O(h^3) error per cell along a line of O(1/h)
+    cells, second order (measured: orders 2.5 and 2.2 over 162 / 642 / 2562 nodes, 2.0 to 10242); the
+    flat sides' own error is second order and 10-11 times larger."""
     h = 0.3
     exact = math.pi * (1.0 - h) ** 2 * (2.0 + h) / 3.0
     err, flat = [], []
@@ -93,3 +93,7 @@ def test_curved_side_volumes_converge_to_the_spherical_caps():
     orders = np.log2(np.array(err[:-1]) / np.array(err[1:]))
     assert np.all(orders > 1.8)
     assert err[-1] < 0.2 * flat[-1]
+    # a mirror-symmetric surface cut at its mirror plane (the equator's nodes on it) splits evenly
+    m = icosphere(642)
+    lo, hi = curved_side_volumes(m.points, m.faces, (0, 0, 0), (0, 0, 1))
+    assert abs(lo - hi) < 1e-13
