@@ -33,13 +33,17 @@ import numpy as np
 def bars(path: Path) -> dict:
     """The measurements of the module docstring for the trajectory ``path``."""
     from cortex_ti.io.trajectory import Trajectory, frame_mesh, read_divisions
+    from cortex_ti.physics.formulations import FORMULATIONS
+    from cortex_ti.scene.yamltext import load_yaml
     from cortex_ti.surface.curved_remesh import corner_mesh, curved_masses
     from cortex_ti.surface.measures import min_angles
     from cortex_ti.surface.transport import dual_areas
 
-    traj = Trajectory(path)
-    ds = traj.ds
-    curved = traj.scene.settings.numerics.formulation_entry.curved  # rayleigh_p2: the curved cells' measures
+    ds = Trajectory(path).ds
+    # rayleigh_p2: the curved cells' measures (read from the stored text: a scene an older run wrote may
+    # no longer pass today's rules)
+    numerics = load_yaml(ds.attrs["scene"]).get("numerics") or {}
+    curved = FORMULATIONS[numerics.get("formulation", "rayleigh_p1")].curved
     n = ds["n_bodies"].values
     vol = ds["body_volume"].values
     v0 = vol[0, 0]
@@ -89,7 +93,8 @@ def rounding(path: Path) -> str:
     ds = Trajectory(path).ds
     rows = ["| t | daughter 0: roundness | daughter 1: roundness | V0 | V1 |", "|---|---|---|---|---|"]
     for k in np.flatnonzero(ds["n_bodies"].values == 2):
-        (r0, v0), (r1, v1) = roundness(ds, int(k))
+        (r0, _), (r1, _) = roundness(ds, int(k))
+        v0, v1 = ds["body_volume"].values[k][:2]  # the run's (on rayleigh_p2 the curved cells')
         rows.append(f"| {float(ds['time'].values[k]):.4g} | {r0:.4f} | {r1:.4f} | {v0:.6f} | {v1:.6f} |")
     return "\n".join(rows)
 
