@@ -36,7 +36,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..errors import CortexError
 from .curved import p2_cells
 from .curved_remesh import (
     _cell_quadrature,
@@ -48,11 +47,10 @@ from .curved_remesh import (
     restore_curved_volume,
     unfold,
 )
-from .division import CutResult, _cap, _clip, _clip_triangle, _dome, _tet, body_labels, side_volumes
+from .division import CutResult, _clip_triangle, _tet, cut_inputs, side_amounts, side_surface, side_volumes
 from .measures import min_angles
 from .mesh import split_faces
-from .remesh import RemeshOptions, keep_amount, triangulate
-from .transport import DENSITY
+from .remesh import RemeshOptions, keep_amount
 
 __all__ = ["curved_side_volumes", "cut_curved"]
 
@@ -114,24 +112,11 @@ def cut_curved(
     """:func:`~cortex_ti.surface.division.cut_at_plane` for the curved cells of the split mesh
     ``(points, faces)`` (module docstring); ``band`` and ``options`` are the velocity nodes' (the
     corner mesh's are twice and a quarter). Body 0 is the daughter on the ``axis``' negative side."""
-    options = options or RemeshOptions()
-    points = np.ascontiguousarray(points, dtype=float)
-    faces = np.ascontiguousarray(faces, dtype=np.int64)
-    fields, kinds = dict(fields or {}), dict(kinds or {})
-    a = np.asarray(axis, dtype=float)
-    a = a / np.linalg.norm(a)
-    p0 = np.asarray(p0, dtype=float)
-    s = (points - p0) @ a
-    if not (np.any(s < -band) and np.any(s > band)):
-        raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
+    points, faces, p0, a, s, fields, kinds, options = cut_inputs(points, faces, p0, axis, band, fields, kinds, options)
     volumes = curved_side_volumes(points, faces, p0, a)
     mass = curved_masses(points, faces)
     plus_node = s >= 0.0
-    amounts = {
-        name: (float(np.dot(v[~plus_node], mass[~plus_node])), float(np.dot(v[plus_node], mass[plus_node])))
-        for name, v in fields.items()
-        if kinds.get(name) == DENSITY
-    }
+    amounts = side_amounts(fields, kinds, mass, plus_node)
     cells = p2_cells(faces)
     cell_plus = s[cells[:, :3]].mean(axis=1) >= 0.0
     corners, corner_faces = corner_mesh(points, faces)
@@ -142,17 +127,9 @@ def cut_curved(
     offset, smallest = 0, math.inf
     for side in (0, 1):
         sign = 1.0 if side else -1.0
-        sub_points, sub = _clip(corners, corner_faces.astype(np.int64), sign * sc - band)
-        if body_labels(sub, len(sub_points))[0] != 1:
-            raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
-        outward = a if side == 0 else -a
-        p, f, rim = _cap(sub, sub_points)
         nodes = None if options.nodes is None else max(int(round(options.nodes * share[side])), 24)
         opts = copts if nodes is None else replace(copts, nodes=max(4, round((nodes + 6) / 4)))
-        flat = triangulate(p, f.astype(np.int32), replace(opts, min_angle=None))
-        plane = float(sub_points[rim[0]] @ outward)
-        domed = _dome(flat.points, sub_points[rim], outward, plane)
-        new = triangulate(domed, flat.faces, opts)  # the daughter's corner mesh
+        new = side_surface(corners, corner_faces, sc, band, side, a, opts)  # the daughter's corner mesh
         edges, split = split_faces(new.faces, len(new.points))
         split = np.ascontiguousarray(split, dtype=np.int64)
         mids = 0.5 * (new.points[edges[:, 0]] + new.points[edges[:, 1]])
@@ -176,12 +153,4 @@ def cut_curved(
         out_f.append(split + offset)
         out_lab.append(np.full(len(x), side, dtype=np.int64))
         offset += len(x)
-    return CutResult(
-        np.vstack(out_p),
-        np.ascontiguousarray(np.vstack(out_f), dtype=np.int32),
-        {name: np.concatenate(v) for name, v in parts.items()},
-        np.concatenate(out_lab),
-        volumes,
-        amounts,
-        smallest,
-    )
+    return CutResult.joined(out_p, out_f, out_lab, parts, volumes, amounts, smallest)
