@@ -7,7 +7,8 @@ odd under z -> -z and axisymmetric (shares 0.98-1.00 and 0.99), +4.13 / t_a at t
 t = 0.8 (neck 0.50; the axisymmetric linearisation: +4.79); the next modes are even, non-axisymmetric
 and slow (+0.77, +0.93). At 2562 nodes with kappa = 0.1 (``cytokinesis_rigid``) the volume split at
 the ring's plane grows from 7.4e-4 to 7.5e-2 between t = 1.4 and 2.4 (4.6 / t_a; axisymmetric: 4.7 -
-5.0 at those necks) and the cut comes at a split of 0.145 (rayleigh_p1 without rigidity: 0.748). The
+5.0 at those necks) and the cut comes at a split of 0.145 (rayleigh_p1 without rigidity: 0.748; a
+ring of ratio 31 with kappa = 0.1, which closes sooner: 4.0e-3). The
 rigidity removes the fast late growth of the rigidity-free neck (37 / t_a at a neck of 0.1 -> 5.1), so
 the amplification from a neck of 0.5 to 0.1 falls from e^17.9 to e^7.0; equal daughters to 1e-3 would
 need a seed below ~1e-6 at a neck of 0.5, and one remeshing of 2562 nodes leaves ~1e-5. Physical: the
