@@ -52,6 +52,7 @@ def check_rules(data: dict) -> None:
     _check_step_count(data)
     _check_stop_neck(data)
     _check_division(data)
+    _check_mirror(data)
     _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
@@ -311,6 +312,19 @@ def _check_stop_neck(data: dict) -> None:
         raise SceneError(
             f"time.stop_neck = {fmt_value(stop)} must be smaller than mesh.radius = "
             f"{fmt_value(data['mesh']['radius'])}: the run would stop at its first frame"
+        )
+
+
+def _check_mirror(data: dict) -> None:
+    """``mesh.remesh.mirror``: the curved remeshing of a 3D ``rayleigh_p2`` run only (cortex_ti.surface.mirror)."""
+    rem = data["mesh"].get("remesh") or {}
+    if not rem.get("mirror"):
+        return
+    formulation = data["numerics"]["formulation"]
+    if data["model"] != "3d" or not FORMULATIONS[formulation].curved or rem.get("min_angle") is None:
+        raise SceneError(
+            "mesh.remesh.mirror = true reflects a half of the curved remeshing: it needs model 3d, "
+            f"numerics.formulation rayleigh_p2 and mesh.remesh.min_angle (not {data['model']}, {formulation})"
         )
 
 

@@ -15,6 +15,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -175,6 +176,8 @@ class Simulation:
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
         how = curved_remesh.remesh_curved if self.curved else remesh
+        if self.curved and rem.mirror:  # one half remeshed and reflected (cortex_ti.surface.mirror)
+            how = partial(curved_remesh.remesh_curved, mirror=self.settings.pattern_axis)
         if self.bodies is not None:  # each body remeshed on its own, its own volume restored
             how = remesh_by_body(self)
         res = how(state.points, state.faces, dict(state.fields), kinds, policy.options)

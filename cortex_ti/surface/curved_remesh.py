@@ -259,13 +259,16 @@ def remesh_curved(
     volume: float | None = None,
     placement: str = "curved",
     restore: bool = True,
+    mirror=None,
 ) -> RemeshResult:
     """A new split mesh of the curved surface ``(points, faces)`` with its fields (module docstring).
 
     ``options``: the run's (lengths and budget of the velocity nodes; :func:`corner_options` turns
     them into the corner mesh's); ``volume``: the volume to restore (None: the curved cells' own);
     ``kinds``: field name -> ``density`` or ``property``; ``placement``: ``curved`` or ``flat``;
-    ``restore``: False leaves the volume as the placement made it (``offset`` 0)."""
+    ``restore``: False leaves the volume as the placement made it (``offset`` 0); ``mirror``: an axis
+    (3,): the corner mesh made mirror-symmetric about the plane through the cells' area centroid
+    perpendicular to it (:func:`cortex_ti.surface.mirror.mirror_triangulate`)."""
     if placement not in PLACEMENTS:
         raise ValueError(f"placement must be one of {PLACEMENTS}, not {placement!r}")
     points = np.ascontiguousarray(points, dtype=np.float64)
@@ -275,7 +278,16 @@ def remesh_curved(
     # the size field's curvature from the split mesh (its edges are half the corner mesh's: a deep
     # neck's meridian, ~80 / R0 at amplitude 12, is smoothed away by the corner mesh's own estimate)
     kappa = edge_curvature(points, faces)[corner_ids]
-    new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
+    if mirror is None:
+        new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
+    else:
+        from .measures import area_centroid
+        from .mirror import mirror_triangulate
+
+        p0 = area_centroid(points, faces)
+        new = mirror_triangulate(
+            corners, corner_faces, p0, mirror, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD
+        )
     edges, split = split_faces(new.faces, len(new.points))
     new_faces = np.ascontiguousarray(split, dtype=np.int32)
     if placement == "curved":

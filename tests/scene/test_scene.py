@@ -229,6 +229,7 @@ def test_defaults_and_canonical_numbers():
             "hausd": None,
             "hgrad": 1.3,
             "settle_steps": 0,
+            "mirror": False,
             "settle_dt": 1e-3,
         },
     }
