@@ -33,6 +33,7 @@ import numpy as np
 
 from .closest import closest_points
 from .curved import CELL_EDGES, p2_cells, p2_shape, triangle_rule
+from .measures import area_centroid
 from .mesh import split_faces
 from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, offset_to_volume, triangulate
 from .transport import DENSITY
@@ -281,7 +282,6 @@ def remesh_curved(
     if mirror is None:
         new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
     else:
-        from .measures import area_centroid
         from .mirror import mirror_triangulate
 
         p0 = area_centroid(points, faces)
@@ -302,6 +302,11 @@ def remesh_curved(
         tri_m, bary_m = closest_points(points, faces, mids)
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
+    if mirror is not None:  # a node on the plane stays there (cortex_ti.surface.mirror)
+        from .mirror import keep_on_plane
+
+        straight = np.vstack([new.points, 0.5 * (new.points[edges[:, 0]] + new.points[edges[:, 1]])])
+        nodes = keep_on_plane(nodes, straight, area_centroid(points, faces), mirror)
     nodes, _ = unfold(nodes, new_faces)
     nodes, delta = restore_curved_volume(nodes, new_faces, target) if restore else (nodes, 0.0)
     out, kinds = {}, dict(kinds or {})

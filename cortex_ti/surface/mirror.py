@@ -15,7 +15,10 @@ remeshes one half and reflects it:
    nodes of its boundary loop, which MMG and the repair move by up to ~3e-4 R0 off the plane
    (measured), are put back on it along ``a``;
 3. the half is reflected, ``x' = x - 2 s a``, its triangles' orientation reversed, the loop's nodes
-   shared by the two halves.
+   shared by the two halves;
+4. placed on the old curved surface (:func:`cortex_ti.surface.curved_remesh.remesh_curved`), a node
+   on the plane stays on it (:func:`keep_on_plane`): on the concave meridian of a neck the closest
+   point of a node outside the surface is one of a mirrored pair, off the plane.
 
 The result is a closed triangulation symmetric about the plane to round-off. The state on it (the
 curved cells' nodes placed on the old surface, the fields, the volume) is then as symmetric as the
@@ -31,7 +34,7 @@ import numpy as np
 from ..errors import CortexError
 from .remesh import RemeshOptions, RemeshResult, triangulate
 
-__all__ = ["mirror_triangulate", "reflect_half", "SNAP"]
+__all__ = ["mirror_triangulate", "reflect_half", "keep_on_plane", "SNAP"]
 
 #: a node closer to the plane than this times its mean edge length is moved onto it before the cut
 SNAP = 0.3
@@ -146,3 +149,16 @@ def _clip_at_zero(x: np.ndarray, f: np.ndarray, s: np.ndarray):
     local = np.full(len(p), -1, dtype=np.int64)
     local[used] = np.arange(used.size)
     return p[used], local[faces], sv[used]
+
+
+def keep_on_plane(placed: np.ndarray, before: np.ndarray, p0, axis) -> np.ndarray:
+    """``placed`` (N, 3) with the nodes whose ``before`` positions lie on the plane (to 1e-12) moved
+    back onto it along ``axis`` (module docstring, step 4: a move of order the square of their
+    distance from it times the meridian's curvature away from the surface)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    p0 = np.asarray(p0, dtype=float)
+    on = np.abs((before - p0) @ a) <= 1e-12
+    out = np.array(placed, dtype=float)
+    out[on] -= np.outer((out[on] - p0) @ a, a)
+    return out
