@@ -208,6 +208,7 @@ def test_the_solve_by_body_equals_each_body_alone():
         (["numerics.implicit_tension_weight=2", "numerics.formulation=paper"], "rayleigh_p1 only"),
         (["division.neck_radius=0.2", "division.ring=melt"], "division.ring"),
         (["division.implicit_tension_weight=2"], "set division.neck_radius"),
+        (["mesh.remesh.mirror=true"], "numerics.formulation rayleigh_p2"),
         (
             ["division.neck_radius=0.2", "division.implicit_tension_weight=2", "numerics.formulation=rayleigh_p2"],
             "rayleigh_p1 only",
