@@ -13,8 +13,9 @@ rigidity removes the fast late growth of the rigidity-free neck (37 / t_a at a n
 the amplification from a neck of 0.5 to 0.1 falls from e^17.9 to e^7.0; equal daughters to 1e-3 would
 need a seed below ~1e-6 at a neck of 0.5, and one remeshing of 2562 nodes leaves ~1e-5. Physical: the
 mode is the two-bubble (Laplace pressure) instability of two lobes joined by a neck under one tension,
-which bending does not resist. Measured on 2026-12-07 (docs/validation/division.md, "Bending
-rigidity against the lobe mode").
+which bending does not resist. Remeshing one half and reflecting it (``mesh.remesh.mirror``) seeds ~1e-6
+instead of ~1e-4, and the strong ring's daughters then differ by 2.4e-4. Measured on 2026-12-07
+(docs/validation/division.md, "Bending rigidity against the lobe mode").
 
 Two parts:
 
