@@ -191,11 +191,14 @@ class CutResult:
         )
 
 
-def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The part ``t >= 0`` of a triangulated surface (``t`` (N,) an affine function of the points,
     a signed distance), the triangles across ``t = 0`` cut there: ``(points, faces)`` with only the
-    nodes used, the new nodes on the cut edges shared by the triangles on both sides of each edge."""
-    t = np.where(np.abs(t) < 1e-12, 1e-12, t)  # no node exactly on the cut
+    nodes used, the new nodes on the cut edges shared by the triangles on both sides of each edge.
+    ``exact``: a node with ``t = 0`` lies on the cut (no new node on its edges; a triangle whose only
+    nodes at ``t >= 0`` are on the cut is dropped); else such a node counts as just inside."""
+    if not exact:
+        t = np.where(np.abs(t) < 1e-12, 1e-12, t)  # no node exactly on the cut
     inside = t >= 0.0
     new_points = [p for p in points]
     on_edge: dict = {}
@@ -215,7 +218,7 @@ def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray) -> tuple[np.ndar
             i, j = int(tri[k]), int(tri[(k + 1) % 3])
             if inside[i]:
                 poly.append(i)
-            if inside[i] != inside[j]:
+            if t[i] * t[j] < 0.0:
                 poly.append(cross(i, j))
         out += [np.array([[poly[0], poly[k], poly[k + 1]]]) for k in range(1, len(poly) - 1)]
     f = np.concatenate(out).astype(np.int64)

@@ -32,6 +32,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import CortexError
+from .division import _clip
 from .remesh import RemeshOptions, RemeshResult, triangulate
 
 __all__ = ["mirror_triangulate", "reflect_half", "keep_on_plane", "SNAP"]
@@ -47,7 +48,7 @@ def reflect_half(points: np.ndarray, faces: np.ndarray, p0, axis) -> tuple[np.nd
     >>> from cortex_ti.surface.mesh import icosphere
     >>> from cortex_ti.surface.division import euler_characteristic
     >>> m = icosphere(162)
-    >>> hx, hf, _ = _clip_at_zero(m.points, m.faces.astype(int), m.points[:, 2] - 0.1)
+    >>> hx, hf = _clip(m.points, m.faces.astype(int), m.points[:, 2] - 0.1, exact=True)
     >>> x, f = reflect_half(hx, hf, (0, 0, 0.1), (0, 0, 1))
     >>> euler_characteristic(f), bool(abs(x[:, 2] - 0.1).max() < 0.91)
     (2, True)
@@ -99,7 +100,7 @@ def mirror_triangulate(
     near = np.abs(s) < SNAP * _mean_edge(x, f)  # onto the plane: no sliver of an edge at the cut
     x[near] -= np.outer(s[near], a)
     s[near] = 0.0
-    hx, hf, _ = _clip_at_zero(x, f[~((s[f] < 0.0).any(axis=1) & ~(s[f] > 0.0).any(axis=1))], s)
+    hx, hf = _clip(x, f, s, exact=True)
     hk = None if kappa is None else np.asarray(kappa, dtype=float)[cKDTree(points).query(hx)[1]]
     opts = options if options.nodes is None else replace(options, nodes=max(4, (options.nodes + 1) // 2))
     half = triangulate(hx, hf.astype(np.int32), opts, hk, hausd_scale)
@@ -113,42 +114,6 @@ def _mean_edge(x: np.ndarray, f: np.ndarray) -> np.ndarray:
     length = np.linalg.norm(x[e[:, 0]] - x[e[:, 1]], axis=1)
     total = np.bincount(e.ravel(), np.repeat(length, 2), minlength=len(x))
     return total / np.maximum(np.bincount(e.ravel(), minlength=len(x)), 1)
-
-
-def _clip_at_zero(x: np.ndarray, f: np.ndarray, s: np.ndarray):
-    """The part ``s >= 0`` of the triangles ``f``, those across the plane cut at the crossings of
-    their edges between ``s > 0`` and ``s < 0`` (a node there, shared by the edge's two triangles; a
-    node with ``s = 0`` is on the plane, no crossing on its edges). Returns the points used, the
-    triangles and the points' ``s``."""
-    pts, ss = list(x), list(s)
-    cross: dict = {}
-
-    def at(i: int, j: int) -> int:
-        key = (min(i, j), max(i, j))
-        if key not in cross:
-            w = s[i] / (s[i] - s[j])
-            cross[key] = len(pts)
-            pts.append(x[i] + w * (x[j] - x[i]))
-            ss.append(0.0)
-        return cross[key]
-
-    keep = (s[f] >= 0.0).all(axis=1)
-    out = [f[keep]]
-    for tri in f[~keep]:
-        poly = []
-        for k in range(3):
-            i, j = int(tri[k]), int(tri[(k + 1) % 3])
-            if s[i] >= 0.0:
-                poly.append(i)
-            if s[i] * s[j] < 0.0:
-                poly.append(at(i, j))
-        out += [np.array([[poly[0], poly[k], poly[k + 1]]]) for k in range(1, len(poly) - 1)]
-    faces = np.concatenate(out).astype(np.int64)
-    p, sv = np.array(pts), np.array(ss)
-    used = np.unique(faces)
-    local = np.full(len(p), -1, dtype=np.int64)
-    local[used] = np.arange(used.size)
-    return p[used], local[faces], sv[used]
 
 
 def keep_on_plane(placed: np.ndarray, before: np.ndarray, p0, axis) -> np.ndarray:
