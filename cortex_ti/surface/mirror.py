@@ -10,12 +10,15 @@ remeshes one half and reflects it:
    are moved onto it along ``a``; the surface is clipped there (a node at each crossing of an edge
    between ``s > 0`` and ``s < 0``), the half ``s >= 0`` kept: an open surface whose boundary loop
    lies in the plane, without a sliver of an edge along it;
-2. that half is remeshed by :func:`~cortex_ti.surface.remesh.triangulate` (MMG keeps an open
-   surface's boundary as a boundary, inserting nodes along it) with half the node budget, and the
-   nodes of its boundary loop, which MMG and the repair move by up to ~3e-4 R0 off the plane
-   (measured), are put back on it along ``a``;
-3. the half is reflected, ``x' = x - 2 s a``, its triangles' orientation reversed, the loop's nodes
-   shared by the two halves;
+2. reflected (:func:`reflect_half`), it is a symmetric closed surface whose loop on the plane MMG is
+   told to keep as a feature line (``ridges``: a chain of edges, nodes inserted along it), remeshed by
+   :func:`~cortex_ti.surface.remesh.triangulate` to the node budget;
+3. MMG's output is not symmetric: its half on the ``a`` side of the loop is kept, the loop's nodes
+   (moved off the plane by MMG's curve approximation by up to ~1e-4 R0) put back on it, and
+   reflected, ``x' = x - 2 s a``, its triangles' orientation reversed, the loop's nodes shared by
+   the two halves. (Remeshing the open half alone, MMG's boundary triangles come out at 24-28 deg and
+   lose 2-4 deg more when placed on the curved cells; across the feature line both sides are
+   optimised: 30-33 deg, measured);
 4. placed on the old curved surface (:func:`cortex_ti.surface.curved_remesh.remesh_curved`), a node
    on the plane stays on it (:func:`keep_on_plane`): on the concave meridian of a neck the closest
    point of a node outside the surface is one of a mirrored pair, off the plane.
@@ -86,26 +89,32 @@ def mirror_triangulate(
     hausd_scale: float = 1.0,
 ) -> RemeshResult:
     """:func:`~cortex_ti.surface.remesh.triangulate` of the closed surface ``(points, faces)`` made
-    mirror-symmetric about the plane through ``p0`` perpendicular to ``axis`` (module docstring); the
-    half on the ``axis``' side is remeshed (``kappa``: the curvature at ``points``, taken at the
-    half's nodes from the nearest node)."""
+    mirror-symmetric about the plane through ``p0`` perpendicular to ``axis`` (module docstring);
+    ``kappa``: the curvature at ``points``, taken at the new nodes from the nearest one."""
     from scipy.spatial import cKDTree
 
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
-    points = np.asarray(points, dtype=float)
+    p0 = np.asarray(p0, dtype=float)
     x = np.array(points, dtype=float)
     f = np.asarray(faces, dtype=np.int64)
-    s = (x - np.asarray(p0, dtype=float)) @ a
+    s = (x - p0) @ a
     near = np.abs(s) < SNAP * _mean_edge(x, f)  # onto the plane: no sliver of an edge at the cut
     x[near] -= np.outer(s[near], a)
     s[near] = 0.0
-    hx, hf = _clip(x, f, s, exact=True)
-    hk = None if kappa is None else np.asarray(kappa, dtype=float)[cKDTree(points).query(hx)[1]]
-    opts = options if options.nodes is None else replace(options, nodes=max(4, (options.nodes + 1) // 2))
-    half = triangulate(hx, hf.astype(np.int32), opts, hk, hausd_scale)
-    x, f = reflect_half(half.points, half.faces, p0, a)
-    return replace(half, points=x, faces=f, n_after=len(x), predicted=2.0 * half.predicted)
+    sym, sym_f = reflect_half(*_clip(x, f, s, exact=True), p0, a)  # the input made symmetric
+    on = np.abs((sym - p0) @ a) == 0.0
+    e = np.unique(np.sort(np.concatenate([sym_f[:, [0, 1]], sym_f[:, [1, 2]], sym_f[:, [2, 0]]]), axis=1), axis=0)
+    loop = e[on[e].all(axis=1)]
+    k = None if kappa is None else np.asarray(kappa, dtype=float)[cKDTree(points).query(sym)[1]]
+    new = triangulate(sym, sym_f, options, k, hausd_scale, ridges=loop)
+    # the half on the axis' side of MMG's loop (each triangle wholly on one side), reflected
+    upper = ((new.points[new.faces].mean(axis=1) - p0) @ a) > 0.0
+    used = np.unique(new.faces[upper])
+    local = np.full(len(new.points), -1, dtype=np.int64)
+    local[used] = np.arange(used.size)
+    xm, fm = reflect_half(new.points[used], local[new.faces[upper]], p0, a)
+    return replace(new, points=xm, faces=fm, n_after=len(xm))
 
 
 def _mean_edge(x: np.ndarray, f: np.ndarray) -> np.ndarray:
