@@ -36,7 +36,8 @@ import numpy as np
 
 from ..errors import CortexError
 from .division import _clip
-from .remesh import RemeshOptions, RemeshResult, triangulate
+from .measures import min_angles
+from .remesh import RETRIES, RemeshOptions, RemeshResult, triangulate
 
 __all__ = ["mirror_triangulate", "reflect_half", "keep_on_plane", "SNAP"]
 
@@ -103,18 +104,25 @@ def mirror_triangulate(
     x[near] -= np.outer(s[near], a)
     s[near] = 0.0
     sym, sym_f = reflect_half(*_clip(x, f, s, exact=True), p0, a)  # the input made symmetric
-    on = np.abs((sym - p0) @ a) == 0.0
-    e = np.unique(np.sort(np.concatenate([sym_f[:, [0, 1]], sym_f[:, [1, 2]], sym_f[:, [2, 0]]]), axis=1), axis=0)
-    loop = e[on[e].all(axis=1)]
-    k = None if kappa is None else np.asarray(kappa, dtype=float)[cKDTree(points).query(sym)[1]]
-    new = triangulate(sym, sym_f, options, k, hausd_scale, ridges=loop)
-    # the half on the axis' side of MMG's loop (each triangle wholly on one side), reflected
-    upper = ((new.points[new.faces].mean(axis=1) - p0) @ a) > 0.0
-    used = np.unique(new.faces[upper])
-    local = np.full(len(new.points), -1, dtype=np.int64)
-    local[used] = np.arange(used.size)
-    xm, fm = reflect_half(new.points[used], local[new.faces[upper]], p0, a)
-    return replace(new, points=xm, faces=fm, n_after=len(xm))
+    tree = cKDTree(points)
+    best = None
+    for _ in range(1 + RETRIES):  # again from its own symmetric output while an angle is below the floor
+        on = np.abs((sym - p0) @ a) == 0.0
+        e = np.unique(np.sort(np.concatenate([sym_f[:, [0, 1]], sym_f[:, [1, 2]], sym_f[:, [2, 0]]]), axis=1), axis=0)
+        k = None if kappa is None else np.asarray(kappa, dtype=float)[tree.query(sym)[1]]
+        new = triangulate(sym, sym_f, options, k, hausd_scale, ridges=e[on[e].all(axis=1)])
+        # the half on the axis' side of MMG's loop (each triangle wholly on one side), reflected
+        upper = ((new.points[new.faces].mean(axis=1) - p0) @ a) > 0.0
+        used = np.unique(new.faces[upper])
+        local = np.full(len(new.points), -1, dtype=np.int64)
+        local[used] = np.arange(used.size)
+        sym, sym_f = reflect_half(new.points[used], local[new.faces[upper]], p0, a)
+        angle = float(min_angles(sym, sym_f).min())
+        if best is None or angle > best[0]:
+            best = (angle, replace(new, points=sym, faces=sym_f, n_after=len(sym)))
+        if options.min_angle is None or angle >= options.min_angle:
+            break
+    return best[1]
 
 
 def _mean_edge(x: np.ndarray, f: np.ndarray) -> np.ndarray:
