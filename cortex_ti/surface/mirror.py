@@ -10,15 +10,12 @@ remeshes one half and reflects it:
    are moved onto it along ``a``; the surface is clipped there (a node at each crossing of an edge
    between ``s > 0`` and ``s < 0``), the half ``s >= 0`` kept: an open surface whose boundary loop
    lies in the plane, without a sliver of an edge along it;
-2. reflected (:func:`reflect_half`), it is a symmetric closed surface whose loop on the plane MMG is
-   told to keep as a feature line (``ridges``: a chain of edges, nodes inserted along it), remeshed by
-   :func:`~cortex_ti.surface.remesh.triangulate` to the node budget;
-3. MMG's output is not symmetric: its half on the ``a`` side of the loop is kept, the loop's nodes
-   (moved off the plane by MMG's curve approximation by up to ~1e-4 R0) put back on it, and
-   reflected, ``x' = x - 2 s a``, its triangles' orientation reversed, the loop's nodes shared by
-   the two halves. (Remeshing the open half alone, MMG's boundary triangles come out at 24-28 deg and
-   lose 2-4 deg more when placed on the curved cells; across the feature line both sides are
-   optimised: 30-33 deg, measured);
+2. that half is remeshed by :func:`~cortex_ti.surface.remesh.triangulate` (MMG keeps an open
+   surface's boundary as a boundary, inserting nodes along it) with half the node budget, and the
+   nodes of its boundary loop, which MMG and the repair move by up to ~3e-4 R0 off the plane
+   (measured), are put back on it along ``a``;
+3. the half is reflected, ``x' = x - 2 s a``, its triangles' orientation reversed, the loop's nodes
+   shared by the two halves;
 4. placed on the old curved surface (:func:`cortex_ti.surface.curved_remesh.remesh_curved`), a node
    on the plane stays on it (:func:`keep_on_plane`): on the concave meridian of a neck the closest
    point of a node outside the surface is one of a mirrored pair, off the plane.
@@ -36,8 +33,7 @@ import numpy as np
 
 from ..errors import CortexError
 from .division import _clip
-from .measures import min_angles
-from .remesh import RETRIES, RemeshOptions, RemeshResult, triangulate
+from .remesh import RemeshOptions, RemeshResult, triangulate
 
 __all__ = ["mirror_triangulate", "reflect_half", "keep_on_plane", "SNAP"]
 
@@ -90,39 +86,26 @@ def mirror_triangulate(
     hausd_scale: float = 1.0,
 ) -> RemeshResult:
     """:func:`~cortex_ti.surface.remesh.triangulate` of the closed surface ``(points, faces)`` made
-    mirror-symmetric about the plane through ``p0`` perpendicular to ``axis`` (module docstring);
-    ``kappa``: the curvature at ``points``, taken at the new nodes from the nearest one."""
+    mirror-symmetric about the plane through ``p0`` perpendicular to ``axis`` (module docstring); the
+    half on the ``axis``' side is remeshed (``kappa``: the curvature at ``points``, taken at the
+    half's nodes from the nearest node)."""
     from scipy.spatial import cKDTree
 
     a = np.asarray(axis, dtype=float)
     a = a / np.linalg.norm(a)
-    p0 = np.asarray(p0, dtype=float)
+    points = np.asarray(points, dtype=float)
     x = np.array(points, dtype=float)
     f = np.asarray(faces, dtype=np.int64)
-    s = (x - p0) @ a
+    s = (x - np.asarray(p0, dtype=float)) @ a
     near = np.abs(s) < SNAP * _mean_edge(x, f)  # onto the plane: no sliver of an edge at the cut
     x[near] -= np.outer(s[near], a)
     s[near] = 0.0
-    sym, sym_f = reflect_half(*_clip(x, f, s, exact=True), p0, a)  # the input made symmetric
-    tree = cKDTree(points)
-    best = None
-    for _ in range(1 + RETRIES):  # again from its own symmetric output while an angle is below the floor
-        on = np.abs((sym - p0) @ a) == 0.0
-        e = np.unique(np.sort(np.concatenate([sym_f[:, [0, 1]], sym_f[:, [1, 2]], sym_f[:, [2, 0]]]), axis=1), axis=0)
-        k = None if kappa is None else np.asarray(kappa, dtype=float)[tree.query(sym)[1]]
-        new = triangulate(sym, sym_f, options, k, hausd_scale, ridges=e[on[e].all(axis=1)])
-        # the half on the axis' side of MMG's loop (each triangle wholly on one side), reflected
-        upper = ((new.points[new.faces].mean(axis=1) - p0) @ a) > 0.0
-        used = np.unique(new.faces[upper])
-        local = np.full(len(new.points), -1, dtype=np.int64)
-        local[used] = np.arange(used.size)
-        sym, sym_f = reflect_half(new.points[used], local[new.faces[upper]], p0, a)
-        angle = float(min_angles(sym, sym_f).min())
-        if best is None or angle > best[0]:
-            best = (angle, replace(new, points=sym, faces=sym_f, n_after=len(sym)))
-        if options.min_angle is None or angle >= options.min_angle:
-            break
-    return best[1]
+    hx, hf = _clip(x, f, s, exact=True)
+    hk = None if kappa is None else np.asarray(kappa, dtype=float)[cKDTree(points).query(hx)[1]]
+    opts = options if options.nodes is None else replace(options, nodes=max(4, (options.nodes + 1) // 2))
+    half = triangulate(hx, hf.astype(np.int32), opts, hk, hausd_scale)
+    x, f = reflect_half(half.points, half.faces, p0, a)
+    return replace(half, points=x, faces=f, n_after=len(x), predicted=2.0 * half.predicted)
 
 
 def _mean_edge(x: np.ndarray, f: np.ndarray) -> np.ndarray:

@@ -434,16 +434,13 @@ def triangulate(
     options: RemeshOptions | None = None,
     kappa: np.ndarray | None = None,
     hausd_scale: float = 1.0,
-    ridges: np.ndarray | None = None,
 ) -> RemeshResult:
     """The new triangulation of :func:`remesh` alone: MMG to the size field (its node budget
     corrected by MMG's count), the repair and the retries of ``options.min_angle``; the nodes where
     MMG and the repair left them (no volume restored, no fields: ``fields`` empty, ``offset`` 0).
     The curved cells' remeshing (:mod:`cortex_ti.surface.curved_remesh`) starts from it, with the
     curvature ``kappa`` (N,) of its finer mesh (None: :func:`edge_curvature` of this one) and the
-    default ``hausd`` times ``hausd_scale``. ``ridges`` (E, 2): edges MMG keeps as a feature line
-    (a mirror plane's loop, :mod:`cortex_ti.surface.mirror`); then neither the repair nor the
-    retries run (they do not know the line)."""
+    default ``hausd`` times ``hausd_scale``."""
     if not remesh_available():
         raise CortexError(REMESH_EXTRA_HINT)
     options = options or RemeshOptions()
@@ -468,7 +465,7 @@ def triangulate(
 
     def mmg(scale):
         h = field(scale)
-        return *_mmg(points, faces, h, hausd(scale), options.hgrad, ridges), float(predicted_nodes(area, h))
+        return *_mmg(points, faces, h, hausd(scale), options.hgrad), float(predicted_nodes(area, h))
 
     new_points, new_faces, predicted = mmg(scale)
     if options.nodes is not None:
@@ -483,30 +480,19 @@ def triangulate(
                 break
             scale *= math.sqrt(miss)
             new_points, new_faces, predicted = trial
-    passes = 1
-    if ridges is None:
-        new_points, new_faces = repair(new_points, new_faces, options.quality)
-        new_points, new_faces, passes = _meet_angle(
-            points, faces, field(scale), hausd(scale), options, new_points, new_faces
-        )
+    new_points, new_faces = repair(new_points, new_faces, options.quality)
+    new_points, new_faces, passes = _meet_angle(
+        points, faces, field(scale), hausd(scale), options, new_points, new_faces
+    )
     return RemeshResult(new_points, new_faces, {}, 0.0, points.shape[0], new_points.shape[0], scale, predicted, passes)
 
 
-def _mmg(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hausd: float, hgrad: float, ridges=None):
+def _mmg(points: np.ndarray, faces: np.ndarray, h: np.ndarray, hausd: float, hgrad: float):
     """MMG's surface remeshing of ``(points, faces)`` to the nodal sizes ``h``: the new ``(points,
-    faces)``, the triangles facing out (ridge detection off: the cortex is smooth; ``ridges`` (E, 2):
-    edges given as a feature line, which MMG keeps as a chain of edges)."""
+    faces)``, the triangles facing out (ridge detection off: the cortex is smooth)."""
     from mmgpy._mmgpy import MmgMeshS
 
-    if ridges is None:
-        mesh = MmgMeshS(points, faces)
-    else:
-        mesh = MmgMeshS()
-        mesh.set_mesh_size(vertices=len(points), triangles=len(faces), edges=len(ridges))
-        mesh.set_vertices(np.ascontiguousarray(points, dtype=np.float64))
-        mesh.set_triangles(np.ascontiguousarray(faces, dtype=np.int32))
-        mesh.set_edges(np.ascontiguousarray(ridges, dtype=np.int32))
-        mesh.set_ridge_edges(np.arange(len(ridges), dtype=np.int32))
+    mesh = MmgMeshS(points, faces)
     mesh.set_field("metric", np.ascontiguousarray(h, dtype=np.float64)[:, None])
     info = mesh.remesh(hausd=hausd, hgrad=hgrad, angle=0, verbose=-1)
     if info.get("return_code", 0) != 0:
