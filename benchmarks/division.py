@@ -4,10 +4,12 @@ From a trajectory file (``--file``, e.g. of ``cortex-ti run cytokinesis``) or a 
 (``--scene`` with ``--set``): the frames' body count; the daughters' volumes at the first two-body
 frame and at the last against the initial volume, and against each other; the recorded cut
 (:func:`cortex_ti.io.trajectory.read_divisions`: its time, neck and the sides' volumes); the total of
-every stored density (``sum_i c_i A_i``, barycentric dual areas) at every frame, its largest relative
+every stored density (``sum_i c_i A_i``, barycentric dual areas; on the curved cells of ``rayleigh_p2``
+``sum_i c_i int N_i dA``) at every frame, its largest relative
 change across the cut (the last one-body frame to the first two-body frame) and over the run; each
 daughter's roundness at the last frame (the largest ``|r - mean r| / mean r`` of its nodes' distances
-from its area centroid); the smallest triangle angle over all frames; the run's time.
+from its area centroid); the smallest triangle angle over all frames (of the curved cells' corner
+triangles on ``rayleigh_p2``: those the remeshing keeps above its angle); the run's time.
 
 Usage::
 
@@ -31,10 +33,17 @@ import numpy as np
 def bars(path: Path) -> dict:
     """The measurements of the module docstring for the trajectory ``path``."""
     from cortex_ti.io.trajectory import Trajectory, frame_mesh, read_divisions
+    from cortex_ti.physics.formulations import FORMULATIONS
+    from cortex_ti.scene.yamltext import load_yaml
+    from cortex_ti.surface.curved_remesh import corner_mesh, curved_masses
     from cortex_ti.surface.measures import min_angles
     from cortex_ti.surface.transport import dual_areas
 
     ds = Trajectory(path).ds
+    # rayleigh_p2: the curved cells' measures (read from the stored text: a scene an older run wrote may
+    # no longer pass today's rules)
+    numerics = load_yaml(ds.attrs["scene"]).get("numerics") or {}
+    curved = FORMULATIONS[numerics.get("formulation", "rayleigh_p1")].curved
     n = ds["n_bodies"].values
     vol = ds["body_volume"].values
     v0 = vol[0, 0]
@@ -43,8 +52,9 @@ def bars(path: Path) -> dict:
     totals, smallest = {d: [] for d in densities}, np.inf
     for k in range(len(n)):
         p, f = frame_mesh(ds, k)
-        smallest = min(smallest, float(min_angles(p, f).min()))
-        a = dual_areas(p, f)
+        # the angles of the triangles remeshed (the curved cells' corner triangles), a density's weights
+        smallest = min(smallest, float(min_angles(*(corner_mesh(p, f) if curved else (p, f))).min()))
+        a = curved_masses(p, f) if curved else dual_areas(p, f)
         for d in densities:
             totals[d].append(float(ds[d].values[k][: len(p)] @ a))
     out["smallest angle (deg)"] = smallest
@@ -83,7 +93,8 @@ def rounding(path: Path) -> str:
     ds = Trajectory(path).ds
     rows = ["| t | daughter 0: roundness | daughter 1: roundness | V0 | V1 |", "|---|---|---|---|---|"]
     for k in np.flatnonzero(ds["n_bodies"].values == 2):
-        (r0, v0), (r1, v1) = roundness(ds, int(k))
+        (r0, _), (r1, _) = roundness(ds, int(k))
+        v0, v1 = ds["body_volume"].values[k][:2]  # the run's (on rayleigh_p2 the curved cells')
         rows.append(f"| {float(ds['time'].values[k]):.4g} | {r0:.4f} | {r1:.4f} | {v0:.6f} | {v1:.6f} |")
     return "\n".join(rows)
 

@@ -11,6 +11,10 @@ Sections:
 - ``map``: closed (neck 1e-2 before t = 10), arrested (|d neck / dt| < 1e-4 at t = 10) or failed,
   over kappa and A, with the up-down lobe mode's growth rate at the last frame (the largest real
   eigenvalue among the modes odd under z -> -z of the full-meridian Jacobian at the mirrored state).
+- ``lobe``: the lobe mode's growth rate along the constriction of the ``cytokinesis`` ring (A = 12)
+  against kappa (and of the rings A = 6, 20, 30 at kappa = 0.01, 0.1): the rate at the frames where
+  the neck passes 0.5, 0.4, 0.3, 0.2, 0.15 and 0.1, and its integral ``G = int rate dt`` from a
+  neck of 0.5 to 0.1 (a seed grows by ``exp(G)``).
 - ``asymmetric``: the ring off the equator (theta_r = pi/2 - 0.2): cut at a neck of 0.02, the
   daughters' volume ratio over n.
 - ``cut``: the symmetric run cut at a neck of 0.02 and the daughters evolved 0.2 t_a (ring
@@ -167,6 +171,42 @@ def section_map():
     print()
 
 
+def section_lobe():
+    cases = [(12.0, 0.01)] if SMOKE else [(12.0, k) for k in (0.0, 0.001, 0.01, 0.03, 0.1, 0.3, 1.0)]
+    if not SMOKE:
+        cases += [(a, k) for a in (6.0, 20.0, 30.0) for k in (0.01, 0.1)]
+    n, t_end = (16, 0.3) if SMOKE else (48, 6.0)
+    levels = (0.5, 0.4, 0.3, 0.2, 0.15, 0.1)
+    print(f"## The lobe mode along the constriction, n = {n}, rtol 1e-8 (frames every 0.05 t_a)\n")
+    print(
+        "| 1 + A | kappa | "
+        + " | ".join(f"rate at neck {lv:g}" for lv in levels)
+        + " | G = int rate dt, neck 0.5 -> 0.1 (or the end) | t(0.5), t(0.1) | end | CPU s |"
+    )
+    print("|---:|---:|" + "---:|" * (len(levels) + 3) + "---|")
+    for A, kappa in cases:
+        states = []
+        c0 = time.process_time()
+        r = run(A, kappa, n, t_end=t_end, stop=0.09, keep=lambda f, y, states=states: states.append(y.copy()))
+        nk = neck(r)
+        m = min(len(states), nk.size)
+        rates = np.array([lobe_rate(r, states[i], kappa, A, n) if nk[i] <= 0.55 else np.nan for i in range(m)])
+        cpu = time.process_time() - c0
+        cells = []
+        for lv in levels:
+            k = np.flatnonzero(nk[:m] <= lv)
+            cells.append(f"{rates[k[0]]:+.2f} ({nk[k[0]]:.3f})" if k.size else "-")
+        span = np.flatnonzero((nk[:m] <= 0.5) & (nk[:m] >= 0.1))
+        g = float(np.trapezoid(rates[span], r.t[span])) if span.size > 1 else float("nan")
+        t5, t1 = crossing(r.t, nk, 0.5), crossing(r.t, nk, 0.1)
+        print(
+            f"| {1 + A:g} | {kappa:g} | "
+            + " | ".join(cells)
+            + f" | {g:.2f} | {t5:.3f}, {t1:.3f} | {r.stopped[:50]} | {cpu:.1f} |"
+        )
+    print()
+
+
 def section_asymmetric():
     ns = (24,) if SMOKE else (64, 96)
     stop = 0.1 if SMOKE else 0.02
@@ -236,7 +276,13 @@ def section_cut():
     print()
 
 
-SECTIONS = {"neck": section_neck, "asymmetric": section_asymmetric, "cut": section_cut, "map": section_map}
+SECTIONS = {
+    "neck": section_neck,
+    "lobe": section_lobe,
+    "asymmetric": section_asymmetric,
+    "cut": section_cut,
+    "map": section_map,
+}
 
 
 def main(argv=None):

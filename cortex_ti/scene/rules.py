@@ -52,6 +52,7 @@ def check_rules(data: dict) -> None:
     _check_step_count(data)
     _check_stop_neck(data)
     _check_division(data)
+    _check_mirror(data)
     _check_multistep(data)
     _check_patterns(data["active_stress"], effects, bool(data["fields"]))
     _check_formulation_keys(data["numerics"])
@@ -314,9 +315,23 @@ def _check_stop_neck(data: dict) -> None:
         )
 
 
+def _check_mirror(data: dict) -> None:
+    """``mesh.remesh.mirror``: the curved remeshing of a 3D ``rayleigh_p2`` run only (cortex_ti.surface.mirror)."""
+    rem = data["mesh"].get("remesh") or {}
+    if not rem.get("mirror"):
+        return
+    formulation = data["numerics"]["formulation"]
+    if data["model"] != "3d" or not FORMULATIONS[formulation].curved or rem.get("min_angle") is None:
+        raise SceneError(
+            "mesh.remesh.mirror = true reflects a half of the curved remeshing: it needs model 3d, "
+            f"numerics.formulation rayleigh_p2 and mesh.remesh.min_angle (not {data['model']}, {formulation})"
+        )
+
+
 def _check_division(data: dict) -> None:
-    """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles with normal or lagrangian nodes and
-    no fluids (the cut and the solve by body, cortex_ti.surface.division), a neck the remeshing resolves
+    """``division.neck_radius`` of the 3D model: a run that remeshes flat triangles (``rayleigh_p1``) or curved
+    cells (``rayleigh_p2``) with normal or lagrangian nodes and no fluids (the cut and the solve by body,
+    cortex_ti.surface.division and curved_division), a neck the remeshing resolves
     (at least :data:`DIVISION_MIN_EDGES` smallest target edges, ``h_min``), and above ``time.stop_neck``."""
     division = data.get("division") or {}
     neck = division.get("neck_radius")
@@ -339,8 +354,16 @@ def _check_division(data: dict) -> None:
     if rem.get("min_angle") is None:
         raise SceneError(f"{where} needs remeshing (mesh.remesh.min_angle): the daughters are remeshed after the cut")
     formulation = data["numerics"]["formulation"]
-    if formulation != "rayleigh_p1":
-        raise SceneError(f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1")
+    weight = division.get("implicit_tension_weight")
+    if weight is not None and "implicit_tension_weight" not in FORMULATIONS[formulation].keys:
+        raise SceneError(
+            f"division.implicit_tension_weight = {fmt_value(weight)}: numerics.formulation = {formulation} has no "
+            "weight on its semi-implicit tension (rayleigh_p1 only); remove it"
+        )
+    if formulation not in ("rayleigh_p1", "rayleigh_p2"):
+        raise SceneError(
+            f"{where}: numerics.formulation = {formulation} cannot be cut yet; use rayleigh_p1 or rayleigh_p2"
+        )
     if data["mesh"]["motion"] not in ("normal", "lagrangian"):
         raise SceneError(f"{where}: mesh.motion = {data['mesh']['motion']} is not split by body; use normal")
     if "fluids" in data["effects"]:

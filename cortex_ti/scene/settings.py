@@ -59,6 +59,7 @@ class RemeshSettings:
     coarser: float | None = None
     settle_steps: int = 0  # pseudo-steps settling the new mesh into its discrete equilibrium (0: off)
     settle_dt: float = 1e-3  # their length (t_a)
+    mirror: bool = False  # remesh one half and reflect it (the pattern axis' plane through the centroid)
 
     def sized(self, mean_edge: float, n_nodes: int) -> RemeshOptions:
         """:attr:`options` with the size defaults of a run resolved against its initial mesh (mean
@@ -442,4 +443,5 @@ def _remesh_settings(data: dict) -> RemeshSettings | None:
         coarser=opt("coarser"),
         settle_steps=int(data["settle_steps"]),
         settle_dt=float(data["settle_dt"]),
+        mirror=bool(data.get("mirror", False)),
     )

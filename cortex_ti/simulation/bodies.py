@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,8 +35,11 @@ from ..dynamics.state import State
 from ..physics.patterns import evaluate_active_stress
 from ..solve.constrained import ConstrainedSolver
 from ..solve.system import SolveInfo
+from ..surface import curved_remesh
+from ..surface.curved import midpoint_mask
+from ..surface.curved_division import cut_curved
 from ..surface.division import body_labels, cut_at_plane, face_labels, remesh_bodies
-from ..surface.fits import StencilChooser
+from ..surface.fits import FIT_SCHEMES, StencilChooser
 from ..surface.measures import area_centroid, enclosed_volume
 from ..surface.mesh import Mesh
 from ..surface.topology import build_topology
@@ -97,12 +101,17 @@ def split_bodies(sim: Simulation, mesh: Mesh) -> list[Body] | None:
         local[nodes] = np.arange(nodes.size)
         sub = Mesh(mesh.points[nodes], local[mesh.faces[flab == b]])
         topology = build_topology(sub)
+        apart = (
+            midpoint_mask(sub.faces, nodes.size)
+            if sim.curved and FIT_SCHEMES[sim.settings.numerics.fit].order >= 4
+            else None
+        )
         out.append(
             Body(
                 nodes,
                 sub.faces,
                 topology,
-                StencilChooser(topology, sim.settings.numerics.fit),
+                StencilChooser(topology, sim.settings.numerics.fit, apart, sub.points),
                 ConstrainedSolver(s.backend, reuse=s.reuse, rtol=s.rtol, refine=s.refine),
             )
         )
@@ -184,17 +193,20 @@ def divide_due(sim: Simulation, state: State, t: float) -> State | None:
         return None
     points, faces = state.points, state.faces
     p0 = area_centroid(points, faces) + height * axis
-    s = (points - p0) @ axis
-    e = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    # the band: the mean length of the edges across the plane (of the curved cells' corner mesh)
+    x, f = curved_remesh.corner_mesh(points, faces) if sim.curved else (points, faces)
+    s = (x - p0) @ axis
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
     crossing = e[(s[e[:, 0]] >= 0.0) != (s[e[:, 1]] >= 0.0)]
-    band = float(np.linalg.norm(points[crossing[:, 0]] - points[crossing[:, 1]], axis=1).mean())
+    band = float(np.linalg.norm(x[crossing[:, 0]] - x[crossing[:, 1]], axis=1).mean())
     kinds = {spec.name: spec.kind for spec in sim.fields}
-    volume = enclosed_volume(points, faces)
+    volume = curved_remesh.curved_volume(points, faces) if sim.curved else enclosed_volume(points, faces)
     rem = sim.settings.mesh.remesh
     # the daughters are settled (Simulation._settle) against no flow: the flow before the cut (a closing
     # neck) has no counterpart on the caps, and what the settling removes is the mesh-scale transient
     flow = np.zeros_like(points) if rem.settle_steps > 0 else None
-    res = cut_at_plane(points, faces, p0, axis, band, dict(state.fields), kinds, sim.remesh_policy.options)
+    how = cut_curved if sim.curved else cut_at_plane
+    res = how(points, faces, p0, axis, band, dict(state.fields), kinds, sim.remesh_policy.options)
     after = sim.remesh_policy.judge(res.points, res.faces)
     cut = Cut(float(t), float(radius), float(volume), tuple(res.volumes), res.amounts)
     sim.cuts.append(cut)
@@ -238,8 +250,9 @@ def dissolved_tension(patterns, points: np.ndarray) -> np.ndarray:
 
 def remesh_by_body(sim: Simulation):
     """The remeshing of a mesh of several bodies: :func:`cortex_ti.surface.division.remesh_bodies`
-    (each body on its own, its own volume restored and each density's amount on it kept)."""
-    return remesh_bodies
+    (each body on its own, its own volume restored and each density's amount on it kept; curved
+    cells by :func:`~cortex_ti.surface.curved_remesh.remesh_curved`)."""
+    return partial(remesh_bodies, method=curved_remesh.remesh_curved) if sim.curved else remesh_bodies
 
 
 #: the most bodies a trajectory holds (one cut per run: the size of its ``body`` dimension)
@@ -261,9 +274,9 @@ BODY_VARIABLES = {
 }
 
 
-def body_diagnostics(points: np.ndarray, faces: np.ndarray, pressure: float, body_pressure) -> dict:
+def body_diagnostics(points: np.ndarray, faces: np.ndarray, pressure: float, body_pressure, curved=False) -> dict:
     """The values of :data:`BODY_VARIABLES` for one frame (the bodies in the order of
-    :func:`~cortex_ti.surface.division.body_labels`)."""
+    :func:`~cortex_ti.surface.division.body_labels`; ``curved``: the volumes the curved cells')."""
     from ..surface.measures import surface_area
 
     n, labels = body_labels(faces, len(points))
@@ -277,7 +290,7 @@ def body_diagnostics(points: np.ndarray, faces: np.ndarray, pressure: float, bod
     }
     for b in range(min(n, MAX_BODIES)):
         f = faces[flab == b]
-        out["body_volume"][b] = enclosed_volume(points, f)
+        out["body_volume"][b] = curved_remesh.curved_volume(points, f) if curved else enclosed_volume(points, f)
         out["body_area"][b] = surface_area(points, f)
         out["body_centroid"][b] = area_centroid(points, f)
         out["body_pressure"][b] = pressure if body_pressure is None else body_pressure[b]

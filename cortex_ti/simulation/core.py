@@ -15,6 +15,7 @@ import logging
 import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -175,6 +176,8 @@ class Simulation:
             zeta = tension_of(state.fields, state.n_nodes, self.settings)
             flow = self.solve(state.points, rem.settle_dt, zeta).velocity
         how = curved_remesh.remesh_curved if self.curved else remesh
+        if self.curved and rem.mirror:  # one half remeshed and reflected (cortex_ti.surface.mirror)
+            how = partial(curved_remesh.remesh_curved, mirror=self.settings.pattern_axis)
         if self.bodies is not None:  # each body remeshed on its own, its own volume restored
             how = remesh_by_body(self)
         res = how(state.points, state.faces, dict(state.fields), kinds, policy.options)
@@ -222,7 +225,7 @@ class Simulation:
         if count == 0:
             return None
         faces = state.faces
-        points, _ = curved_remesh.restore_curved_volume(points, faces, curved_remesh.curved_volume(state.points, faces))
+        points = self._restore_curved(points, faces, state)
         fields = dict(state.fields)
         before, after = curved_remesh.curved_masses(state.points, faces), curved_remesh.curved_masses(points, faces)
         for spec in self.fields:
@@ -233,6 +236,16 @@ class Simulation:
         self.use_mesh(points, faces)
         self.segment += 1
         return State(self.mesh.points, fields, self.mesh.faces)
+
+    def _restore_curved(self, x, faces, state: State, volumes=None) -> np.ndarray:
+        """``x`` offset so that its curved cells enclose ``state``'s volume (after a cut each body its
+        own: ``volumes``, or the bodies' of ``state``)."""
+        if self.bodies is None:
+            return curved_remesh.restore_curved_volume(
+                x, faces, curved_remesh.curved_volume(state.points, state.faces)
+            )[0]
+        volumes = volumes or body_volumes(state.points, state.faces, curved_remesh.curved_volume)
+        return restore_body_volumes(x, faces, volumes, curved_remesh.restore_curved_volume)
 
     def _settle(self, state: State, flow, points, faces, fields, kinds, rem, volumes=None):
         """Settle a remeshed surface into its own mesh's discrete equilibrium (``mesh.remesh.settle_steps``).
@@ -273,9 +286,9 @@ class Simulation:
                 break
             last, taken = largest, k + 1
             x = x + rem.settle_dt * excess[:, None] * sol.normal
-        if self.curved:  # the curved cells' volume and the densities' totals over them
+        if self.curved:  # the curved cells' volume (each body's) and the densities' totals over them
             x, _ = curved_remesh.unfold(x, faces)  # the settling may fold a cell across a crease again
-            x, _ = curved_remesh.restore_curved_volume(x, faces, curved_remesh.curved_volume(state.points, state.faces))
+            x = self._restore_curved(x, faces, state, volumes)
             before, after = curved_remesh.curved_masses(points, faces), curved_remesh.curved_masses(x, faces)
         elif self.bodies is not None:  # each daughter its own volume (the bodies keep their order)
             x = restore_body_volumes(x, faces, volumes or body_volumes(state.points, state.faces))

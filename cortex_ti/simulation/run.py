@@ -281,7 +281,7 @@ class FileHooks(RunHooks):
         if self.curved:  # the volume, area and radii of the curved cells, not of their flat vertex view
             diag.update(curved_measures(ev.points, sim.mesh.faces, axis=self.axis))
         if self.division:
-            diag.update(body_diagnostics(ev.points, sim.mesh.faces, ev.pressure, ev.solution.body_pressure))
+            diag.update(body_diagnostics(ev.points, sim.mesh.faces, ev.pressure, ev.solution.body_pressure, sim.curved))
         if self.stop_neck is not None or self.division:
             radius = neck_radius(ev.points, sim.mesh.faces, axis=self.axis)[0] if sim.bodies is None else np.nan
             self.neck, self.neck_t = (radius if np.isfinite(radius) else np.inf), t

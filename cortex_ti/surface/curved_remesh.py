@@ -33,6 +33,7 @@ import numpy as np
 
 from .closest import closest_points
 from .curved import CELL_EDGES, p2_cells, p2_shape, triangle_rule
+from .measures import area_centroid
 from .mesh import split_faces
 from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, offset_to_volume, triangulate
 from .transport import DENSITY
@@ -259,13 +260,16 @@ def remesh_curved(
     volume: float | None = None,
     placement: str = "curved",
     restore: bool = True,
+    mirror=None,
 ) -> RemeshResult:
     """A new split mesh of the curved surface ``(points, faces)`` with its fields (module docstring).
 
     ``options``: the run's (lengths and budget of the velocity nodes; :func:`corner_options` turns
     them into the corner mesh's); ``volume``: the volume to restore (None: the curved cells' own);
     ``kinds``: field name -> ``density`` or ``property``; ``placement``: ``curved`` or ``flat``;
-    ``restore``: False leaves the volume as the placement made it (``offset`` 0)."""
+    ``restore``: False leaves the volume as the placement made it (``offset`` 0); ``mirror``: an axis
+    (3,): the corner mesh made mirror-symmetric about the plane through the cells' area centroid
+    perpendicular to it (:func:`cortex_ti.surface.mirror.mirror_triangulate`)."""
     if placement not in PLACEMENTS:
         raise ValueError(f"placement must be one of {PLACEMENTS}, not {placement!r}")
     points = np.ascontiguousarray(points, dtype=np.float64)
@@ -275,7 +279,15 @@ def remesh_curved(
     # the size field's curvature from the split mesh (its edges are half the corner mesh's: a deep
     # neck's meridian, ~80 / R0 at amplitude 12, is smoothed away by the corner mesh's own estimate)
     kappa = edge_curvature(points, faces)[corner_ids]
-    new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
+    if mirror is None:
+        new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
+    else:
+        from .mirror import mirror_triangulate
+
+        p0 = area_centroid(points, faces)
+        new = mirror_triangulate(
+            corners, corner_faces, p0, mirror, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD
+        )
     edges, split = split_faces(new.faces, len(new.points))
     new_faces = np.ascontiguousarray(split, dtype=np.int32)
     if placement == "curved":
@@ -290,6 +302,11 @@ def remesh_curved(
         tri_m, bary_m = closest_points(points, faces, mids)
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
+    if mirror is not None:  # a node on the plane stays there (cortex_ti.surface.mirror)
+        from .mirror import keep_on_plane
+
+        straight = np.vstack([new.points, 0.5 * (new.points[edges[:, 0]] + new.points[edges[:, 1]])])
+        nodes = keep_on_plane(nodes, straight, area_centroid(points, faces), mirror)
     nodes, _ = unfold(nodes, new_faces)
     nodes, delta = restore_curved_volume(nodes, new_faces, target) if restore else (nodes, 0.0)
     out, kinds = {}, dict(kinds or {})

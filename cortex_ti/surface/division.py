@@ -60,6 +60,9 @@ __all__ = [
     "side_volumes",
     "CutResult",
     "cut_at_plane",
+    "cut_inputs",
+    "side_amounts",
+    "side_surface",
 ]
 
 
@@ -173,12 +176,29 @@ class CutResult:
     amounts: dict
     min_angle: float
 
+    @classmethod
+    def joined(cls, points, faces, labels, parts, volumes, amounts, smallest) -> CutResult:
+        """The result from the two sides' lists (points, triangles already offset, labels, each
+        field's values)."""
+        return cls(
+            np.vstack(points),
+            np.ascontiguousarray(np.vstack(faces), dtype=np.int32),
+            {name: np.concatenate(v) for name, v in parts.items()},
+            np.concatenate(labels),
+            volumes,
+            amounts,
+            smallest,
+        )
 
-def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+
+def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The part ``t >= 0`` of a triangulated surface (``t`` (N,) an affine function of the points,
     a signed distance), the triangles across ``t = 0`` cut there: ``(points, faces)`` with only the
-    nodes used, the new nodes on the cut edges shared by the triangles on both sides of each edge."""
-    t = np.where(np.abs(t) < 1e-12, 1e-12, t)  # no node exactly on the cut
+    nodes used, the new nodes on the cut edges shared by the triangles on both sides of each edge.
+    ``exact``: a node with ``t = 0`` lies on the cut (no new node on its edges; a triangle whose only
+    nodes at ``t >= 0`` are on the cut is dropped); else such a node counts as just inside."""
+    if not exact:
+        t = np.where(np.abs(t) < 1e-12, 1e-12, t)  # no node exactly on the cut
     inside = t >= 0.0
     new_points = [p for p in points]
     on_edge: dict = {}
@@ -198,7 +218,7 @@ def _clip(points: np.ndarray, faces: np.ndarray, t: np.ndarray) -> tuple[np.ndar
             i, j = int(tri[k]), int(tri[(k + 1) % 3])
             if inside[i]:
                 poly.append(i)
-            if inside[i] != inside[j]:
+            if t[i] * t[j] < 0.0:
                 poly.append(cross(i, j))
         out += [np.array([[poly[0], poly[k], poly[k + 1]]]) for k in range(1, len(poly) - 1)]
     f = np.concatenate(out).astype(np.int64)
@@ -286,43 +306,22 @@ def cut_at_plane(
     daughters are remeshed (a node budget is shared by the sides' areas). The daughter on the
     ``axis``' negative side is body 0. Raises :class:`~cortex_ti.errors.CortexError` when the plane
     does not split the surface into two pieces each with one boundary loop."""
-    options = options or RemeshOptions()
-    points = np.ascontiguousarray(points, dtype=float)
-    faces = np.ascontiguousarray(faces, dtype=np.int64)
-    fields, kinds = dict(fields or {}), dict(kinds or {})
-    a = np.asarray(axis, dtype=float)
-    a = a / np.linalg.norm(a)
-    s = (points - np.asarray(p0, dtype=float)) @ a
-    if not (np.any(s < -band) and np.any(s > band)):
-        raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
+    points, faces, p0, a, s, fields, kinds, options = cut_inputs(points, faces, p0, axis, band, fields, kinds, options)
     volumes = side_volumes(points, faces, p0, a)
     area = dual_areas(points, faces)
     plus_node = s >= 0.0
-    amounts = {
-        name: (float(np.dot(v[~plus_node], area[~plus_node])), float(np.dot(v[plus_node], area[plus_node])))
-        for name, v in fields.items()
-        if kinds.get(name) == DENSITY
-    }
+    amounts = side_amounts(fields, kinds, area, plus_node)
     face_side = s[faces].mean(axis=1) >= 0.0
     share = np.array([area[~plus_node].sum(), area[plus_node].sum()]) / area.sum()
     out_p, out_f, out_lab, parts = [], [], [], {name: [] for name in fields}
     offset, smallest = 0, math.inf
     for side in (0, 1):
-        sign = 1.0 if side else -1.0
-        sub_points, sub = _clip(points, faces, sign * s - band)  # the side beyond the band, cut flat
-        if body_labels(sub, len(sub_points))[0] != 1:
-            raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
-        outward = a if side == 0 else -a
-        p, f, rim = _cap(sub, sub_points)
         opts = (
             options
             if options.nodes is None
             else replace(options, nodes=max(int(round(options.nodes * share[side])), 12))
         )
-        flat = triangulate(p, f.astype(np.int32), replace(opts, min_angle=None))  # the cap made of small triangles
-        plane = float(sub_points[rim[0]] @ outward)
-        domed = _dome(flat.points, sub_points[rim], outward, plane)  # then raised into a dome
-        new = triangulate(domed, flat.faces, opts)  # and the whole remeshed to the usual quality
+        new = side_surface(points, faces, s, band, side, a, opts)
         new_points, _ = restore_volume(new.points, new.faces, volumes[side])
         old_faces = faces[face_side == bool(side)]  # the old surface on this side, band included
         moved = transfer_fields(points, old_faces, fields, {}, new_points, new.faces)
@@ -337,15 +336,50 @@ def cut_at_plane(
         out_f.append(new.faces.astype(np.int64) + offset)
         out_lab.append(np.full(len(new_points), side, dtype=np.int64))
         offset += len(new_points)
-    return CutResult(
-        np.vstack(out_p),
-        np.ascontiguousarray(np.vstack(out_f), dtype=np.int32),
-        {name: np.concatenate(v) for name, v in parts.items()},
-        np.concatenate(out_lab),
-        volumes,
-        amounts,
-        smallest,
-    )
+    return CutResult.joined(out_p, out_f, out_lab, parts, volumes, amounts, smallest)
+
+
+def cut_inputs(points, faces, p0, axis, band: float, fields, kinds, options):
+    """The arguments of a cut as arrays (``points``, ``faces``, ``p0``, the unit axis, the nodes'
+    signed distances ``s`` from the plane, the fields and kinds, the options); a plane with no node
+    beyond ``band`` on one side is refused (:class:`~cortex_ti.errors.CortexError`)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    points = np.ascontiguousarray(points, dtype=float)
+    p0 = np.asarray(p0, dtype=float)
+    s = (points - p0) @ a
+    if not (np.any(s < -band) and np.any(s > band)):
+        raise CortexError("the cut plane leaves nothing on one side: there is no neck to cut there")
+    faces = np.ascontiguousarray(faces, dtype=np.int64)
+    return points, faces, p0, a, s, dict(fields or {}), dict(kinds or {}), options or RemeshOptions()
+
+
+def side_amounts(fields: dict, kinds: dict, weights: np.ndarray, plus: np.ndarray) -> dict:
+    """Each density's amounts ``(sum over s < 0, sum over s >= 0)`` of ``c_i w_i`` (``plus``: the nodes
+    with ``s >= 0``; ``weights``: dual areas, or the curved cells' ``int N_i dA``)."""
+    return {
+        name: (float(np.dot(v[~plus], weights[~plus])), float(np.dot(v[plus], weights[plus])))
+        for name, v in fields.items()
+        if kinds.get(name) == DENSITY
+    }
+
+
+def side_surface(points, faces, s, band: float, side: int, axis, options: RemeshOptions):
+    """One side of the cut (:func:`cut_at_plane`, step 3): the surface ``(points, faces)`` beyond
+    ``band`` on side ``side`` (0: ``s < 0``, 1: ``s > 0``, ``s`` the nodes' signed distances from the
+    plane along the unit ``axis``), cut flat there, capped by a fan, the cap remeshed into small
+    triangles and raised into a dome, the whole remeshed to ``options``
+    (:func:`~cortex_ti.surface.remesh.triangulate`'s result)."""
+    sign = 1.0 if side else -1.0
+    sub_points, sub = _clip(points, np.asarray(faces, dtype=np.int64), sign * s - band)
+    if body_labels(sub, len(sub_points))[0] != 1:
+        raise CortexError("the cut plane meets the surface away from the neck: a side falls apart in pieces")
+    outward = axis if side == 0 else -axis
+    p, f, rim = _cap(sub, sub_points)
+    flat = triangulate(p, f.astype(np.int32), replace(options, min_angle=None))  # the cap made of small triangles
+    plane = float(sub_points[rim[0]] @ outward)
+    domed = _dome(flat.points, sub_points[rim], outward, plane)  # then raised into a dome
+    return triangulate(domed, flat.faces, options)  # and the whole remeshed to the usual quality
 
 
 def remesh_bodies(
@@ -354,10 +388,12 @@ def remesh_bodies(
     fields: dict | None = None,
     kinds: dict | None = None,
     options: RemeshOptions | None = None,
+    method=remesh,
 ) -> RemeshResult:
-    """:func:`~cortex_ti.surface.remesh.remesh` of each body of ``(points, faces)`` on its own: its
-    own enclosed volume restored, a density's amount on it kept, a node budget shared by the bodies'
-    areas; the bodies in the order of :func:`body_labels`."""
+    """:func:`~cortex_ti.surface.remesh.remesh` (or ``method``, with its arguments: the curved cells'
+    :func:`~cortex_ti.surface.curved_remesh.remesh_curved`) of each body of ``(points, faces)`` on its
+    own: its own enclosed volume restored, a density's amount on it kept, a node budget shared by the
+    bodies' areas; the bodies in the order of :func:`body_labels`."""
     options = options or RemeshOptions()
     fields, kinds = dict(fields or {}), dict(kinds or {})
     n, labels = body_labels(faces, len(points))
@@ -371,7 +407,7 @@ def remesh_bodies(
         local[nodes] = np.arange(nodes.size)
         share = float(area[nodes].sum() / area.sum())
         opts = options if options.nodes is None else replace(options, nodes=max(int(round(options.nodes * share)), 12))
-        res = remesh(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
+        res = method(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
         out_p.append(res.points)
         out_f.append(res.faces.astype(np.int64) + offset)
         for name in fields:
@@ -392,16 +428,20 @@ def remesh_bodies(
     )
 
 
-def body_volumes(points: np.ndarray, faces: np.ndarray) -> list[float]:
-    """The enclosed volume of each body (in the order of :func:`body_labels`)."""
+def body_volumes(points: np.ndarray, faces: np.ndarray, measure=enclosed_volume) -> list[float]:
+    """The enclosed volume of each body (in the order of :func:`body_labels`); ``measure(points,
+    faces)`` the volume of one (the curved cells':
+    :func:`~cortex_ti.surface.curved_remesh.curved_volume`)."""
     n, labels = body_labels(faces, len(points))
     flab = face_labels(faces, labels)
-    return [enclosed_volume(points, faces[flab == b]) for b in range(n)]
+    return [measure(points, faces[flab == b]) for b in range(n)]
 
 
-def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes) -> np.ndarray:
+def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes, restore=restore_volume) -> np.ndarray:
     """Each body's nodes offset along their normals so that it encloses its ``volumes[b]``
-    (:func:`~cortex_ti.surface.remesh.restore_volume` body by body)."""
+    (``restore(points, faces, volume) -> (points, offset)`` body by body: by default
+    :func:`~cortex_ti.surface.remesh.restore_volume`; the curved cells':
+    :func:`~cortex_ti.surface.curved_remesh.restore_curved_volume`)."""
     n, labels = body_labels(faces, len(points))
     flab = face_labels(faces, labels)
     out = np.array(points, dtype=float)
@@ -409,5 +449,5 @@ def restore_body_volumes(points: np.ndarray, faces: np.ndarray, volumes) -> np.n
         nodes = np.flatnonzero(labels == b)
         local = np.full(len(points), -1, dtype=np.int64)
         local[nodes] = np.arange(nodes.size)
-        out[nodes] = restore_volume(out[nodes], local[faces[flab == b]], volumes[b])[0]
+        out[nodes] = restore(out[nodes], local[faces[flab == b]], volumes[b])[0]
     return out
