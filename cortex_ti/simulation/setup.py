@@ -118,6 +118,46 @@ def initial_shape(mesh: Mesh, settings: RunSettings) -> Mesh:
     return affine(mesh, matrix)
 
 
+#: relative asymmetry of a field's initial values about the mirror plane that ``mesh.remesh.mirror`` refuses
+MIRROR_TOLERANCE = 1e-9
+
+
+def check_mirror_symmetric(mesh: Mesh, settings: RunSettings, values: dict[str, np.ndarray]) -> None:
+    """``mesh.remesh.mirror`` keeps the plane through the area centroid perpendicular to the pattern's axis a
+    plane of symmetry, so it refuses a start that is not symmetric about it: a field (the active tension,
+    the myosin) whose initial values at the nodes' mirror images differ from those at the nodes (by more
+    than :data:`MIRROR_TOLERANCE` of its largest value), random noise that is not mirrored, or an initial
+    map (``mesh.shear``, ``mesh.transform``) that does not commute with the reflection."""
+    from ..surface.measures import area_centroid
+
+    rem = settings.mesh.remesh
+    if rem is None or not getattr(rem, "mirror", False):
+        return
+    axis = np.asarray(settings.pattern_axis, dtype=float)
+    reflect = np.eye(3) - 2.0 * np.outer(axis, axis)
+    centre = area_centroid(mesh.points, mesh.faces)
+    said = "mesh.remesh.mirror = true keeps the plane perpendicular to the pattern axis a plane of symmetry"
+    matrix = settings.mesh.initial_map()
+    if matrix is not None and not np.allclose(matrix @ reflect, reflect @ matrix, rtol=0.0, atol=1e-12):
+        raise SceneError(f"{said}, but mesh.shear / mesh.transform deform the start asymmetrically: set mirror: false")
+    for spec in scene_fields(settings):
+        noise = (settings.field(spec.name) or {}).get("noise") or {}
+        if noise.get("amplitude", 0) > 0 and not noise.get("symmetric", False):
+            raise SceneError(
+                f"{said}, but fields.{spec.name}.noise is not mirrored: set its symmetric: true or mirror: false"
+            )
+    image = Mesh(centre + (mesh.points - centre) @ reflect, mesh.faces)
+    mirrored = initial_fields(image, settings)
+    for name, v in values.items():
+        scale = max(float(np.abs(v).max()), 1e-300)
+        gap = float(np.abs(mirrored[name] - v).max())
+        if gap > MIRROR_TOLERANCE * scale:
+            raise SceneError(
+                f"{said}, but the initial {name} is not symmetric about it ({gap:.2g} between a node and its mirror "
+                "image): set mesh.remesh.mirror: false"
+            )
+
+
 def field_moves(spec, settings: RunSettings) -> bool:
     """Whether a field changes in a step (carried, diluted, diffusing or turning over)."""
     return (
@@ -155,6 +195,7 @@ class SceneSetup:
         self.topology = build_topology(self.undeformed)
         # the fields are assigned on the undeformed mesh, then the mesh is deformed
         values = initial_fields(self.undeformed, settings)
+        check_mirror_symmetric(self.undeformed, settings, values)
         self.mesh = initial_shape(self.undeformed, settings)
         self.state0 = State(self.mesh.points, values, self.mesh.faces)
         self.fields = scene_fields(settings)

@@ -77,3 +77,35 @@ def test_the_mirrored_remeshing_is_one_closed_surface_of_good_cells(meshes):
     # up to 0.045 R0 onto the curved cells, 21.5 deg, as the whole remeshing's first pass can)
     corners, tri = corner_mesh(second.points, second.faces)
     assert float(min_angles(corners, tri).min()) > 25.0
+
+
+@pytest.mark.parametrize(
+    "extra, named",
+    [
+        (["mesh.shear=0.2"], "mesh.shear"),
+        (
+            [
+                "active_stress=[{type: ring, zeta0: 1, amplitude: 30, sigma: 10, p: 4, axis: [0, 0, 1]},"
+                " {type: harmonics, terms: [{l: 1, m: 0, coeff: 0.1}]}]"
+            ],
+            "tension",
+        ),
+        (["fields.myosin.initial.0.terms.0.l=3"], "myosin"),
+        (["fields.myosin.noise.amplitude=0.01", "fields.myosin.noise.symmetric=false"], "noise"),
+    ],
+)
+def test_mirror_refuses_a_start_that_is_not_symmetric(tmp_path, extra, named):
+    """``mesh.remesh.mirror`` would impose the plane's symmetry on a start that does not have it: a
+    tension with a polarity mode (Y_10), a myosin seed of odd degree, unmirrored noise, or a shear of the
+    start is refused in one line naming it, exit 2 and nothing written, by both doors."""
+    import cortex_ti as ct
+    from cortex_ti.cli import main
+    from cortex_ti.errors import SceneError
+
+    sets = ["mesh.nodes=642", *extra]
+    out = tmp_path / "m.h5"
+    assert main(["run", "cytokinesis_rigid", "-o", str(out), *sum((["--set", s] for s in sets), [])]) == 2
+    assert not out.exists() and not list(tmp_path.iterdir())
+    with pytest.raises(SceneError, match=named):
+        ct.run("cytokinesis_rigid", output=out, overrides=sets, threads=1)
+    assert not out.exists()
