@@ -10,7 +10,11 @@ Its *volume ratio* :func:`volume_ratio` is larger over smaller of the two sides 
 that has both (the daughters after a 3D cut, else the split at the neck's plane); a ratio above
 1 + :data:`SLIP_RATIO` counts as *slipping* (the furrow moved off the equator: the up-down lobe
 mode grew), else *symmetric*. The *late-time law* :func:`neck_law` fits neck = A (t_p - t)^a to the
-frames whose neck is below :data:`LAW_NECK` (t_p: the pinch time, past the last frame).
+frames whose neck is below :data:`LAW_NECK` (t_p: the pinch time, past the last frame). Beside them,
+for the axisymmetric runs, the up-down lobe mode's growth rate from the linearisation at the run's
+states (``lobe_rate``, :mod:`cortex_ti.axisymmetric.lobe`) and its integral :func:`lobe_growth` from a
+neck of 0.5 to the cut: a seed of the mode grows by exp(G) on the way, which decides whether a 3D
+furrow of the same ring slips.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ __all__ = [
     "volume_ratio",
     "neck_law",
     "closing_time",
+    "lobe_growth",
     "cytokinesis_figure",
     "cytokinesis_numbers",
 ]
@@ -142,6 +147,18 @@ def closing_time(ds: xr.Dataset, i: int) -> float:
     return float(r[-1] / abs(rate)) if rate else math.inf
 
 
+def lobe_growth(ds: xr.Dataset, i: int) -> tuple[float, float, float]:
+    """(the lobe rate at the first evaluated frame of neck <= 0.5, at the last frame, G = its trapezoid
+    integral over time between them); nan where run ``i`` has no rates (3D runs)."""
+    rate = _run(ds, i, "lobe_rate")
+    neck = _run(ds, i, "neck_radius")
+    k = np.flatnonzero(np.isfinite(rate) & (neck <= 0.5))
+    if k.size < 2:
+        return math.nan, math.nan, math.nan
+    t = ds["time"].values[k]
+    return float(rate[k[0]]), float(rate[k[-1]]), float(np.trapezoid(rate[k], t))
+
+
 def _name(ds: xr.Dataset, i: int) -> str:
     kind = "axisymmetric" if _axisymmetric(ds, i) else f"3D N={int(ds['nodes'].values[i])}"
     ratio, kappa = 1 + float(ds["zeta_hat"].values[i]), float(ds["bending"].values[i])
@@ -149,11 +166,11 @@ def _name(ds: xr.Dataset, i: int) -> str:
 
 
 def cytokinesis_figure(ds: xr.Dataset) -> Figure:
-    """Left: the neck radius against time (lines: axisymmetric; markers: 3D), the cut marked; middle:
-    the neck against the time to the fitted pinch t_p - t on log axes, with each fit's law; right: the
-    volume ratio of the two sides against time (1: symmetric)."""
-    fig = Figure(figsize=(15, 3.8), layout="constrained")
-    a0, a1, a2 = fig.subplots(1, 3)
+    """The neck radius against time (lines: axisymmetric; markers: 3D), the cut marked; the neck
+    against the time to the fitted pinch t_p - t on log axes, with each fit's law; the volume ratio
+    of the two sides minus 1 against time; the lobe mode's growth rate against the neck."""
+    fig = Figure(figsize=(19, 3.8), layout="constrained")
+    a0, a1, a2, a3 = fig.subplots(1, 4)
     for i in range(ds.sizes["run"]):
         k = _frames(ds, i)
         t, r = ds["time"].values[k], _run(ds, i, "neck_radius")[k]
@@ -173,6 +190,9 @@ def cytokinesis_figure(ds: xr.Dataset) -> Figure:
         up, down = _run(ds, i, "volume_upper")[k], _run(ds, i, "volume_lower")[k]
         ratio = np.maximum(up, down) / np.minimum(up, down)
         a2.semilogy(t, ratio - 1.0, fmt, ms=3, mfc="none", color=style["color"])
+        lobe = _run(ds, i, "lobe_rate")[k]
+        if np.isfinite(lobe).any():
+            a3.plot(r[np.isfinite(lobe)], lobe[np.isfinite(lobe)], "-o", ms=3, color=style["color"])
     a0.set_xlabel(r"$t / t_a$")
     a0.set_ylabel(r"neck radius / $R_0$")
     a0.legend(fontsize=6)
@@ -181,7 +201,16 @@ def cytokinesis_figure(ds: xr.Dataset) -> Figure:
     a2.axhline(SLIP_RATIO, color="0.5", lw=0.8, ls="--")
     a2.set_xlabel(r"$t / t_a$")
     a2.set_ylabel("volume ratio of the two sides - 1")
+    a3.set_xlabel(r"neck radius / $R_0$")
+    a3.set_ylabel(r"lobe mode's growth rate / $t_a^{-1}$ (axisymmetric)")
+    a3.invert_xaxis()
     return fig
+
+
+def _law(a: float, tp: float) -> str:
+    if not a < 0.999 * _A_MAX:  # nan, or at the bound: the neck slows like an exponential approach
+        return "no finite-time pinch (fit at its bound)" if a == a else "nan"
+    return f"{a:.3f}, t_p = {tp:.4g}"
 
 
 def cytokinesis_numbers(stores) -> pd.DataFrame:
@@ -201,8 +230,9 @@ def cytokinesis_numbers(stores) -> pd.DataFrame:
                 "division": "complete" if divided(ds, i) else "failed",
                 "t to the cut": f"{cut_time(ds, i):.4g}",
                 "neck at the end": f"{_run(ds, i, 'neck_radius')[k][-1]:.4g}",
-                "late law a (neck ~ (t_p - t)^a)": f"{a:.3f}, t_p = {tp:.4g}" if a < _A_MAX else "no finite-time pinch",
+                "late law a (neck ~ (t_p - t)^a)": _law(a, tp),
                 "r / |dr/dt| at the cut": f"{closing_time(ds, i):.4g}",
+                "lobe rate at neck 0.5, at the end (1/t_a); G": "{:+.2f}, {:+.2f}; {:.2f}".format(*lobe_growth(ds, i)),
                 "volume ratio": f"{ratio:.6f}",
                 "furrow": "symmetric" if ratio <= 1.0 + SLIP_RATIO else ("slipping" if ratio == ratio else "n/a"),
             }

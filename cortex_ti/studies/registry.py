@@ -176,6 +176,7 @@ _STUDIES += (
             "n_bodies",
             "volume_upper",
             "volume_lower",
+            "lobe_rate",
             "min_angle_deg",
         ),
         optional=True,

@@ -105,7 +105,36 @@ def division_series(tr: Trajectory) -> dict[str, np.ndarray]:
         if np.isfinite(r):
             centre = area_centroid(pts, faces) + z * axis
             upper[k], lower[k] = volume_split(pts, faces, axis=axis, point=centre)
-    return {"n_bodies": bodies, "volume_upper": upper, "volume_lower": lower}
+    out = {"n_bodies": bodies, "volume_upper": upper, "volume_lower": lower}
+    if "axisymmetric_state" in ds and tr.settings.axisymmetric.points == "adaptive":
+        out["lobe_rate"] = lobe_series(tr)
+    return out
+
+
+#: the most frames of a run at which the study evaluates the lobe mode's rate (~0.1 CPU s each at n = 64)
+LOBE_FRAMES = 16
+
+
+def lobe_series(tr: Trajectory) -> np.ndarray:
+    """The up-down lobe mode's growth rate (:func:`cortex_ti.axisymmetric.lobe.lobe_rate`) at up to
+    :data:`LOBE_FRAMES` evenly spread frames of an axisymmetric run of adaptive points whose neck is
+    below 0.55 R0, and at its last frame (nan at the others)."""
+    from ..axisymmetric.lobe import lobe_rate  # the axisymmetric runs of the cytokinesis study only
+    from ..axisymmetric.rigidity import rigidity
+    from ..axisymmetric.run import axisymmetric_tension, viscosities
+
+    s = tr.settings
+    neck = np.asarray(tr.ds["neck_radius"].values, dtype=float)
+    deep = np.flatnonzero(np.isfinite(neck) & (neck <= 0.55))
+    out = np.full(neck.size, np.nan)
+    if not deep.size:
+        return out
+    pick = np.unique(np.r_[deep[:: max(1, -(-deep.size // LOBE_FRAMES))], deep[-1]])
+    zeta, kappa = axisymmetric_tension(s), rigidity(s).get("kappa", 0.0)
+    for k in pick:
+        state = tr.ds["axisymmetric_state"].values[k]
+        out[k] = lobe_rate(zeta, state, **viscosities(s), kappa=kappa, radius=s.mesh.radius)
+    return out
 
 
 _DIVISION_ATTRS = {
@@ -114,6 +143,13 @@ _DIVISION_ATTRS = {
         "units": "R0^3",
         "long_name": "volume on the upper side (along the pattern axis)",
         "description": "after a cut the upper daughter's; before it the one body's above its neck's plane",
+    },
+    "lobe_rate": {
+        "units": "1/t_a",
+        "long_name": "growth rate of the up-down lobe mode",
+        "description": "axisymmetric runs: the largest real eigenvalue of the modes odd under z -> -z of the "
+        "full-meridian linearisation at the frame's state (axisymmetric.lobe.lobe_rate); at up to 16 frames of "
+        "neck <= 0.55 and the last, nan at the others and in 3D",
     },
     "volume_lower": {
         "units": "R0^3",

@@ -37,6 +37,9 @@ def _store() -> xr.Dataset:
     neck[0, first] = A * (TP - T[first]) ** EXP
     neck[0, np.flatnonzero(first)[-1]] = CUT  # the run stops at its cut
     up[0, first], down[0, first] = 2.0, 2.0
+    lobe = np.full((4, n), nan)  # run 0's lobe rate 2 + 3 t at every 10th frame and the last
+    at = np.r_[np.flatnonzero(first)[::10], np.flatnonzero(first)[-1]]
+    lobe[0, at] = 2.0 + 3.0 * T[at]
     neck[1] = 0.3 + 0.7 * np.exp(-3.0 * T)
     up[1], down[1] = 2.0, 2.0
     two = T <= 2.0 + 1e-12
@@ -63,6 +66,7 @@ def _store() -> xr.Dataset:
             "volume": (("run", "time"), volume),
             "volume_upper": (("run", "time"), up),
             "volume_lower": (("run", "time"), down),
+            "lobe_rate": (("run", "time"), lobe),
         },
         coords={"time": T, "run": np.arange(4), **{k: ("run", np.asarray(v)) for k, v in runs.items()}},
     )
@@ -102,9 +106,17 @@ def test_late_law_recovers_the_exponent(store):
     assert math.isnan(c.neck_law(store, 3)[0])  # no frame below the law's neck
 
 
+def test_lobe_growth_integrates_the_rate(store):
+    """A rate linear in time: the trapezoid rule is exact, G = 2 T + 1.5 T^2 from t = 0 (neck 0.5)."""
+    first, last, g = c.lobe_growth(store, 0)
+    assert (first, last) == (2.0, pytest.approx(2.0 + 3.0 * T_CUT, rel=1e-14))
+    assert g == pytest.approx(2.0 * T_CUT + 1.5 * T_CUT**2, rel=1e-13)
+    assert math.isnan(c.lobe_growth(store, 2)[2])  # a 3D run has none
+
+
 def test_figure_draws(store):
     fig = c.cytokinesis_figure(store)
-    assert len(fig.axes) == 3
+    assert len(fig.axes) == 4
 
 
 def _cube():
