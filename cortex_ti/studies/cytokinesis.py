@@ -10,7 +10,10 @@ Its *volume ratio* :func:`volume_ratio` is larger over smaller of the two sides 
 that has both (the daughters after a 3D cut, else the split at the neck's plane); a ratio above
 1 + :data:`SLIP_RATIO` counts as *slipping* (the furrow moved off the equator: the up-down lobe
 mode grew), else *symmetric*. The *late-time law* :func:`neck_law` fits neck = A (t_p - t)^a to the
-frames whose neck is below :data:`LAW_NECK` (t_p: the pinch time, past the last frame). Beside them,
+frames whose neck is below :data:`LAW_NECK` (t_p: the pinch time, past the last frame), and the neck's
+rate d ln r / dt at the cut stands beside the rigidity-free law as r -> 0, -(1 + zeta_hat) / (2 eta_b)
+(docs/derivations/neck_late_time.md: an exponential closing, no finite-time pinch), which a neck of
+0.1 R0 has not reached yet. Beside them,
 for the axisymmetric runs, the up-down lobe mode's growth rate from the linearisation at the run's
 states (``lobe_rate``, :mod:`cortex_ti.axisymmetric.lobe`) and its integral :func:`lobe_growth` from a
 neck of 0.5 to the cut: a seed of the mode grows by exp(G) on the way, which decides whether a 3D
@@ -207,6 +210,12 @@ def cytokinesis_figure(ds: xr.Dataset) -> Figure:
     return fig
 
 
+def _asymptote(ds: xr.Dataset, i: int) -> float:
+    """The rigidity-free neck's rate as r -> 0, d ln r / dt = -(1 + zeta_hat) / (2 eta_b) with the
+    study's eta_b = 1 (docs/derivations/neck_late_time.md: exponential closing, no finite-time pinch)."""
+    return -(1.0 + float(ds["zeta_hat"].values[i])) / 2.0
+
+
 def _law(a: float, tp: float) -> str:
     if not a < 0.999 * _A_MAX:  # nan, or at the bound: the neck slows like an exponential approach
         return "no finite-time pinch (fit at its bound)" if a == a else "nan"
@@ -231,7 +240,7 @@ def cytokinesis_numbers(stores) -> pd.DataFrame:
                 "t to the cut": f"{cut_time(ds, i):.4g}",
                 "neck at the end": f"{_run(ds, i, 'neck_radius')[k][-1]:.4g}",
                 "late law a (neck ~ (t_p - t)^a)": _law(a, tp),
-                "r / |dr/dt| at the cut": f"{closing_time(ds, i):.4g}",
+                "d ln r / dt at the cut; r -> 0 law": f"{-1.0 / closing_time(ds, i):.3g}; {_asymptote(ds, i):.3g}",
                 "lobe rate at neck 0.5, at the end (1/t_a); G": "{:+.2f}, {:+.2f}; {:.2f}".format(*lobe_growth(ds, i)),
                 "volume ratio": f"{ratio:.6f}",
                 "furrow": "symmetric" if ratio <= 1.0 + SLIP_RATIO else ("slipping" if ratio == ratio else "n/a"),
