@@ -184,7 +184,7 @@ def cytokinesis_figure(ds: xr.Dataset) -> Figure:
         if math.isfinite(tc):
             a0.axvline(tc, color=style["color"], lw=0.6, ls=":")
         a, amp, tp = neck_law(ds, i)
-        if math.isfinite(a):
+        if a < 0.999 * _A_MAX:  # a power law (not a fit at its bound)
             ok = np.isfinite(r) & (t < tp)
             a1.loglog(tp - t[ok], r[ok], fmt, ms=3, mfc="none", color=style["color"])
             s = np.geomspace(max(tp - t[ok][-1], 1e-4), tp - t[ok][0], 20)
@@ -192,6 +192,7 @@ def cytokinesis_figure(ds: xr.Dataset) -> Figure:
             a1.annotate(f"a = {a:.2f}", (s[0], amp * s[0] ** a), fontsize=6)
         up, down = _run(ds, i, "volume_upper")[k], _run(ds, i, "volume_lower")[k]
         ratio = np.maximum(up, down) / np.minimum(up, down)
+        ratio[r > 0.8] = np.nan  # a shallow furrow's first neck may be found off the equator
         a2.semilogy(t, ratio - 1.0, fmt, ms=3, mfc="none", color=style["color"])
         lobe = _run(ds, i, "lobe_rate")[k]
         if np.isfinite(lobe).any():
