@@ -40,6 +40,7 @@ from cortex_ti.axisymmetric.balance import ForceBalance, check_gauge, check_visc
 from cortex_ti.axisymmetric.division import cut, simulate_division  # noqa: E402
 from cortex_ti.axisymmetric.dynamics import Dynamics  # noqa: E402
 from cortex_ti.axisymmetric.evolve import StepFailed, simulate  # noqa: E402
+from cortex_ti.axisymmetric.lobe import lobe_rate as _lobe_rate  # noqa: E402
 from cortex_ti.axisymmetric.spectral import Spectral  # noqa: E402
 
 VISC = dict(eta_s=1.0, eta_b=1.0, eta_bar=0.0, eta_bar_b=0.0)
@@ -127,22 +128,8 @@ def section_neck():
 
 
 def lobe_rate(res, y, kappa, A, n):
-    """Largest real part of the eigenvalues of the modes odd under z -> -z (the lobe mode) of the
-    full-meridian adaptive dynamics at the mirrored symmetric state ``y``."""
-    r, z, u = y[:n], y[n : 2 * n], y[2 * n : 3 * n]
-    yf = np.concatenate([r, r[::-1], z, -z[::-1], u, np.pi - u[::-1]])
-    sp = Spectral(2 * n, False)
-    ph = check_visc(**VISC, radius=1.0, kappa=kappa)
-    dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge("velocity")), ring(A), "adaptive")
-    w, V = np.linalg.eig(dyn.jac(0.0, yf))
-    m = 2 * n
-    R = np.zeros((3 * m, 3 * m))  # the reflection of a perturbation that keeps the state symmetric
-    idx = np.arange(m)
-    for blk, sign in ((0, 1.0), (1, -1.0), (2, -1.0)):
-        R[blk * m + idx, blk * m + idx[::-1]] = sign
-    odd = np.linalg.norm(R @ V + V, axis=0) < np.linalg.norm(R @ V - V, axis=0)
-    keep = odd & (np.abs(w) > 1e-6)
-    return float(w[keep].real.max()) if keep.any() else float("nan")
+    """The lobe mode's rate at the mirrored state ``y`` (cortex_ti.axisymmetric.lobe.lobe_rate)."""
+    return _lobe_rate(ring(A), y, **VISC, kappa=kappa)
 
 
 def section_map():

@@ -18,6 +18,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from .constriction import constriction_figure  # noqa: F401  (issue 18's figure, drawn by name)
+from .cytokinesis import cytokinesis_figure  # noqa: F401  (issue 35's figure, drawn by name)
 from .figures_cost import accuracy_cost_figure, cost_table_html, pareto_front
 from .figures_myosin import myosin_onset_figure, myosin_rates_figure, myosin_ring_figure
 from .figures_pictures import snapshots_figure, sphere_flows_figure

@@ -17,6 +17,7 @@ import xarray as xr
 
 from ..io.trajectory import Trajectory
 from .constriction import constriction_numbers
+from .cytokinesis import cytokinesis_numbers
 from .fluids import fluids_numbers
 from .registry import FIGURES
 
@@ -301,6 +302,7 @@ _NUMBERS = {
     "accuracy_cost_figure": _accuracy,
     "constriction_figure": constriction_numbers,
     "fluids_figure": fluids_numbers,
+    "cytokinesis_figure": cytokinesis_numbers,
 }
 
 

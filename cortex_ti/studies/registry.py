@@ -156,6 +156,33 @@ _STUDIES += (
     ),
 )
 
+# Issue 35: one cell becomes two (its own block, so other studies merge beside it).
+_STUDIES += (
+    Study(
+        "cytokinesis",
+        ("scene", "model", "zeta_hat", "bending", "remesh", "neck", "nodes", "save_every", "t_end"),
+        "One cell becomes two (issue 35): prescribed rings of strength zeta_hat with bending rigidity `bending` "
+        "closed to the cut at the neck radius `neck`, in 3D (scenes cytokinesis, cytokinesis_rigid: the cut and "
+        "the two daughters) and in the axisymmetric model (constriction_p4, constriction_rigid with the same ring: "
+        "the run stops at the cut). Per run: complete or failed division, the constriction time t_c, the neck "
+        "radius against time and the exponent a of neck ~ (t_c - t)^a near the cut, and the volume ratio of the "
+        "two sides (the daughters' bodies after a 3D cut; before it, the split at the neck's plane). The ring "
+        "sits on the equator: no scene takes a ring position yet.",
+        variables=(
+            "neck_radius",
+            "furrow_radius",
+            "pole_radius",
+            "volume",
+            "n_bodies",
+            "volume_upper",
+            "volume_lower",
+            "lobe_rate",
+            "min_angle_deg",
+        ),
+        optional=True,
+    ),
+)
+
 #: The studies by name (the config's sections of run records).
 STUDIES: dict[str, Study] = {s.name: s for s in _STUDIES}
 
@@ -382,6 +409,24 @@ _FIGURES += (
         "furrow, the vacuum's is the limit of large ell. Right: the speed of polarised_swimmer (the slope of its "
         "volume centroid over the second half of the run) against ell, with Lamb's speed of the sphere at "
         "t = 0 (docs/derivations/fluid_sphere.md). Store: ``results/aggregate/fluids.nc``.",
+    ),
+)
+
+# Issue 35: one cell becomes two.
+_FIGURES += (
+    FigureSpec(
+        "cytokinesis",
+        "store",
+        ("cytokinesis",),
+        "cytokinesis_figure",
+        "10. One cell becomes two",
+        "Not in the paper (issue 35): rings closed to a cut at the neck radius 0.1 R0, with and without bending "
+        "rigidity, in the axisymmetric model (lines; the run stops at its cut) and in 3D (markers; the cut and the "
+        "two daughters). Left: the neck radius against time, the cut dotted. Middle: the neck against the time to "
+        "the pinch t_p fitted with the late-time law neck = A (t_p - t)^a (dashed). Right: the volume ratio of the "
+        "two sides minus 1 (the daughters after a cut, before it the split at the neck's plane); above the dashed "
+        "1e-2 the furrow slips. The table puts the published rings (Turlier et al. 2014; 20:1 to a furrow of "
+        "0.06 R0; TraceFEM 10:1) beside ours. Store: ``results/aggregate/cytokinesis.nc``.",
     ),
 )
 

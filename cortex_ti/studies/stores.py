@@ -25,9 +25,10 @@ import xarray as xr
 from ..about import provenance
 from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, fold_radii, neck_radius
+from ..analysis.sections import volume_split
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
-from ..surface.measures import volume_centroid
+from ..surface.measures import area_centroid, volume_centroid
 from .registry import STUDIES
 from .sweeps import PATTERN_COLUMNS
 
@@ -79,6 +80,83 @@ def neck_series(tr: Trajectory) -> np.ndarray:
         return np.asarray(tr.ds["neck_radius"].values, dtype=float)
     axis = tr.settings.pattern_axis
     return np.array([neck_radius(*tr.mesh(k), axis=axis)[0] for k in range(tr.ds.sizes["time"])])
+
+
+def division_series(tr: Trajectory) -> dict[str, np.ndarray]:
+    """Per frame of a run toward a cut (the ``cytokinesis`` study): ``n_bodies`` (1 where the run
+    does not carry it), and ``volume_upper`` / ``volume_lower``, the volumes on either side along the
+    pattern axis: of the two bodies after a cut (ordered by their centroids), before it of the one
+    body on either side of its neck's plane (:func:`~cortex_ti.analysis.sections.volume_split`;
+    NaN while the shape has no neck)."""
+    ds = tr.ds
+    axis = np.asarray(tr.settings.pattern_axis, dtype=float)
+    axis = axis / np.linalg.norm(axis)
+    n_t = ds.sizes["time"]
+    bodies = ds["n_bodies"].values.astype(float) if "n_bodies" in ds else np.ones(n_t)
+    upper, lower = np.full(n_t, np.nan), np.full(n_t, np.nan)
+    for k in range(n_t):
+        if bodies[k] >= 2:
+            vol, cen = ds["body_volume"].values[k, :2], ds["body_centroid"].values[k, :2] @ axis
+            order = np.argsort(-cen)
+            upper[k], lower[k] = vol[order[0]], vol[order[1]]
+            continue
+        pts, faces = tr.mesh(k)
+        r, z = neck_radius(pts, faces, axis=axis)
+        if np.isfinite(r):
+            centre = area_centroid(pts, faces) + z * axis
+            upper[k], lower[k] = volume_split(pts, faces, axis=axis, point=centre)
+    out = {"n_bodies": bodies, "volume_upper": upper, "volume_lower": lower}
+    if "axisymmetric_state" in ds and tr.settings.axisymmetric.points == "adaptive":
+        out["lobe_rate"] = lobe_series(tr)
+    return out
+
+
+#: the most frames of a run at which the study evaluates the lobe mode's rate (~0.1 CPU s each at n = 64)
+LOBE_FRAMES = 16
+
+
+def lobe_series(tr: Trajectory) -> np.ndarray:
+    """The up-down lobe mode's growth rate (:func:`cortex_ti.axisymmetric.lobe.lobe_rate`) at up to
+    :data:`LOBE_FRAMES` evenly spread frames of an axisymmetric run of adaptive points whose neck is
+    below 0.55 R0, and at its last frame (nan at the others)."""
+    from ..axisymmetric.lobe import lobe_rate  # the axisymmetric runs of the cytokinesis study only
+    from ..axisymmetric.rigidity import rigidity
+    from ..axisymmetric.run import axisymmetric_tension, viscosities
+
+    s = tr.settings
+    neck = np.asarray(tr.ds["neck_radius"].values, dtype=float)
+    deep = np.flatnonzero(np.isfinite(neck) & (neck <= 0.55))
+    out = np.full(neck.size, np.nan)
+    if not deep.size:
+        return out
+    pick = np.unique(np.r_[deep[:: max(1, -(-deep.size // LOBE_FRAMES))], deep[-1]])
+    zeta, kappa = axisymmetric_tension(s), rigidity(s).get("kappa", 0.0)
+    for k in pick:
+        state = tr.ds["axisymmetric_state"].values[k]
+        out[k] = lobe_rate(zeta, state, **viscosities(s), kappa=kappa, radius=s.mesh.radius)
+    return out
+
+
+_DIVISION_ATTRS = {
+    "n_bodies": {"units": "1", "long_name": "number of bodies (closed surfaces) of the frame"},
+    "volume_upper": {
+        "units": "R0^3",
+        "long_name": "volume on the upper side (along the pattern axis)",
+        "description": "after a cut the upper daughter's; before it the one body's above its neck's plane",
+    },
+    "lobe_rate": {
+        "units": "1/t_a",
+        "long_name": "growth rate of the up-down lobe mode",
+        "description": "axisymmetric runs: the largest real eigenvalue of the modes odd under z -> -z of the "
+        "full-meridian linearisation at the frame's state (axisymmetric.lobe.lobe_rate); at up to 16 frames of "
+        "neck <= 0.55 and the last, nan at the others and in 3D",
+    },
+    "volume_lower": {
+        "units": "R0^3",
+        "long_name": "volume on the lower side",
+        "description": "after a cut the lower daughter's; before it the one body's below its neck's plane",
+    },
+}
 
 
 def centroid_series(tr: Trajectory) -> np.ndarray:
@@ -177,7 +255,10 @@ def study_dataset(study: str, rows: Sequence[Mapping], paths: Sequence) -> xr.Da
             if study == "fluids":
                 data["centroid_axial"] = centroid_series(tr)
                 attrs.update(_CENTROID_ATTRS)
-            if study == "constriction" and "neck_radius" not in data:
+            if study == "cytokinesis":
+                data.update(division_series(tr))
+                attrs.update(_DIVISION_ATTRS)
+            if study in ("constriction", "cytokinesis") and "neck_radius" not in data:
                 data["neck_radius"] = neck_series(tr)
                 attrs.update(NECK_ATTRS)
             if "volume" in data:

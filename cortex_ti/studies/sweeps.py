@@ -47,6 +47,9 @@ myosin_gamma ``fields.myosin.tension.gamma``    slope of the linear tension law 
 turnover     ``fields.myosin.turnover``         turnover rate k of the myosin, 1/t_a
 bending      ``rigidity.bending``               bending rigidity kappa, eta_s R0^2/t_a (the
                                                 scene must have the effect bending_rigidity)
+neck         ``division.neck_radius``           the neck radius of the cut (R0; null: no cut;
+                                                the axisymmetric model stops there)
+save_every   ``time.save_every``                interval between frames, t_a
 ===========  =================================  =====================================
 """
 
@@ -101,6 +104,8 @@ PARAMETERS: dict[str, str] = {
     "bending": "rigidity.bending",
     "inner": "fluid.inner",
     "outer": "fluid.outer",
+    "neck": "division.neck_radius",
+    "save_every": "time.save_every",
 }
 
 #: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
@@ -163,6 +168,8 @@ def _settings_value(settings, column: str):
         return settings.model
     if column == "bending":  # 0 without the effect bending_rigidity
         return settings.rigidity.bending
+    if column == "neck":  # null without a cut
+        return settings.division_neck
     if column == "remesh":
         return None if settings.mesh.remesh is None else settings.mesh.remesh.min_angle
     if column in ("inner", "outer"):  # null without the effect fluids
@@ -189,6 +196,7 @@ def _settings_value(settings, column: str):
         "tol": ("time", "tol"),
         "dt_max": ("time", "dt_max"),
         "t_end": ("time", "t_end"),
+        "save_every": ("time", "save_every"),
         "gamma": ("mesh", "shear"),
         "bending_form": ("axisymmetric", "bending_form"),
     }[column]

@@ -48,7 +48,7 @@ def test_dry_run_reaches_every_store_and_figure(tmp_path, configfile):
     n_static = len(config["static"]["scenes"]) * len(config["static"]["nodes"]) * n_methods
     n_dynamic = sum(
         len(expand_runs(s, config[s]["runs"]))
-        for s in ("furrow", "fold", "reorientation", "constriction", "self_organisation", "fluids")
+        for s in ("furrow", "fold", "reorientation", "constriction", "self_organisation", "fluids", "cytokinesis")
         if s in config
     )
     n_accuracy = len(expand_runs("accuracy", config["accuracy"]["runs"]))
