@@ -115,6 +115,7 @@ class FmmFluid:
         eps: float = FMM_EPS,
         backend: str = "fmm",
         lump: float | None = None,
+        mu_in: float | None = None,
         **quadrature,
     ):
         self.backend = backend
@@ -147,6 +148,12 @@ class FmmFluid:
         radius = math.sqrt(area.sum() / (4.0 * math.pi))
         self._c = area.mean() * radius / float(self._w @ self._w)  # the dense path's completion
         self.far = None if far is None else np.asarray(far, float).ravel()
+        self.mu_in = self.mu if mu_in is None else float(mu_in)
+        self.double = None  # a viscosity contrast: the double layer (:mod:`.fluids_double`)
+        if self.mu_in != self.mu:
+            from .fluids_double import DoubleLayer
+
+            self.double = DoubleLayer(x, faces, **quadrature)
         self.n_fmm = 0
         self.fmm_seconds = 0.0
         self.build_seconds = time.perf_counter() - t0
@@ -159,6 +166,21 @@ class FmmFluid:
     @property
     def n_unknowns(self) -> int:
         return self.areas3.size
+
+    def mix(self, v: np.ndarray) -> np.ndarray:
+        """``M v / mu_out``, ``M = mu_out (1/2 + Kd) + mu_in (1/2 - Kd)`` (``v`` itself for equal
+        viscosities): the coupled solve's traction row is ``V' f = A (M v / mu_out - u_inf)``."""
+        if self.double is None:
+            return v
+        mean = 0.5 * (self.mu_in + self.mu) / self.mu
+        return mean * v + ((self.mu - self.mu_in) / self.mu) * self.double.apply(v)
+
+    @property
+    def mix_diagonal(self) -> np.ndarray | float:
+        """The diagonal of ``M / mu_out`` (the preconditioner's local part of it; 1 for equal viscosities)."""
+        if self.double is None:
+            return 1.0
+        return 0.5 * (self.mu_in + self.mu) / self.mu + ((self.mu - self.mu_in) / self.mu) * self.double.diagonal
 
     def single(self, f: np.ndarray) -> np.ndarray:
         """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = C_far + C_near``: the far
@@ -206,14 +228,14 @@ class FmmFluid:
         return u.ravel() / (8.0 * math.pi), t / (8.0 * math.pi)
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
-        """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
+        """``D v = mu A V'^-1 A M v / mu`` by a Krylov solve (diagnostics only: the runs never call it)."""
         import scipy.sparse.linalg as spla
 
         n3 = self.n_unknowns
         op = spla.LinearOperator((n3, n3), matvec=self.single)
         lu = spla.splu(self.local + sp.diags(np.full(n3, 1e-300)))
         pre = spla.LinearOperator((n3, n3), matvec=lu.solve)
-        f, info = spla.gmres(op, self.areas3 * v, M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=10)
+        f, info = spla.gmres(op, self.areas3 * self.mix(v), M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=10)
         if info != 0:
             raise SolverError(f"the fluids' single layer did not converge (GMRES info {info})")
         return self.mu * self.areas3 * f
@@ -278,11 +300,11 @@ def lumped_corrections(
 
 
 def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, backend="fmm", **kw) -> FmmFluid:
-    """:class:`FmmFluid` for equal viscosities; a viscosity contrast (the double layer) is the dense
-    path's only (the scene rules refuse it with ``fluid.solver: fmm``)."""
-    if mu_in != mu_out:
+    """:class:`FmmFluid`; a viscosity contrast (the double layer, :mod:`.fluids_double`) with the
+    ``direct`` backend only (the scene rules refuse it with ``fluid.solver: fmm``)."""
+    if mu_in != mu_out and backend == "fmm":
         raise SolverError(
-            f"fluid.solver = {backend} with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the matrix-free path "
-            "has the single layer only (equal viscosities); use fluid.solver: dense"
+            f"fluid.solver = fmm with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the FMM path "
+            "has the single layer only (equal viscosities); use fluid.solver: direct or dense"
         )
-    return FmmFluid(points, faces, normals, mu_out, far=far, backend=backend, **kw)
+    return FmmFluid(points, faces, normals, mu_out, far=far, backend=backend, mu_in=mu_in, **kw)

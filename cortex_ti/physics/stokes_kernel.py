@@ -129,3 +129,35 @@ def near_blocks(
             for a in ti.static(range(3)):
                 for c in ti.static(range(3)):
                     out[slot[p, k], 3 * a + c] += acc[a, 3 * m + c]
+
+
+@kernel
+def stresslet_sums(x: f64_2, y: f64_2, m: f64_2, q: f64_2, u: f64_2):
+    """``u_i = sum_k r (r . m_k)(r . q_k) / |r|^5``, ``r = y_k - x_i``, at the targets ``x`` (N, 3) over
+    the sources ``y`` (M, 3) with the normal weights ``m`` and the densities ``q`` (M, 3): the double
+    layer's raw far field (:mod:`.fluids_double`; no ``3 / 4 pi``), a source on a target skipped."""
+    n = x.shape[0]
+    for blk in range((n + _BLOCK - 1) // _BLOCK):
+        at = ti.Matrix.zero(ti.f64, _BLOCK, 3)
+        acc = ti.Matrix.zero(ti.f64, _BLOCK, 3)
+        for j in ti.static(range(_BLOCK)):
+            i = ti.min(_BLOCK * blk + j, n - 1)
+            for c in ti.static(range(3)):
+                at[j, c] = x[i, c]
+        for k in range(y.shape[0]):
+            p0, p1, p2 = y[k, 0], y[k, 1], y[k, 2]
+            m0, m1, m2 = m[k, 0], m[k, 1], m[k, 2]
+            q0, q1, q2 = q[k, 0], q[k, 1], q[k, 2]
+            for j in ti.static(range(_BLOCK)):
+                r0, r1, r2 = p0 - at[j, 0], p1 - at[j, 1], p2 - at[j, 2]
+                d2 = r0 * r0 + r1 * r1 + r2 * r2
+                inv = ti.select(d2 > 0.0, 1.0 / ti.sqrt(d2), 0.0)
+                inv2 = inv * inv
+                s = inv2 * inv2 * inv * (r0 * m0 + r1 * m1 + r2 * m2) * (r0 * q0 + r1 * q1 + r2 * q2)
+                acc[j, 0] += s * r0
+                acc[j, 1] += s * r1
+                acc[j, 2] += s * r2
+        for j in ti.static(range(_BLOCK)):
+            if _BLOCK * blk + j < n:
+                for c in ti.static(range(3)):
+                    u[_BLOCK * blk + j, c] = acc[j, c]

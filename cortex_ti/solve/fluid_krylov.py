@@ -110,10 +110,12 @@ class FluidKrylov:
         n3, m = k.shape[0], g.shape[0]
         mu, a3 = op.mu, op.areas3
         nt = 2 * n3 + m
+        mix = getattr(op, "double", None) is not None  # a viscosity contrast: V' f = A (M v / mu - u_inf)
 
         def apply(z):
             v, f, lam = z[:n3], z[n3 : 2 * n3], z[2 * n3 :]
-            return np.concatenate([k @ v + mu * (a3 * f) + fr.T @ lam, mu * (a3 * v - op.single(f)), g @ v])
+            mv = op.mix(v) if mix else v
+            return np.concatenate([k @ v + mu * (a3 * f) + fr.T @ lam, mu * (a3 * mv - op.single(f)), g @ v])
 
         rhs = np.zeros(nt)
         rhs[:n3] = system.rhs
@@ -201,9 +203,10 @@ class FluidKrylov:
         ``[[K + mu A L^-1 A, F^T], [G, 0]]`` (half the unknowns)."""
         mu, a3 = op.mu, op.areas3
         local = op.local.diagonal()
+        md = getattr(op, "mix_diagonal", 1.0)  # the diagonal of M / mu (a viscosity contrast), else 1
         n3 = a3.size
         mat = sp.bmat(
-            [[k + sp.diags(mu * a3 * a3 / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
+            [[k + sp.diags(mu * a3 * a3 * md / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
         )
         try:
             lu = spla.splu(mat, permc_spec="COLAMD")
@@ -217,7 +220,7 @@ class FluidKrylov:
             red = np.concatenate([r[:n3] + a3 * rf / local, r[2 * n3 :]])
             z = lu.solve(red)
             v = z[:n3]
-            return np.concatenate([v, (a3 * v) / local - rf / (mu * local), z[n3:]])
+            return np.concatenate([v, (a3 * md * v) / local - rf / (mu * local), z[n3:]])
 
         self._lu = solve
         self.n_factorizations += 1
