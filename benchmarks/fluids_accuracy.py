@@ -280,6 +280,12 @@ def operator_report(nodes_list) -> None:
             quad = np.abs(c - fine).max() / np.abs(fine).max()
         print(f"{nodes:6d} {tr:10.2e} {rot:10.2e} {pr:10.2e} {quad:10.2e} {t1 - t0:9.1f} {t2 - t1:9.1f}")
         if nodes <= 642:
+            from cortex_ti.physics.fluids_double import DoubleLayer
+
+            u = np.stack([x[:, 2] ** 2, x[:, 0] * x[:, 1], np.sin(2.0 * x[:, 0])], 1).ravel()
+            ref = double_layer_matrix(x, m.faces) @ u
+            diff = np.abs(DoubleLayer(x, m.faces).apply(u) - ref).max() / np.abs(ref).max()
+            print(f"       double layer matrix-free against dense (u = (z^2, xy, sin 2x)): {diff:.2e}")
             n = x / np.linalg.norm(x, axis=1)[:, None]
             for lam in (0.0, 0.1, 10.0, 100.0):
                 fl = fluid_operator(x, m.faces, n, mu_in=lam, mu_out=1.0)

@@ -9,7 +9,9 @@ traction density ``f = V'^{-1} A (v - u_inf)`` is carried as unknowns and the co
     \begin{pmatrix} v \\ f \\ \lambda \end{pmatrix}
     = \begin{pmatrix} b \\ \mu A u_\infty \\ 0 \end{pmatrix}
 
-(eliminating ``f`` gives the dense path's ``(K + D) v + F^T lambda = b + D u_inf``, ``G v = 0``) is
+(eliminating ``f`` gives the dense path's ``(K + D) v + F^T lambda = b + D u_inf``, ``G v = 0``; with a
+viscosity contrast the traction row is ``mu (A M v / mu - V' f) = mu A u_inf``, ``M = mu_out (1/2 + Kd) +
+mu_in (1/2 - Kd)`` applied by ``op.mix`` (:mod:`cortex_ti.physics.fluids_double`), ``mu = mu_out``) is
 solved by GMRES, ``V'`` applied matrix-free by the fluid operator (``op.single``: the FMM and the
 sparse near corrections, :mod:`cortex_ti.physics.fluids_fast`). Preconditioner: the same block matrix
 with ``V'`` replaced by its local part ``op.local`` (the self-interactions, a diagonal ``L``): the
@@ -199,8 +201,9 @@ class FluidKrylov:
 
     def _factor(self, k, g, fr, op) -> None:
         """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
-        diagonal), ``f`` eliminated (``f = (A v) / L - r_f / (mu L)``): the sparse LU of the reduced
-        ``[[K + mu A L^-1 A, F^T], [G, 0]]`` (half the unknowns)."""
+        diagonal) and, with a viscosity contrast, ``M / mu`` by its diagonal ``m`` (``op.mix_diagonal``),
+        ``f`` eliminated (``f = (A m v) / L - r_f / (mu L)``): the sparse LU of the reduced
+        ``[[K + mu A L^-1 A m, F^T], [G, 0]]`` (half the unknowns)."""
         mu, a3 = op.mu, op.areas3
         local = op.local.diagonal()
         md = getattr(op, "mix_diagonal", 1.0)  # the diagonal of M / mu (a viscosity contrast), else 1

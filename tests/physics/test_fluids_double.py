@@ -4,11 +4,11 @@ matrix-free solve with a viscosity contrast (``fluid.solver: direct``, ``fluid.i
 * Invariant: ``Kd`` of a rigid translation is half of it (the singularity subtraction makes this
   exact on any mesh, as in the dense build).
 * Against the dense build of ``Kd`` (the same near quadrature; the far field by the 4-point rule
-  instead of the 7-point one): the far rule's error, bounded by ``pi kappa rho / 9`` of ``R`` (a
-  rule exact for quadratics on the triangles beyond ``3 rho``, the kernel ``~ kappa / r`` on the
-  surface; docs/derivations/lumped_far_field.md, "The double layer"), i.e. ``rho / 12`` of ``Kd u``
-  for ``|u| <= 1``, and converging at least at that first order from 162 to 642 nodes (measured
-  6.1e-4 and 1.0e-4 of max |Kd u|: 5.9 times).
+  instead of the 7-point one): the far rule's error, bounded by ``(70 / 12) kappa rho max|u|`` (a
+  rule exact for quadratics on the triangles beyond ``3 rho``, the stresslet as smooth as ``kappa /
+  r`` on the surface; docs/derivations/lumped_far_field.md, "The double layer"), and converging at
+  least at that first order from 162 to 642 nodes (measured 6.1e-4 and 1.0e-4 of max |Kd u|: 5.9
+  times; the bound is loose, 0.9 and 0.5).
 * Against Boussinesq-Scriven (the sedimenting cell with mu_in / mu_out = 0.1): the dense path's
   bound of tests/physics/test_fluids.py (4.1e-2 at 162 nodes; measured 3.54e-2 for both solves), and
   the two solves' difference, measured 4e-5 relative at 162 nodes (the unsymmetrised form and the
@@ -42,12 +42,13 @@ def _far_rule_difference(nodes: int) -> tuple[float, float]:
     ref = dense @ u
     tri = x[m.faces]
     rho = float(np.linalg.norm(tri - tri.mean(1)[:, None], axis=2).max())
-    return float(np.abs(free.apply(u) - ref).max() / np.abs(ref).max()), rho
+    diff = float(np.abs(free.apply(u) - ref).max())
+    assert diff <= 70.0 / 12.0 * rho * np.abs(u).max()
+    return diff / float(np.abs(ref).max()), rho
 
 
 def test_matrix_free_double_layer_against_the_dense_build_converges():
-    (e162, rho162), (e642, rho642) = _far_rule_difference(162), _far_rule_difference(642)
-    assert e162 < rho162 / 12.0 and e642 < rho642 / 12.0
+    e162, e642 = _far_rule_difference(162)[0], _far_rule_difference(642)[0]
     assert e162 / e642 > 1.8  # at least the estimate's first order (ratio 2), with margin
 
 
