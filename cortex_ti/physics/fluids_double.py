@@ -14,7 +14,8 @@ u / 2``, ``R`` the raw stresslet integrals ``R[i, j] = sum_T int_T r r^T (r . n_
   a node's own source skipped (its own flat triangles give zero, ``r . n_T = 0``).
 * ``R_near``: on every (node, triangle) pair within 3 triangle sizes (the dense build's near radius,
   :func:`~cortex_ti.physics.stokes_bie.near_pairs`) the dense build's accurate value minus the 4-point
-  value: a block-sparse matrix (NumPy, in the build).
+  value: a block-sparse matrix (a Taichi kernel, :func:`~.stokes_kernel.near_double_blocks`, by
+  :func:`~.fluids_fast.lumped_corrections`; the node's own flat triangles give zero both ways).
 * ``diag(R 1)``: ``R`` applied to the three uniform fields, three products in the build.
 
 The far rule's error on a triangle at distance ``r`` is ``O(rho^3 |k''' |)``, the stresslet's third
@@ -34,7 +35,6 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from .stokes_bie import near_pairs, stresslet_flux
 
 __all__ = ["DoubleLayer"]
 
@@ -55,22 +55,9 @@ class DoubleLayer:
             np.add.at(node_m, faces[:, k], an / 24.0)
         self._sources = np.ascontiguousarray(np.concatenate([x, tri.mean(1)]))
         self._weights = np.ascontiguousarray(np.concatenate([node_m, 0.375 * an]))
-        pi, pf, corr, plain = near_pairs(x, faces, True, **quadrature)
-        area = 0.5 * np.linalg.norm(an, axis=1)
-        nt = np.broadcast_to((an / (2.0 * area[:, None]))[pf, None, :], (len(pi), 3, 3))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            corner = stresslet_flux(tri[pf] - x[pi, None, :], nt)  # (P, 3 corners, 3, 3)
-        corner[faces[pf] == pi[:, None]] = 0.0  # the node's own source: skipped by the far sum
-        cen = stresslet_flux(tri[pf].mean(1) - x[pi], nt[:, 0])  # (P, 3, 3)
-        lumped = (area[pf] / 12.0)[:, None, None, None] * corner + (area[pf] / 4.0)[:, None, None, None] * cen[:, None]
-        blocks = plain + corr - lumped  # (P, 3 corners, 3, 3)
-        key = (pi[:, None] * n + faces[pf]).ravel()
-        uniq, inv = np.unique(key, return_inverse=True)
-        data = np.zeros((len(uniq), 3, 3))
-        np.add.at(data, inv, blocks.reshape(-1, 3, 3))
-        indptr = np.searchsorted(uniq // n, np.arange(n + 1))
-        self.correction = sp.bsr_matrix((data, uniq % n, indptr), shape=(3 * n, 3 * n))
-        self.n_pairs = len(pi)
+        from .fluids_fast import lumped_corrections
+
+        self.correction, self.n_pairs = lumped_corrections(x, faces, 3.0, double=True, **quadrature)
         ones = np.zeros((3, n, 3))
         for b in range(3):
             ones[b, :, b] = 1.0

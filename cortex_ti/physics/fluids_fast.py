@@ -268,12 +268,21 @@ def lumped_pairs(x, faces, lump: float, *, near: float = 3.0) -> tuple[np.ndarra
 
 
 def lumped_corrections(
-    x, faces, lump: float, centroid: float = 0.0, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
+    x,
+    faces,
+    lump: float,
+    centroid: float = 0.0,
+    *,
+    near: float = 3.0,
+    duffy_points: int = 8,
+    near_levels: int = 2,
+    double: bool = False,
 ) -> tuple[sp.bsr_matrix, int]:
     """The corrections of the lumped far field as a sparse (3N, 3N) matrix of 3 x 3 blocks (the
     accurate integrals of the pairs of :func:`lumped_pairs` minus their lumped values, summed over a
-    node pair's triangles; ``1 / 8 pi`` included; a Taichi kernel) and the number of pairs."""
-    from .stokes_kernel import near_blocks
+    node pair's triangles; ``1 / 8 pi`` included; a Taichi kernel) and the number of pairs. ``double``:
+    the double layer's raw stresslet instead (:mod:`.fluids_double`: the 4-point rule, no factor)."""
+    from .stokes_kernel import near_blocks, near_double_blocks
 
     x = np.ascontiguousarray(x, float)
     faces = np.asarray(faces, np.int64)
@@ -292,9 +301,12 @@ def lumped_corrections(
     rules = [radon7(), duffy_rule(duffy_points), split_rule(near_levels)]
     args = [np.ascontiguousarray(a, float) for r in rules for a in r]
     i32 = [np.ascontiguousarray(a, np.int32) for a in (faces, pi, pf, kind)]
-    near_blocks(x, *i32, *args, slot.reshape(-1, 3), float(centroid), data)
+    if double:
+        near_double_blocks(x, *i32, *args[:2], *args[4:], slot.reshape(-1, 3), data)
+    else:
+        near_blocks(x, *i32, *args, slot.reshape(-1, 3), float(centroid), data)
+        data *= 1.0 / (8.0 * math.pi)
     indptr = np.searchsorted(pairs // n, np.arange(n + 1))
-    data *= 1.0 / (8.0 * math.pi)
     mat = sp.bsr_matrix((data.reshape(-1, 3, 3), pairs % n, indptr), shape=(3 * n, 3 * n))
     return mat, len(pi)
 

@@ -161,3 +161,71 @@ def stresslet_sums(x: f64_2, y: f64_2, m: f64_2, q: f64_2, u: f64_2):
             if _BLOCK * blk + j < n:
                 for c in ti.static(range(3)):
                     u[_BLOCK * blk + j, c] = acc[j, c]
+
+
+@ti.func
+def _stresslet(r, nrm):
+    """``r r^T (r . n) / |r|^5`` (the double layer's raw kernel, ``r = y - x``)."""
+    d2 = r.dot(r)
+    return r.outer_product(r) * (r.dot(nrm) / (d2 * d2 * ti.sqrt(d2)))
+
+
+@kernel
+def near_double_blocks(
+    x: f64_2,
+    faces: i32_2,
+    pi: i32_1,
+    pf: i32_1,
+    kind: i32_1,
+    b7: f64_2,
+    w7: f64_1,
+    bs: f64_2,
+    ws: f64_1,
+    slot: i32_2,
+    out: f64_2,
+):
+    """The double layer's corrections (:mod:`.fluids_double`) on the pairs of ``near_blocks``: the
+    accurate ``int_T k(y) phi_k(y) dA`` (``k`` the raw stresslet with ``n_T``; ``kind`` 3: the split
+    rule, 4: the 7-point rule; 0-2, the node's own triangle, give zero on a flat triangle, ``(y - x) .
+    n_T = 0``, accurately and lumped: skipped) minus the far rule's ``|T| (k(x_k) / 12 + k(c_T) / 4)``,
+    added to ``out[slot[p, k]]`` (B, 9). No ``3 / 4 pi``."""
+    for p in range(pi.shape[0]):
+        if kind[p] >= 3:
+            i, f = pi[p], pf[p]
+            at = ti.Vector([x[i, 0], x[i, 1], x[i, 2]])
+            j0, j1, j2 = faces[f, 0], faces[f, 1], faces[f, 2]
+            p0 = ti.Vector([x[j0, 0], x[j0, 1], x[j0, 2]])
+            p1 = ti.Vector([x[j1, 0], x[j1, 1], x[j1, 2]])
+            p2 = ti.Vector([x[j2, 0], x[j2, 1], x[j2, 2]])
+            nrm = (p1 - p0).cross(p2 - p0)
+            area = 0.5 * nrm.norm()
+            nrm /= 2.0 * area
+            acc = ti.Matrix.zero(ti.f64, 3, 9)
+            if kind[p] == 3:
+                for q in range(bs.shape[0]):
+                    b0, b1, b2 = bs[q, 0], bs[q, 1], bs[q, 2]
+                    g = ws[q] * _stresslet(b0 * p0 + b1 * p1 + b2 * p2 - at, nrm)
+                    for a in ti.static(range(3)):
+                        for c in ti.static(range(3)):
+                            acc[a, c] += b0 * g[a, c]
+                            acc[a, 3 + c] += b1 * g[a, c]
+                            acc[a, 6 + c] += b2 * g[a, c]
+            else:
+                for q in range(b7.shape[0]):
+                    b0, b1, b2 = b7[q, 0], b7[q, 1], b7[q, 2]
+                    g = w7[q] * _stresslet(b0 * p0 + b1 * p1 + b2 * p2 - at, nrm)
+                    for a in ti.static(range(3)):
+                        for c in ti.static(range(3)):
+                            acc[a, c] += b0 * g[a, c]
+                            acc[a, 3 + c] += b1 * g[a, c]
+                            acc[a, 6 + c] += b2 * g[a, c]
+            acc *= area
+            gc = (area / 4.0) * _stresslet((p0 + p1 + p2) / 3.0 - at, nrm)
+            g0 = (area / 12.0) * _stresslet(p0 - at, nrm)
+            g1 = (area / 12.0) * _stresslet(p1 - at, nrm)
+            g2 = (area / 12.0) * _stresslet(p2 - at, nrm)
+            for a in ti.static(range(3)):
+                for c in ti.static(range(3)):
+                    out[slot[p, 0], 3 * a + c] += acc[a, c] - gc[a, c] - g0[a, c]
+                    out[slot[p, 1], 3 * a + c] += acc[a, 3 + c] - gc[a, c] - g1[a, c]
+                    out[slot[p, 2], 3 * a + c] += acc[a, 6 + c] - gc[a, c] - g2[a, c]
