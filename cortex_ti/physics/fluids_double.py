@@ -33,8 +33,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.sparse as sp
-
 
 __all__ = ["DoubleLayer"]
 
