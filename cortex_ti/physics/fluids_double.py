@@ -36,6 +36,7 @@ import numpy as np
 
 __all__ = ["DoubleLayer"]
 
+
 class DoubleLayer:
     """``Kd`` on the shape ``points`` (N, 3) applied without a matrix (module docstring): :meth:`apply`,
     and ``diagonal`` (3N) its diagonal (the preconditioner's local part)."""
