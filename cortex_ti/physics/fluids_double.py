@@ -15,7 +15,7 @@ u / 2``, ``R`` the raw stresslet integrals ``R[i, j] = sum_T int_T r r^T (r . n_
 * ``R_near``: on every (node, triangle) pair within 3 triangle sizes (the dense build's near radius,
   :func:`~cortex_ti.physics.stokes_bie.near_pairs`) the dense build's accurate value minus the 4-point
   value: a block-sparse matrix (a Taichi kernel, :func:`~.stokes_kernel.near_double_blocks`, by
-  :func:`~.fluids_fast.lumped_corrections`; the node's own flat triangles give zero both ways).
+  :func:`~.fluids_near.lumped_corrections`; the node's own flat triangles give zero both ways).
 * ``diag(R 1)``: ``R`` applied to the three uniform fields, three products in the build.
 
 The far rule's error on a triangle at distance ``r`` is ``O(rho^3 |k''' |)``, the stresslet's third
@@ -33,6 +33,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .fluids_near import lumped_corrections
 
 __all__ = ["DoubleLayer"]
 
@@ -54,8 +56,6 @@ class DoubleLayer:
             np.add.at(node_m, faces[:, k], an / 24.0)
         self._sources = np.ascontiguousarray(np.concatenate([x, tri.mean(1)]))
         self._weights = np.ascontiguousarray(np.concatenate([node_m, 0.375 * an]))
-        from .fluids_fast import lumped_corrections
-
         self.correction, self.n_pairs = lumped_corrections(x, faces, 3.0, double=True, **quadrature)
         ones = np.zeros((3, n, 3))
         for b in range(3):
