@@ -46,7 +46,8 @@ FLUID_SOLVERS: dict[str, str] = {
     "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
     "solve/dense.py)",
     "direct": "matrix-free as fmm, the single layer's far field (nodes and triangle centroids as sources) summed pair "
-    "by pair by a Taichi kernel (O(N^2) time, O(N) memory; no extra)",
+    "by pair by a Taichi kernel (O(N^2) time, O(N) memory; no extra), a viscosity contrast's double layer too "
+    "(physics/fluids_double.py)",
     "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
     "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
     "fluids; equal viscosities)",
