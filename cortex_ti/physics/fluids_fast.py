@@ -229,13 +229,24 @@ class FmmFluid:
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
         """``D v = mu A V'^-1 A M v / mu`` by a Krylov solve (diagnostics only: the runs never call it)."""
+        return self._dissipate(self.mix(np.asarray(v, float)))
+
+    def resistance(self, v: np.ndarray) -> np.ndarray:
+        """``mu A V'^-1 A (M v / mu - u_inf)``: minus the fluids' force on the cortex moving at ``v``
+        (``D (v - u_inf)`` for equal viscosities; diagnostics only)."""
+        w = self.mix(np.asarray(v, float))
+        return self._dissipate(w if self.far is None else w - self.far)
+
+    def _dissipate(self, w: np.ndarray) -> np.ndarray:
+        """``mu A V'^-1 A w`` by a Krylov solve."""
         import scipy.sparse.linalg as spla
 
+        v = w
         n3 = self.n_unknowns
         op = spla.LinearOperator((n3, n3), matvec=self.single)
         lu = spla.splu(self.local + sp.diags(np.full(n3, 1e-300)))
         pre = spla.LinearOperator((n3, n3), matvec=lu.solve)
-        f, info = spla.gmres(op, self.areas3 * self.mix(v), M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=10)
+        f, info = spla.gmres(op, self.areas3 * v, M=pre, rtol=1e-11, atol=0.0, restart=200, maxiter=10)
         if info != 0:
             raise SolverError(f"the fluids' single layer did not converge (GMRES info {info})")
         return self.mu * self.areas3 * f
