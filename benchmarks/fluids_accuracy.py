@@ -20,6 +20,7 @@ Cases (cortex eta_s = eta_b = 1, no bending viscosity; ``mu = mu_in = mu_out``):
 Usage::
 
     python benchmarks/fluids_accuracy.py --nodes 162 642 2562 --mu 0.1 1 10
+    python benchmarks/fluids_accuracy.py --nodes 642 2562 --mu 1 --lam 0.1 10 --solver direct
     python benchmarks/fluids_accuracy.py --operator --nodes 162 642 2562
     python benchmarks/fluids_accuracy.py --smoke
 """
@@ -83,8 +84,49 @@ def legendre_coefficients(func, lmax: int):
     return np.array(out)
 
 
-def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
-    from cortex_ti.physics.fluids import body_force_nodes, fluid_operator, shear_flow, solve_with_fluids
+def build_operator(solver: str, x, faces, normal, *, mu_in: float, mu_out: float):
+    """The fluids on the shape ``x``: the dense path's :class:`FluidOperator` or the matrix-free
+    ``direct`` operator (:func:`~cortex_ti.physics.fluids_fast.fmm_fluid`)."""
+    if solver == "dense":
+        from cortex_ti.physics.fluids import fluid_operator
+
+        return fluid_operator(x, faces, normal, mu_in=mu_in, mu_out=mu_out)
+    from cortex_ti.physics.fluids_fast import fmm_fluid
+
+    return fmm_fluid(x, faces, normal, mu_in=mu_in, mu_out=mu_out, backend=solver)
+
+
+def solve_fluids(system, fl, far=None, node_force=None, rtol: float = 1e-10):
+    """``(velocity (N, 3), pressure, multipliers)`` of ``system`` with the fluids ``fl``: the dense
+    bordered solve, or the coupled GMRES (to ``rtol``, the discretisation's error alone) with the
+    gauge rows dropped as the dense solve drops them."""
+    import dataclasses
+
+    from cortex_ti.physics.fluids import FluidOperator, solve_with_fluids
+    from cortex_ti.solve.fluid_krylov import FluidKrylov
+
+    if isinstance(fl, FluidOperator):
+        return solve_with_fluids(system, fl, far=far, node_force=node_force)
+    keep = [k for k, name in enumerate(system.constraint_names) if not name.startswith("momentum")]
+    names = [system.constraint_names[k] for k in keep]
+    pidx = None if system.pressure_index is None else names.index(system.constraint_names[system.pressure_index])
+    rhs = system.rhs if node_force is None else system.rhs + np.asarray(node_force, float).ravel()
+    reduced = dataclasses.replace(
+        system,
+        rhs=rhs,
+        constraints=system.constraints[keep],
+        constraint_names=names,
+        pressure_index=pidx,
+        force_rows=None if system.force_rows is None else system.force_rows[keep],
+    )
+    fl.far = None if far is None else np.asarray(far, float).ravel()
+    v, pressure, lam, _ = FluidKrylov(rtol=rtol, max_iterations=2000).solve(reduced, fl)
+    fl.far = None
+    return v.reshape(-1, 3), pressure, lam
+
+
+def measure(nodes: int, mus, cases, lams=(1.0,), solver: str = "dense") -> list[dict]:
+    from cortex_ti.physics.fluids import body_force_nodes, shear_flow
     from cortex_ti.physics.patterns import evaluate_active_stress
     from cortex_ti.truth import fluid_sphere as fs
 
@@ -101,7 +143,7 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
     for mu, lam in [(m, q) for q in lams for m in mus]:
         mi = lam * mu
         t0 = time.perf_counter()
-        fl = fluid_operator(x0, faces, geo0.normal, mu_in=mi, mu_out=mu)
+        fl = build_operator(solver, x0, faces, geo0.normal, mu_in=mi, mu_out=mu)
         build = time.perf_counter() - t0
 
         def ab(l, mu=mu, mi=mi):
@@ -109,7 +151,7 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
 
         def flow(zeta, exact, name, mu=mu, lam=lam, fl=fl, build=build):
             t1 = time.perf_counter()
-            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=zeta), fl)
+            v, _, _ = solve_fluids(sim.system(geo0, zeta=zeta), fl)
             err = float(np.abs(v - exact).max() / np.abs(exact).max())
             rows.append(
                 dict(case=name, nodes=nodes, mu=mu, lam=lam, error=err, build_s=build, solve_s=time.perf_counter() - t1)
@@ -125,7 +167,7 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
         if "sediment" in cases:
             t1 = time.perf_counter()
             force = body_force_nodes(x0, faces, [0.0, 0.0, 1.0])
-            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, node_force=force)
+            v, _, _ = solve_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, node_force=force)
             vn = np.einsum("nc,nc->n", v, geo0.normal)
             c = (geo0.area[:, None] * x0).sum(0) / geo0.area.sum()
             vol = float((geo0.area * np.einsum("nc,nc->n", x0 - c, geo0.normal)).sum() / 3.0)
@@ -146,7 +188,7 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
             )
         if "faxen" in cases:
             t1 = time.perf_counter()
-            v, _, _ = solve_with_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, far=shear_flow(x0, 1.0))
+            v, _, _ = solve_fluids(sim.system(geo0, zeta=np.zeros(len(x0))), fl, far=shear_flow(x0, 1.0))
             a = geo0.area
             mean = (a[:, None] * v).sum(0) / a.sum()
             # the rotation normalised by the mesh's own moment (exact for a rigid rotation on any mesh;
@@ -186,8 +228,8 @@ def measure(nodes: int, mus, cases, lams=(1.0,)) -> list[dict]:
             p2 = 1.5 * n0[:, 2] ** 2 - 0.5
             x = n0 * (1.0 + eps * p2)[:, None]
             geo = sim.shape_geometry(x)
-            fl2 = fluid_operator(x, faces, geo.normal, mu_in=mi, mu_out=mu)
-            v, _, _ = solve_with_fluids(sim.system(geo, zeta=np.ones(len(x))), fl2)
+            fl2 = build_operator(solver, x, faces, geo.normal, mu_in=mi, mu_out=mu)
+            v, _, _ = solve_fluids(sim.system(geo, zeta=np.ones(len(x))), fl2)
             vn = np.einsum("nc,nc->n", v, geo.normal)
             a = geo.area
             rate = float((a * vn * p2).sum() / (a * p2 * p2).sum() / eps)
@@ -238,6 +280,12 @@ def operator_report(nodes_list) -> None:
             quad = np.abs(c - fine).max() / np.abs(fine).max()
         print(f"{nodes:6d} {tr:10.2e} {rot:10.2e} {pr:10.2e} {quad:10.2e} {t1 - t0:9.1f} {t2 - t1:9.1f}")
         if nodes <= 642:
+            from cortex_ti.physics.fluids_double import DoubleLayer
+
+            u = np.stack([x[:, 2] ** 2, x[:, 0] * x[:, 1], np.sin(2.0 * x[:, 0])], 1).ravel()
+            ref = double_layer_matrix(x, m.faces) @ u
+            diff = np.abs(DoubleLayer(x, m.faces).apply(u) - ref).max() / np.abs(ref).max()
+            print(f"       double layer matrix-free against dense (u = (z^2, xy, sin 2x)): {diff:.2e}")
             n = x / np.linalg.norm(x, axis=1)[:, None]
             for lam in (0.0, 0.1, 10.0, 100.0):
                 fl = fluid_operator(x, m.faces, n, mu_in=lam, mu_out=1.0)
@@ -251,6 +299,7 @@ def main(argv=None) -> int:
     ap.add_argument("--lam", type=float, nargs="+", default=[1.0], help="viscosity ratios mu_in / mu_out")
     ap.add_argument("--cases", nargs="+", default=["Y10", "Y20", "furrow", "sediment", "relax2", "faxen", "strain"])
     ap.add_argument("--json", help="write the rows to this file")
+    ap.add_argument("--solver", default="dense", choices=["dense", "direct"], help="the fluids' solve")
     ap.add_argument("--operator", action="store_true", help="only the operator's own checks (operator_report)")
     ap.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = ap.parse_args(argv)
@@ -262,7 +311,7 @@ def main(argv=None) -> int:
             return 0
     rows = []
     for nodes in args.nodes:
-        rows += measure(nodes, args.mu, args.cases, args.lam)
+        rows += measure(nodes, args.mu, args.cases, args.lam, args.solver)
     print(f"{'case':9s} {'mu':>6s} {'lam':>6s} " + " ".join(f"{n:>17d}" for n in args.nodes))
     cases = [c for c in args.cases if c != "strain"] + (["strain"] if "faxen" in args.cases else [])
     for case, mu, lam in [(c, m, q) for c in cases for q in args.lam for m in args.mu]:

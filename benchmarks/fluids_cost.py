@@ -32,6 +32,7 @@ Usage::
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --run --nodes 642 2562 --solvers dense direct
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --run --nodes 642 --solvers direct --t-end 0.5 --schemes heun
     OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --sediment --nodes 162 642 2562
+    OMP_NUM_THREADS=1 python benchmarks/fluids_cost.py --nodes 642 2562 --solvers dense direct --set fluid.inner=0.1
     python benchmarks/fluids_cost.py --smoke
 """
 
@@ -56,14 +57,14 @@ def since(start) -> tuple[float, float]:
     return wall - start[0], cpu - start[1]
 
 
-def measure(nodes: int, solver: str = "dense") -> dict:
+def measure(nodes: int, solver: str = "dense", extra: tuple[str, ...] = ()) -> dict:
     """The stages of one solve of furrow_in_fluid at ``nodes`` nodes (module docstring)."""
     from cortex_ti.physics.fluids import fluid_operator
     from cortex_ti.physics.fluids_fast import fmm_fluid
     from cortex_ti.scene import load_scene
     from cortex_ti.simulation import Simulation
 
-    sim = Simulation(load_scene("furrow_in_fluid", [f"mesh.nodes={nodes}", f"fluid.solver={solver}"]))
+    sim = Simulation(load_scene("furrow_in_fluid", [f"mesh.nodes={nodes}", f"fluid.solver={solver}", *extra]))
     fluid = sim.settings.fluid
     x = sim.mesh.points
     geo = sim.shape_geometry(x)  # compiles the kernels: not timed
@@ -164,7 +165,7 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out) + "\n"
 
 
-def whole_run(nodes: int, solver: str, t_end: float, scheme: str | None = None) -> str:
+def whole_run(nodes: int, solver: str, t_end: float, scheme: str | None = None, extra: tuple[str, ...] = ()) -> str:
     """One row of ``--run`` (module docstring): ``cortex-ti run furrow_in_fluid`` in a child process."""
     import json
     import subprocess
@@ -175,6 +176,7 @@ def whole_run(nodes: int, solver: str, t_end: float, scheme: str | None = None) 
         cmd = [sys.executable, "-m", "cortex_ti", "run", "furrow_in_fluid", "-o", out, "--threads", "1"]
         cmd += ["--summary", summary, "--set", f"mesh.nodes={nodes}", "--set", f"fluid.solver={solver}"]
         cmd += ["--set", f"time.t_end={t_end:g}"] + ([] if scheme is None else ["--set", f"time.scheme={scheme}"])
+        cmd += [a for kv in extra for a in ("--set", kv)]
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         wall = time.perf_counter()
         subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
@@ -205,6 +207,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--schemes", nargs="+", help="time.scheme values for --run (default: the scene's, bdf2)")
     parser.add_argument(
         "--lump", type=float, help="the matrix-free solvers' exact radius (fluids_fast.LUMP_RADIUS; inf: every pair)"
+    )
+    parser.add_argument(
+        "--set", dest="extra", action="append", default=[], help="a further scene override (e.g. fluid.inner=0.1)"
     )
     parser.add_argument("--smoke", action="store_true", help=_bench.HELP)
     args = parser.parse_args(argv)
@@ -237,12 +242,12 @@ def main(argv: list[str] | None = None) -> None:
         for n in nodes:
             for s in solvers:
                 for scheme in args.schemes or [None]:
-                    print(whole_run(n, s, 0.1 if args.smoke else args.t_end, scheme), flush=True)
+                    print(whole_run(n, s, 0.1 if args.smoke else args.t_end, scheme, tuple(args.extra)), flush=True)
         return
     rows = []
     for n in nodes:
         for s in solvers:
-            rows.append(measure(n, s))
+            rows.append(measure(n, s, tuple(args.extra)))
             r = rows[-1]  # the row as a comment at once (a long measurement stopped keeps what it had)
             print(
                 f"<!-- {s}, {n} nodes: relative residual {r['residual']:.1e}; {table([r]).splitlines()[-1]} -->",

@@ -1,7 +1,7 @@
 r"""The cortex between two Stokes fluids: their dissipation as a dense block of the Rayleighian.
 
-First step of issue 36, for equal viscosities ``mu_in = mu_out = mu`` (the single layer alone; a
-viscosity contrast needs the double layer, not done). The fluids answer a surface velocity ``v``
+First step of issue 36; written here for equal viscosities ``mu_in = mu_out = mu`` (the single layer
+alone; a viscosity contrast adds the double layer, :func:`fluid_operator`). The fluids answer a surface velocity ``v``
 (relative to the far field ``u_inf``) with the force density ``f = S^{-1} (v - u_inf)`` the
 surface puts on them, ``S`` the single layer (:mod:`cortex_ti.physics.stokes_bie`); they push
 back with ``-f``, and the power ``oint (v - u_inf) . f dA`` is their dissipation, a positive

@@ -44,10 +44,10 @@ import time
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from ..errors import SolverError
-from .stokes_bie import duffy_rule, node_areas, radon7, split_rule
+from .fluids_near import lumped_corrections, lumped_pairs
+from .stokes_bie import node_areas
 
 __all__ = [
     "LUMP_RADIUS",
@@ -115,6 +115,7 @@ class FmmFluid:
         eps: float = FMM_EPS,
         backend: str = "fmm",
         lump: float | None = None,
+        mu_in: float | None = None,
         **quadrature,
     ):
         self.backend = backend
@@ -147,6 +148,12 @@ class FmmFluid:
         radius = math.sqrt(area.sum() / (4.0 * math.pi))
         self._c = area.mean() * radius / float(self._w @ self._w)  # the dense path's completion
         self.far = None if far is None else np.asarray(far, float).ravel()
+        self.mu_in = self.mu if mu_in is None else float(mu_in)
+        self.double = None  # a viscosity contrast: the double layer (:mod:`.fluids_double`)
+        if self.mu_in != self.mu:
+            from .fluids_double import DoubleLayer
+
+            self.double = DoubleLayer(x, faces, **quadrature)
         self.n_fmm = 0
         self.fmm_seconds = 0.0
         self.build_seconds = time.perf_counter() - t0
@@ -159,6 +166,21 @@ class FmmFluid:
     @property
     def n_unknowns(self) -> int:
         return self.areas3.size
+
+    def mix(self, v: np.ndarray) -> np.ndarray:
+        """``M v / mu_out``, ``M = mu_out (1/2 + Kd) + mu_in (1/2 - Kd)`` (``v`` itself for equal
+        viscosities): the coupled solve's traction row is ``V' f = A (M v / mu_out - u_inf)``."""
+        if self.double is None:
+            return v
+        mean = 0.5 * (self.mu_in + self.mu) / self.mu
+        return mean * v + ((self.mu - self.mu_in) / self.mu) * self.double.apply(v)
+
+    @property
+    def mix_diagonal(self) -> np.ndarray | float:
+        """The diagonal of ``M / mu_out`` (the preconditioner's local part of it; 1 for equal viscosities)."""
+        if self.double is None:
+            return 1.0
+        return 0.5 * (self.mu_in + self.mu) / self.mu + ((self.mu - self.mu_in) / self.mu) * self.double.diagonal
 
     def single(self, f: np.ndarray) -> np.ndarray:
         """``V' f = (A C f + C^T A f) / 2 + c w (w . f)`` for ``f`` (3N,), ``C = C_far + C_near``: the far
@@ -206,9 +228,20 @@ class FmmFluid:
         return u.ravel() / (8.0 * math.pi), t / (8.0 * math.pi)
 
     def __matmul__(self, v: np.ndarray) -> np.ndarray:
-        """``D v = mu A V'^-1 A v`` by a Krylov solve (diagnostics only: the runs never call it)."""
+        """``D v = mu A V'^-1 A M v / mu`` by a Krylov solve (diagnostics only: the runs never call it)."""
+        return self._dissipate(self.mix(np.asarray(v, float)))
+
+    def resistance(self, v: np.ndarray) -> np.ndarray:
+        """``mu A V'^-1 A (M v / mu - u_inf)``: minus the fluids' force on the cortex moving at ``v``
+        (``D (v - u_inf)`` for equal viscosities; diagnostics only)."""
+        w = self.mix(np.asarray(v, float))
+        return self._dissipate(w if self.far is None else w - self.far)
+
+    def _dissipate(self, w: np.ndarray) -> np.ndarray:
+        """``mu A V'^-1 A w`` by a Krylov solve."""
         import scipy.sparse.linalg as spla
 
+        v = w
         n3 = self.n_unknowns
         op = spla.LinearOperator((n3, n3), matvec=self.single)
         lu = spla.splu(self.local + sp.diags(np.full(n3, 1e-300)))
@@ -219,70 +252,12 @@ class FmmFluid:
         return self.mu * self.areas3 * f
 
 
-def lumped_pairs(x, faces, lump: float, *, near: float = 3.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The (node, triangle) pairs integrated exactly, ``(pi, pf, kind)``: the node within
-    ``max(lump, near)`` triangle sizes ``rho`` (the largest centroid-vertex distance) of the triangle's
-    centroid (so a triangle's own corners always); ``kind`` the rule
-    (:func:`~cortex_ti.physics.stokes_kernel.near_blocks`): 0-2 the node is that corner (Duffy), 3
-    within ``near`` sizes (split; :func:`~cortex_ti.physics.stokes_bie.near_pairs`'s test), 4 the 7-point
-    rule."""
-    tri = x[faces]
-    cen = tri.mean(1)
-    rho = np.linalg.norm(tri - cen[:, None, :], axis=2).max(1)
-    radius = max(lump, near) * rho
-    if np.isfinite(lump):
-        found = cKDTree(cen).sparse_distance_matrix(cKDTree(x), radius.max(), output_type="ndarray")
-        pf, pi, d = found["i"].astype(np.int64), found["j"].astype(np.int64), found["v"]
-        keep = d < radius[pf]
-        pf, pi, d = pf[keep], pi[keep], d[keep]
-    else:
-        pf, pi = (a.ravel() for a in np.meshgrid(np.arange(len(faces)), np.arange(len(x)), indexing="ij"))
-        d = np.linalg.norm(x[pi] - cen[pf], axis=1)
-    vert = faces[pf] == pi[:, None]
-    kind = np.where(d < near * rho[pf], 3, 4)
-    own = vert.any(1)
-    kind[own] = np.argmax(vert[own], axis=1)
-    return pi, pf, kind
-
-
-def lumped_corrections(
-    x, faces, lump: float, centroid: float = 0.0, *, near: float = 3.0, duffy_points: int = 8, near_levels: int = 2
-) -> tuple[sp.bsr_matrix, int]:
-    """The corrections of the lumped far field as a sparse (3N, 3N) matrix of 3 x 3 blocks (the
-    accurate integrals of the pairs of :func:`lumped_pairs` minus their lumped values, summed over a
-    node pair's triangles; ``1 / 8 pi`` included; a Taichi kernel) and the number of pairs."""
-    from .stokes_kernel import near_blocks
-
-    x = np.ascontiguousarray(x, float)
-    faces = np.asarray(faces, np.int64)
-    n = len(x)
-    pi, pf, kind = lumped_pairs(x, faces, lump, near=near)
-    # the node pairs (i, corner j) as block slots: sorted keys i N + j, one slot per distinct pair
-    key = (pi[:, None] * n + faces[pf]).ravel()
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    new = np.ones(len(key), bool)
-    new[1:] = sorted_key[1:] != sorted_key[:-1]
-    slot = np.empty(len(key), np.int32)
-    slot[order] = np.cumsum(new) - 1
-    pairs = sorted_key[new]
-    data = np.zeros((len(pairs), 9))
-    rules = [radon7(), duffy_rule(duffy_points), split_rule(near_levels)]
-    args = [np.ascontiguousarray(a, float) for r in rules for a in r]
-    i32 = [np.ascontiguousarray(a, np.int32) for a in (faces, pi, pf, kind)]
-    near_blocks(x, *i32, *args, slot.reshape(-1, 3), float(centroid), data)
-    indptr = np.searchsorted(pairs // n, np.arange(n + 1))
-    data *= 1.0 / (8.0 * math.pi)
-    mat = sp.bsr_matrix((data.reshape(-1, 3, 3), pairs % n, indptr), shape=(3 * n, 3 * n))
-    return mat, len(pi)
-
-
 def fmm_fluid(points, faces, normals, *, mu_in: float, mu_out: float, far=None, backend="fmm", **kw) -> FmmFluid:
-    """:class:`FmmFluid` for equal viscosities; a viscosity contrast (the double layer) is the dense
-    path's only (the scene rules refuse it with ``fluid.solver: fmm``)."""
-    if mu_in != mu_out:
+    """:class:`FmmFluid`; a viscosity contrast (the double layer, :mod:`.fluids_double`) with the
+    ``direct`` backend only (the scene rules refuse it with ``fluid.solver: fmm``)."""
+    if mu_in != mu_out and backend == "fmm":
         raise SolverError(
-            f"fluid.solver = {backend} with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the matrix-free path "
-            "has the single layer only (equal viscosities); use fluid.solver: dense"
+            f"fluid.solver = fmm with fluid.inner = {mu_in:g} != fluid.outer = {mu_out:g}: the FMM path "
+            "has the single layer only (equal viscosities); use fluid.solver: direct or dense"
         )
-    return FmmFluid(points, faces, normals, mu_out, far=far, backend=backend, **kw)
+    return FmmFluid(points, faces, normals, mu_out, far=far, backend=backend, mu_in=mu_in, **kw)

@@ -42,11 +42,12 @@ FAR_FIELDS: dict[str, str] = {
 
 #: The solves of the effect ``fluids`` (``fluid.solver``; ``auto`` is resolved by the node count).
 FLUID_SOLVERS: dict[str, str] = {
-    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes or with a viscosity contrast, else direct",
+    "auto": "dense up to FLUID_AUTO_DENSE_MAX nodes, else direct",
     "dense": "the boundary-integral map as a dense matrix, K + D by a dense Cholesky (physics/fluids.py, "
     "solve/dense.py)",
     "direct": "matrix-free as fmm, the single layer's far field (nodes and triangle centroids as sources) summed pair "
-    "by pair by a Taichi kernel (O(N^2) time, O(N) memory; no extra)",
+    "by pair by a Taichi kernel (O(N^2) time, O(N) memory; no extra), a viscosity contrast's double layer too "
+    "(physics/fluids_double.py)",
     "fmm": "matrix-free: fmm3dpy's Stokes FMM with sparse near corrections, a coupled GMRES preconditioned by the "
     "sparse cortex operator and the fluids' local part (physics/fluids_fast.py, solve/fluid_krylov.py; the extra "
     "fluids; equal viscosities)",
@@ -61,15 +62,15 @@ FLUID_AUTO_DENSE_MAX = 162
 
 def resolve_fluid_solver(choice: str, nodes: int | None, mu_in: float, mu_out: float) -> str:
     """``fluid.solver`` as it runs: ``dense``, ``direct`` or ``fmm`` (``auto``: dense up to
-    :data:`FLUID_AUTO_DENSE_MAX` nodes, with a viscosity contrast, or with a mesh file of a size not
-    known yet; else direct).
+    :data:`FLUID_AUTO_DENSE_MAX` nodes or with a mesh file of a size not known yet; else direct, with a
+    viscosity contrast too: the double layer matrix-free, :mod:`cortex_ti.physics.fluids_double`).
 
     >>> resolve_fluid_solver("auto", 162, 1.0, 1.0), resolve_fluid_solver("auto", 642, 1.0, 1.0)
     ('dense', 'direct')
     """
     if choice != "auto":
         return choice
-    if nodes is None or nodes <= FLUID_AUTO_DENSE_MAX or mu_in != mu_out:
+    if nodes is None or nodes <= FLUID_AUTO_DENSE_MAX:
         return "dense"
     return "direct"
 

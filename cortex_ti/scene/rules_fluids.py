@@ -80,11 +80,11 @@ def check_fluids(data: dict, seen: set[str]) -> None:
         return  # the meridian's own operator: fluid.solver chooses among the 3D solves only
     solver = resolve_fluid_solver(fluid["solver"], nodes, fluid["inner"], fluid["outer"])
     if solver in ("fmm", "direct"):
-        if fluid["inner"] != fluid["outer"]:
+        if solver == "fmm" and fluid["inner"] != fluid["outer"]:
             raise SceneError(
-                f"fluid.solver = {fluid['solver']} with fluid.inner = {fmt_value(fluid['inner'])} != fluid.outer = "
-                f"{fmt_value(fluid['outer'])}: the matrix-free solve has the single layer only (equal viscosities); "
-                "use fluid.solver: dense (at most 2562 nodes)"
+                f"fluid.solver = fmm with fluid.inner = {fmt_value(fluid['inner'])} != fluid.outer = "
+                f"{fmt_value(fluid['outer'])}: the FMM solve has the single layer only (equal viscosities); "
+                "use fluid.solver: direct"
             )
         if solver == "fmm" and importlib.util.find_spec("fmm3dpy") is None:
             raise SceneError(FMM_MISSING)

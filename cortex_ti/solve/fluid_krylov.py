@@ -9,7 +9,9 @@ traction density ``f = V'^{-1} A (v - u_inf)`` is carried as unknowns and the co
     \begin{pmatrix} v \\ f \\ \lambda \end{pmatrix}
     = \begin{pmatrix} b \\ \mu A u_\infty \\ 0 \end{pmatrix}
 
-(eliminating ``f`` gives the dense path's ``(K + D) v + F^T lambda = b + D u_inf``, ``G v = 0``) is
+(eliminating ``f`` gives the dense path's ``(K + D) v + F^T lambda = b + D u_inf``, ``G v = 0``; with a
+viscosity contrast the traction row is ``mu (A M v / mu - V' f) = mu A u_inf``, ``M = mu_out (1/2 + Kd) +
+mu_in (1/2 - Kd)`` applied by ``op.mix`` (:mod:`cortex_ti.physics.fluids_double`), ``mu = mu_out``) is
 solved by GMRES, ``V'`` applied matrix-free by the fluid operator (``op.single``: the FMM and the
 sparse near corrections, :mod:`cortex_ti.physics.fluids_fast`). Preconditioner: the same block matrix
 with ``V'`` replaced by its local part ``op.local`` (the self-interactions, a diagonal ``L``): the
@@ -110,10 +112,12 @@ class FluidKrylov:
         n3, m = k.shape[0], g.shape[0]
         mu, a3 = op.mu, op.areas3
         nt = 2 * n3 + m
+        mix = getattr(op, "double", None) is not None  # a viscosity contrast: V' f = A (M v / mu - u_inf)
 
         def apply(z):
             v, f, lam = z[:n3], z[n3 : 2 * n3], z[2 * n3 :]
-            return np.concatenate([k @ v + mu * (a3 * f) + fr.T @ lam, mu * (a3 * v - op.single(f)), g @ v])
+            mv = op.mix(v) if mix else v
+            return np.concatenate([k @ v + mu * (a3 * f) + fr.T @ lam, mu * (a3 * mv - op.single(f)), g @ v])
 
         rhs = np.zeros(nt)
         rhs[:n3] = system.rhs
@@ -197,13 +201,15 @@ class FluidKrylov:
 
     def _factor(self, k, g, fr, op) -> None:
         """The preconditioner: the block matrix with ``V'`` replaced by its local part ``L`` (a
-        diagonal), ``f`` eliminated (``f = (A v) / L - r_f / (mu L)``): the sparse LU of the reduced
-        ``[[K + mu A L^-1 A, F^T], [G, 0]]`` (half the unknowns)."""
+        diagonal) and, with a viscosity contrast, ``M / mu`` by its diagonal ``m`` (``op.mix_diagonal``),
+        ``f`` eliminated (``f = (A m v) / L - r_f / (mu L)``): the sparse LU of the reduced
+        ``[[K + mu A L^-1 A m, F^T], [G, 0]]`` (half the unknowns)."""
         mu, a3 = op.mu, op.areas3
         local = op.local.diagonal()
+        md = getattr(op, "mix_diagonal", 1.0)  # the diagonal of M / mu (a viscosity contrast), else 1
         n3 = a3.size
         mat = sp.bmat(
-            [[k + sp.diags(mu * a3 * a3 / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
+            [[k + sp.diags(mu * a3 * a3 * md / local), sp.csr_matrix(fr).T], [sp.csr_matrix(g), None]], format="csc"
         )
         try:
             lu = spla.splu(mat, permc_spec="COLAMD")
@@ -217,7 +223,7 @@ class FluidKrylov:
             red = np.concatenate([r[:n3] + a3 * rf / local, r[2 * n3 :]])
             z = lu.solve(red)
             v = z[:n3]
-            return np.concatenate([v, (a3 * v) / local - rf / (mu * local), z[n3:]])
+            return np.concatenate([v, (a3 * md * v) / local - rf / (mu * local), z[n3:]])
 
         self._lu = solve
         self.n_factorizations += 1

@@ -163,7 +163,8 @@ class EnergySystem(_Unknowns):
     #: then factorises the whole matrix densely (:mod:`cortex_ti.solve.dense`)
     dense: np.ndarray | None = None
     #: the fluids applied matrix-free (``fluid.solver: fmm``, :mod:`cortex_ti.solve.fluid_krylov`): ``op @ v``
-    #: is ``D v`` (a Krylov solve: diagnostics only), ``op.far`` the far field's velocity (3N,) or None
+    #: is ``D v`` (a Krylov solve: diagnostics only), ``op.resistance(v)`` the fluids' force on the cortex
+    #: with its sign reversed (``D v`` less the far field's), ``op.far`` the far field's velocity (3N,) or None
     fluid_operator: object | None = None
     pressure_column = None  # the pressure is a multiplier, not a separate unknown
 
@@ -189,15 +190,13 @@ class EnergySystem(_Unknowns):
         if self.dense is not None:
             out = out + self.dense @ x
         if self.fluid_operator is not None:
-            far = self.fluid_operator.far
-            out = out + self.fluid_operator @ (x if far is None else x - far)
+            out = out + self.fluid_operator.resistance(x)
         return out
 
     def unsquared_residual(self, x: np.ndarray, pressure: float) -> tuple[np.ndarray, float]:
         out = self.rhs - self.stiffness @ x
         if self.fluid_operator is not None:
-            far = self.fluid_operator.far
-            out = out - self.fluid_operator @ (x if far is None else x - far)
+            out = out - self.fluid_operator.resistance(x)
         return (out if self.dense is None else out - self.dense @ x), 0.0
 
     def measure(self, x: np.ndarray, pressure: float, multipliers: np.ndarray) -> tuple[float, float]:

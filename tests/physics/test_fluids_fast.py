@@ -172,14 +172,6 @@ def test_without_fmm3dpy_one_line_names_the_extra(monkeypatch):
     assert load_scene("sedimenting_cell", ["mesh.nodes=2562"]).settings.fluid.solver == "direct"
 
 
-@pytest.mark.parametrize("solver", ["direct", "fmm"])
-def test_the_matrix_free_solves_refuse_a_viscosity_contrast(solver):
-    with pytest.raises(SceneError, match="equal viscosities"):
-        load_scene("sedimenting_cell", [f"fluid.solver={solver}", "fluid.inner=0.5"])
-    # auto keeps a contrast on the dense path
-    assert load_scene("sedimenting_cell", ["mesh.nodes=162", "fluid.inner=0.5"]).settings.fluid.solver == "dense"
-
-
 def test_a_too_stale_preconditioner_is_refactorised_and_the_solve_still_meets_the_tolerance(monkeypatch):
     """The coupled GMRES reuses its LU for ``REFACTOR_EVERY`` solves; a solve that the old LU does not
     bring to the tolerance in ``STALE_ITERATIONS`` (here 1, to force it) factorises its own operator

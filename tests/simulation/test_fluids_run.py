@@ -188,7 +188,7 @@ REFUSED = [
     (["translation=centroid"], "the medium fixes the cell's translation"),
     (["mesh.remesh.min_angle=20"], "mesh.remesh with the effect 'fluids'"),
     (["mesh.nodes=10242", "fluid.solver=dense"], "at most 2562 nodes"),
-    (["fluid.solver=direct", "fluid.inner=0.5"], "the single layer only (equal viscosities)"),
+    (["fluid.solver=fmm", "fluid.inner=0.5"], "the single layer only (equal viscosities)"),
     (
         ["effects=[active_stress,shear_viscosity,bulk_viscosity,normal_balance,shape_evolution,fluids]"],
         "needs the effect 'incompressibility'",
