@@ -117,8 +117,9 @@ LOBE_FRAMES = 16
 
 def lobe_series(tr: Trajectory) -> np.ndarray:
     """The up-down lobe mode's growth rate (:func:`cortex_ti.axisymmetric.lobe.lobe_rate`) at up to
-    :data:`LOBE_FRAMES` evenly spread frames of an axisymmetric run of adaptive points whose neck is
-    below 0.55 R0, and at its last frame (nan at the others)."""
+    :data:`LOBE_FRAMES` frames of an axisymmetric run of adaptive points whose neck is below 0.55 R0,
+    spread evenly in the logarithm of the neck (the rate climbs as the neck closes), and at its last
+    frame (nan at the others)."""
     from ..axisymmetric.lobe import lobe_rate  # the axisymmetric runs of the cytokinesis study only
     from ..axisymmetric.rigidity import rigidity
     from ..axisymmetric.run import axisymmetric_tension, viscosities
@@ -129,7 +130,9 @@ def lobe_series(tr: Trajectory) -> np.ndarray:
     out = np.full(neck.size, np.nan)
     if not deep.size:
         return out
-    pick = np.unique(np.r_[deep[:: max(1, -(-deep.size // LOBE_FRAMES))], deep[-1]])
+    log_neck = np.log(neck[deep])
+    targets = np.linspace(log_neck[0], log_neck[-1], LOBE_FRAMES)
+    pick = np.unique(np.r_[deep[np.abs(log_neck[None, :] - targets[:, None]).argmin(axis=1)], deep[-1]])
     zeta, kappa = axisymmetric_tension(s), rigidity(s).get("kappa", 0.0)
     for k in pick:
         state = tr.ds["axisymmetric_state"].values[k]
