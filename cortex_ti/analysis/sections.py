@@ -18,7 +18,6 @@ __all__ = [
     "furrow_radius",
     "furrow_radius_range",
     "neck_radius",
-    "volume_split",
     "fold_radii",
     "pole_radius_on",
     "furrow_on",
@@ -328,50 +327,3 @@ def fold_radii(points, faces, axis=(0.0, 0.0, 1.0), center=None) -> tuple[float,
     c = surf.center(center)
     return pole_radius_on(surf, e2, c), pole_radius_on(surf, e1, c)
 
-
-def volume_split(points, faces, axis=(0.0, 0.0, 1.0), point=(0.0, 0.0, 0.0)) -> tuple[float, float]:
-    """The volume a closed, outward-oriented triangulated surface encloses on either side of the
-    plane through ``point`` perpendicular to ``axis``: ``(above, below)`` (above: along ``axis``).
-
-    Each triangle is clipped by the plane exactly (flat triangles), and each side sums the signed
-    volumes of the cones from ``point`` to its pieces; the plane's own section through the body adds
-    nothing, as ``point`` lies in its plane. The two add to the enclosed volume.
-
-    >>> from cortex_ti.surface.mesh import icosphere
-    >>> m = icosphere(642)
-    >>> up, down = volume_split(m.points, m.faces)
-    >>> bool(abs(up - down) < 1e-12)
-    True
-    """
-    ax = unit_vector(axis, "axis")
-    o = np.asarray(point, dtype=np.float64).reshape(3)
-    pts = np.asarray(points, dtype=np.float64) - o
-    tri = pts[np.asarray(faces)]  # (F, 3, 3)
-    h = tri @ ax  # (F, 3) signed heights
-    above = np.all(h >= 0.0, axis=1)
-    below = np.all(h <= 0.0, axis=1) & ~above
-    cut = ~(above | below)
-
-    def cones(t):  # signed volumes of the cones from point to flat triangles t (n, 3, 3)
-        return float(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum()) / 6.0
-
-    sides = [cones(tri[above]), cones(tri[below])]
-    for t, ht in zip(tri[cut], h[cut], strict=True):
-        for k, sign in enumerate((1.0, -1.0)):
-            poly = _clip(t, sign * ht)
-            for j in range(1, len(poly) - 1):
-                sides[k] += float(np.dot(poly[0], np.cross(poly[j], poly[j + 1]))) / 6.0
-    return sides[0], sides[1]
-
-
-def _clip(tri: np.ndarray, h: np.ndarray) -> list[np.ndarray]:
-    """The part of the triangle ``tri`` (3 x 3) where the signed height ``h`` >= 0, as a polygon in
-    the triangle's order (one plane of Sutherland-Hodgman)."""
-    out = []
-    for i in range(3):
-        a, b, ha, hb = tri[i], tri[(i + 1) % 3], h[i], h[(i + 1) % 3]
-        if ha >= 0.0:
-            out.append(a)
-        if (ha > 0.0 and hb < 0.0) or (ha < 0.0 and hb > 0.0):
-            out.append(a + (b - a) * (ha / (ha - hb)))
-    return out

@@ -25,9 +25,9 @@ import xarray as xr
 from ..about import provenance
 from ..analysis import reference
 from ..analysis.diagnostics import DIAGNOSTIC_ATTRS, NECK_ATTRS, fold_radii, neck_radius
-from ..analysis.sections import volume_split
 from ..io.files import read_benchmark
 from ..io.trajectory import Trajectory
+from ..surface.division import side_volumes
 from ..surface.measures import area_centroid, volume_centroid
 from .registry import STUDIES
 from .sweeps import PATTERN_COLUMNS
@@ -86,8 +86,8 @@ def division_series(tr: Trajectory) -> dict[str, np.ndarray]:
     """Per frame of a run toward a cut (the ``cytokinesis`` study): ``n_bodies`` (1 where the run
     does not carry it), and ``volume_upper`` / ``volume_lower``, the volumes on either side along the
     pattern axis: of the two bodies after a cut (ordered by their centroids), before it of the one
-    body on either side of its neck's plane (:func:`~cortex_ti.analysis.sections.volume_split`;
-    NaN while the shape has no neck)."""
+    body on either side of its neck's plane (:func:`~cortex_ti.surface.division.side_volumes`, the
+    cut's own measure; NaN while the shape has no neck)."""
     ds = tr.ds
     axis = np.asarray(tr.settings.pattern_axis, dtype=float)
     axis = axis / np.linalg.norm(axis)
@@ -104,7 +104,7 @@ def division_series(tr: Trajectory) -> dict[str, np.ndarray]:
         r, z = neck_radius(pts, faces, axis=axis)
         if np.isfinite(r):
             centre = area_centroid(pts, faces) + z * axis
-            upper[k], lower[k] = volume_split(pts, faces, axis=axis, point=centre)
+            lower[k], upper[k] = side_volumes(pts, faces, centre, axis)
     out = {"n_bodies": bodies, "volume_upper": upper, "volume_lower": lower}
     if "axisymmetric_state" in ds and tr.settings.axisymmetric.points == "adaptive":
         out["lobe_rate"] = lobe_series(tr)

@@ -1,6 +1,7 @@
 """The cytokinesis study's reading of its store (cortex_ti.studies.cytokinesis) on a store built by
 hand, whose outcomes, cut times, volume ratios and late-time law are known by construction; and the
-volume split at a plane (cortex_ti.analysis.sections.volume_split) on a cube, exact for flat faces."""
+volume split at a plane (cortex_ti.surface.division.side_volumes, which the store reads) on a cube, exact
+for flat faces."""
 
 from __future__ import annotations
 
@@ -11,8 +12,8 @@ import pytest
 import xarray as xr
 from scipy.spatial import ConvexHull
 
-from cortex_ti.analysis.sections import volume_split
 from cortex_ti.studies import cytokinesis as c
+from cortex_ti.surface.division import side_volumes
 
 # run 0's law: neck = A (t_p - t)^a, cut at the neck 0.1
 A, TP, EXP, CUT = 0.5, 1.0, 1.5, 0.1
@@ -135,6 +136,6 @@ def _cube():
 def test_volume_split_of_a_cube(axis, point, above):
     """Flat faces clipped exactly: the unit cube's parts on either side of a plane, to round-off."""
     pts, faces = _cube()
-    up, down = volume_split(pts, faces, axis=axis, point=point)
+    down, up = side_volumes(pts, faces, point, axis)
     assert up == pytest.approx(above, abs=1e-14)
     assert down == pytest.approx(1.0 - above, abs=1e-14)
