@@ -227,13 +227,6 @@ def twin(amplitude: float, t_end: float, where, scene: str) -> dict:
     }
 
 
-def volume_centroid(x, tri):
-    """The centroid of the volume the triangles enclose (exact for the polyhedron)."""
-    a, b, c = x[tri[:, 0]], x[tri[:, 1]], x[tri[:, 2]]
-    v = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
-    return (v[:, None] * (a + b + c) / 4.0).sum(0) / v.sum()
-
-
 def at(times, values, t):
     """The value at the frame nearest ``t`` (NaN past the last frame)."""
     if t > times[-1] + 1e-9:

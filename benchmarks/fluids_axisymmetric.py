@@ -32,6 +32,8 @@ from pathlib import Path
 
 import _bench  # benchmarks/_bench.py: what the scripts share
 
+from cortex_ti.surface.measures import volume_centroid
+
 TIMES = (1.0, 2.0, 3.0)
 
 
@@ -70,7 +72,7 @@ def swim_speed(nodes: int) -> tuple[float, float]:
     sol = sim.solve(x)
     cpu = time.process_time() - t0
     move = 1e-6 * np.einsum("nc,nc->n", sol.velocity, sol.normal)[:, None] * sol.normal
-    return float((_bench.volume_centroid(x + move, tri) - _bench.volume_centroid(x - move, tri))[2] / 2e-6), cpu
+    return float((volume_centroid(x + move, tri) - volume_centroid(x - move, tri))[2] / 2e-6), cpu
 
 
 def centroid_speed(path: Path) -> float:
@@ -79,7 +81,7 @@ def centroid_speed(path: Path) -> float:
 
     with h5py.File(path, "r") as f:
         t, pts, tri = f["time"][:], f["points"], f["triangles"][:]
-        z0, z1 = _bench.volume_centroid(pts[0], tri)[2], _bench.volume_centroid(pts[-1], tri)[2]
+        z0, z1 = volume_centroid(pts[0], tri)[2], volume_centroid(pts[-1], tri)[2]
     return float((z1 - z0) / (t[-1] - t[0]))
 
 
