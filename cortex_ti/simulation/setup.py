@@ -131,7 +131,7 @@ def check_mirror_symmetric(mesh: Mesh, settings: RunSettings, values: dict[str, 
     from ..surface.measures import area_centroid
 
     rem = settings.mesh.remesh
-    if rem is None or not getattr(rem, "mirror", False):
+    if rem is None or not rem.mirror:
         return
     axis = np.asarray(settings.pattern_axis, dtype=float)
     reflect = np.eye(3) - 2.0 * np.outer(axis, axis)
