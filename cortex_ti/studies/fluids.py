@@ -16,6 +16,7 @@ Runs of ``furrow_in_fluid`` (the paper's furrow with a cytoplasm and a medium) a
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -29,6 +30,7 @@ __all__ = [
     "half_time",
     "swim_speed",
     "lamb_speed",
+    "swimmer_drive",
     "fluids_figure",
     "fluids_numbers",
 ]
@@ -84,6 +86,21 @@ def lamb_speed(mu_in: float, mu_out: float, coeff: float = 0.5, eta_s: float = 1
 
     _, beta = flow_coefficients(1, mu_in=mu_in, mu_out=mu_out, eta_s=eta_s, eta_b=eta_b)
     return coeff * beta * math.sqrt(3.0 / (4.0 * math.pi))
+
+
+@functools.cache
+def swimmer_drive(scene: str) -> dict:
+    """The keywords of :func:`lamb_speed` that a scene sets: the degree-1 part of its active tension
+    about its pattern axis, ``coeff = int zeta Y_10 dOmega`` on the unit sphere (by the patterns'
+    quadrature, so any pattern list, not only a ``coeff Y_10`` term), and the cortex's viscosities."""
+    from ..physics.patterns import integrate_patterns
+    from ..scene import load_scene
+
+    s = load_scene(scene).settings
+    axis = s.pattern_axis
+    y10 = math.sqrt(3.0 / (4.0 * math.pi))
+    coeff = float(integrate_patterns(list(s.patterns), weight=lambda pts: y10 * (np.asarray(pts) @ axis)))
+    return {"coeff": coeff, "eta_s": s.viscosity.shear, "eta_b": s.viscosity.bulk}
 
 
 def _runs(ds: xr.Dataset, scene: str, model: str | None = None) -> list[int]:
@@ -147,7 +164,9 @@ def fluids_figure(ds: xr.Dataset) -> Figure:
     swimmers = _runs(ds, SWIMMER)
     if swimmers:
         grid = np.geomspace(min(lengths), max(lengths), 60) if len(lengths) > 1 else np.array(lengths)
-        a2.plot(grid, [lamb_speed(1.0 / g, 1.0 / g) for g in grid], "k-", lw=0.8, label="Lamb, t = 0 (equal fluids)")
+        drive = swimmer_drive(SWIMMER)
+        lamb = [lamb_speed(1.0 / g, 1.0 / g, **drive) for g in grid]
+        a2.plot(grid, lamb, "k-", lw=0.8, label="Lamb, t = 0 (equal fluids)")
     a2.set_xscale("log")
     a2.set_xlabel(r"hydrodynamic length $\ell = \eta_s / \mu$ / $R_0$")
     a2.set_ylabel(r"swimming speed along the axis / ($R_0 / t_a$)")
@@ -183,7 +202,7 @@ def fluids_numbers(stores) -> pd.DataFrame:
         elif scene == SWIMMER:
             speed = swim_speed(ds, i)
             row["speed"] = f"{speed:.6f}"
-            row["Lamb at t = 0"] = f"{lamb_speed(inner, outer):.6f}"
+            row["Lamb at t = 0"] = f"{lamb_speed(inner, outer, **swimmer_drive(scene)):.6f}"
             if model != "axisymmetric" and twins:
                 row["speed / twin's - 1"] = f"{speed / swim_speed(ds, twins[0]) - 1:+.2e}"
         rows.append(row)

@@ -92,3 +92,20 @@ def test_lamb_speed_scales_with_every_viscosity():
     )
     assert base < 0.0 and abs(f.lamb_speed(10.0, 10.0)) < abs(base)
     assert base == pytest.approx(-0.023267, abs=1e-6)
+
+
+def test_swimmer_drive_is_the_scenes_degree_one_tension():
+    """Lamb's line is drawn for the scene's own tension: the Y_10 projection of its patterns (the
+    orthonormal harmonic recovers the scene's coefficient, 0.5, and the uniform ring adds nothing; a
+    quadrature error, ~1e-13), and its viscosities. The projection is about the axis it is taken on: Y_11
+    (x) has none about +z and all of it about +x."""
+    drive = f.swimmer_drive("polarised_swimmer")
+    assert drive["coeff"] == pytest.approx(0.5, abs=1e-10)
+    assert (drive["eta_s"], drive["eta_b"]) == (1.0, 1.0)
+    from cortex_ti.physics.patterns import integrate_patterns
+
+    tilted = [{"type": "harmonics", "terms": [{"l": 1, "m": 1, "coeff": 0.3}]}]
+    # Y_11 is sqrt(3 / 4 pi) x: its projection on Y_10 about +z vanishes, about +x it is the coefficient
+    y10 = (3.0 / (4.0 * np.pi)) ** 0.5
+    assert abs(integrate_patterns(tilted, weight=lambda p: y10 * p[:, 2])) < 1e-12
+    assert integrate_patterns(tilted, weight=lambda p: y10 * p[:, 0]) == pytest.approx(0.3, abs=1e-10)
