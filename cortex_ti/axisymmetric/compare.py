@@ -49,8 +49,23 @@ def twin_of(tr: Trajectory):
     )
 
 
+def _node_radii(x: np.ndarray, res) -> tuple[float, float]:
+    """The radii at the nodes against the twin, largest deviation over the frames: the pole node's
+    height (the node of largest z at t = 0) and the mean radius of the nodes on the initial equator
+    (nan if none lies there). Nodes lie on both formulations' surfaces, so unlike the section radii
+    (a flat section of ``rayleigh_p1`` is O(h^2) inside its sphere) this measures flat and curved cells
+    alike."""
+    pole = int(np.argmax(x[0, :, 2]))
+    eq = np.flatnonzero(np.abs(x[0, :, 2]) < 1e-12 * max(1.0, float(np.abs(x[0]).max())))
+    ep = float(np.abs(x[:, pole, 2] - res.pole_radius).max())
+    if eq.size == 0:
+        return ep, float("nan")
+    return ep, float(np.abs(np.hypot(x[:, eq, 0], x[:, eq, 1]).mean(axis=1) - res.furrow_radius).max())
+
+
 def compare(path: str, times=PROFILE_TIMES) -> dict:
-    """Radii (largest deviation over the frames, its time, the deviation at the last frame) and
+    """Radii (largest deviation over the frames, its time, the deviation at the last frame; and at
+    the nodes, ``node_radii``: :func:`_node_radii`) and
     velocity profiles at ``times`` (largest / rms deviation of v_n and |v_t| at the nodes, and
     their scales) of a 3D trajectory against its axisymmetric twin."""
     tr = Trajectory(path, lazy=True)
@@ -61,6 +76,7 @@ def compare(path: str, times=PROFILE_TIMES) -> dict:
         d = np.abs(ds[name].values - getattr(res, name))
         out[name] = (float(d.max()), float(tr.times[np.argmax(d)]), float(d[-1]))
     x0 = ds["points"].isel(time=0).values
+    out["node_radii"] = _node_radii(ds["points"].values, res)
     labels = np.arccos(np.clip(x0[:, 2] / np.linalg.norm(x0, axis=1), -1.0, 1.0))
     for t in times:
         if t > tr.times[-1] + 1e-9:
