@@ -57,6 +57,8 @@ class Formulation:
     centred_implicit: bool = False
     #: said once at the start of a run that evolves its shape (empty: nothing to say)
     dynamic_caveat: str = ""
+    #: the ``numerics.active_force`` choices the caveat is about (empty: every one)
+    caveat_forces: tuple = ()
     #: its surface is made of curved six-node cells (a mesh in the split layout of
     #: :mod:`cortex_ti.surface.curved`), on which the run's shape measures are taken
     curved: bool = False
@@ -66,6 +68,10 @@ class Formulation:
     #: ``(nabla_c B^cd) d_d v_n``, zero on a sphere); a run's axisymmetric twin solves the same
     #: (docs/validation/curved.md, "The furrow's dynamics")
     bending_form: str = "dissipation"
+
+    def caveat(self, active_force: str) -> str:
+        """What a run that evolves its shape with ``active_force`` is told at its start ("" for nothing)."""
+        return self.dynamic_caveat if not self.caveat_forces or active_force in self.caveat_forces else ""
 
     def system(
         self,
@@ -155,6 +161,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "1/t_a at 642 nodes (rayleigh_p1: 33) and the mesh collapses by t = 0.2-0.3; 'gradient' (a gradient flow) "
         "runs it, but its t = 0 flows are less accurate than rayleigh_p1's; on furrow_p4_a1 its radii are 1.8-2.8x "
         "closer to the axisymmetric twin's than rayleigh_p1's at 642-10242 nodes (docs/validation/curved_cost.md)",
+        caveat_forces=("balanced",),
     ),
 }
 

@@ -417,7 +417,7 @@ def _integrate_to_file(
         log.info("nothing to resume at %s.partial; starting from t = 0", output)
     for sentence in unphysical(sim):
         log.warning("scene '%s': %s; the run goes on", sim.settings.name, sentence)
-    caveat = sim.settings.numerics.formulation_entry.dynamic_caveat
+    caveat = sim.settings.numerics.formulation_entry.caveat(sim.settings.numerics.active_force)
     if caveat:
         log.warning("scene '%s': numerics.formulation = %s: %s", sim.settings.name, sim.formulation, caveat)
     if done:

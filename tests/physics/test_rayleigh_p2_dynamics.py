@@ -168,3 +168,14 @@ def test_the_uniform_sphere_has_no_growing_mode_with_the_gradient_force():
     spec = normal_spectrum(sim)
     assert spec.count_above(0.01) == 0, spec.largest_real
     assert spec.eigenvalues.real.min() < -1.0
+
+
+def test_the_start_warns_of_the_balanced_force_only():
+    """The caveat a p2 run is told names the balanced force's growing modes: a run with the gradient
+    force (every rayleigh_p2 division scene) must not be told it (it was, whatever the force)."""
+    from cortex_ti.physics.formulations import FORMULATIONS
+
+    p2 = FORMULATIONS["rayleigh_p2"]
+    assert "balanced" in p2.caveat("balanced") and "growing" in p2.caveat("balanced")
+    assert p2.caveat("gradient") == ""
+    assert FORMULATIONS["rayleigh_p1"].caveat("balanced") == ""
