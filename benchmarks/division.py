@@ -17,6 +17,14 @@ Usage::
     python benchmarks/division.py --scene cytokinesis --set mesh.nodes=642 --set division.neck_radius=0.15
     python benchmarks/division.py --smoke       # the 642-node dumbbell, cut at its first step (to t = 0.0012)
     python benchmarks/division.py --dumbbell    # the same followed until its daughters are round (t = 1.6)
+    python benchmarks/division.py --twin c642.h5 c2562.h5 [--twin-n 64 96]
+
+``--twin`` compares the neck of one or more 3D runs of a scene (remeshed runs too: the neck is a
+measure of the shape, not of the nodes) with the axisymmetric model of the same scene (``model=
+axisymmetric``, the bending forms of the 3D formulation, at the meridian points ``--twin-n``, the
+scene's by default): the neck radius at the frames both have, from the first frame with a neck in
+both to the cut, largest deviation; the cut time (the neck reaching ``division.neck_radius``) of each
+and its relative difference. The axisymmetric frames are the 3D run's (the same ``time.save_every``).
 """
 
 from __future__ import annotations
@@ -99,6 +107,64 @@ def rounding(path: Path) -> str:
     return "\n".join(rows)
 
 
+def _neck(ds) -> tuple[np.ndarray, np.ndarray]:
+    """(times, neck) of a trajectory's one-body frames with a neck (the frames before the cut)."""
+    t, r = ds["time"].values, ds["neck_radius"].values
+    one = ds["n_bodies"].values == 1 if "n_bodies" in ds else np.ones(t.size, bool)
+    ok = one & np.isfinite(r)
+    return t[ok], r[ok]
+
+
+def _cut_time(path: Path, ds, neck: float) -> float:
+    """When the neck reached ``neck``: the recorded cut of a 3D run, else (the axisymmetric file ends at
+    its cut) the last frame if its neck is there."""
+    from cortex_ti.io.trajectory import read_divisions
+
+    cut = read_divisions(path)
+    if cut:
+        return float(cut[0]["division_time"])
+    t, r = _neck(ds)
+    return float(t[-1]) if r.size and r[-1] <= neck * (1 + 1e-6) else float("nan")
+
+
+def twin(paths: list[Path], ns: list[int | None]) -> str:
+    """The ``--twin`` table (module docstring)."""
+    from cortex_ti.api import run as ct_run
+    from cortex_ti.io.trajectory import Trajectory
+    from cortex_ti.scene import scene_from_yaml
+
+    runs = [(p, Trajectory(p).ds) for p in paths]
+    scene = scene_from_yaml(runs[0][1].attrs["scene"])
+    neck_cut = float(scene.data["division"]["neck_radius"])
+    twins = {}
+    for n in ns:
+        over = ["model=axisymmetric", *([f"axisymmetric.n={n}"] if n else [])]
+        c0 = time.process_time()
+        out = _bench.folder() / f"ax{n}.h5"
+        ct_run(scene, out, overrides=over, force=True)
+        ax = Trajectory(out).ds
+        twins[n or scene.data["axisymmetric"]["n"]] = (_neck(ax), _cut_time(out, ax, neck_cut))
+        print(f"<!-- the axisymmetric twin, n = {n or 'scene'}: {time.process_time() - c0:.0f} CPU s -->")
+    rows = ["| run | nodes | twin n | neck: largest abs deviation (at t, neck) | cut t (3D, twin) | cut t rel. diff |"]
+    rows.append("|---|---|---|---|---|---|")
+    for path, ds in runs:
+        nodes = scene_from_yaml(ds.attrs["scene"]).data["mesh"]["nodes"]
+        t3, r3 = _neck(ds)
+        cut3 = _cut_time(path, ds, neck_cut)
+        for n, ((ta, ra), cuta) in twins.items():
+            common, i3, ia = np.intersect1d(np.round(t3, 9), np.round(ta, 9), return_indices=True)
+            if not common.size:
+                rows.append(f"| {path.name} | {nodes} | {n} | no common frame | {cut3:.4f}, {cuta:.4f} | |")
+                continue
+            d = np.abs(r3[i3] - ra[ia])
+            k = int(np.argmax(d))
+            rows.append(
+                f"| {path.name} | {nodes} | {n} | {d[k]:.2e} (t = {common[k]:.3g}, "
+                f"{ra[ia][k]:.4f}) | {cut3:.4f}, {cuta:.4f} | {cut3 / cuta - 1:+.2e} |"
+            )
+    return "\n".join(rows)
+
+
 def smoke(t_end: float = 0.0012, save_every: float = 0.0002) -> Path:
     """The dumbbell of tests/dumbbell_tools.py under a uniform tension, cut at its first step, followed
     to ``t_end`` (1.6: until its daughters are round)."""
@@ -134,8 +200,17 @@ def main() -> None:
     ap.add_argument("--smoke", action="store_true", help="a tiny case: the dumbbell cut at its first step")
     ap.add_argument("--dumbbell", action="store_true", help="the smoke's dumbbell until its daughters are round")
     ap.add_argument("--rounding", action="store_true", help="also the daughters' roundness at every two-body frame")
+    ap.add_argument(
+        "--twin", type=Path, nargs="+", help="3D runs of one scene: their neck against the axisymmetric model's"
+    )
+    ap.add_argument(
+        "--twin-n", type=int, nargs="+", default=[None], help="the twin's meridian points (default: the scene's)"
+    )
     a = ap.parse_args()
     print(_bench.header())
+    if a.twin:
+        print(twin(a.twin, a.twin_n))
+        return
     if a.file:
         path = a.file
     elif a.smoke or a.dumbbell:
