@@ -36,6 +36,7 @@ from .fluids import axisymmetric_fluids
 from .myosin import Myosin
 from .result import revolve
 from .rigidity import rigidity
+from .run_checks import RunChecks
 
 log = logging.getLogger(__name__)
 
@@ -201,7 +202,7 @@ def viscosities(settings: RunSettings) -> dict:
     return dict(eta_s=v.shear, eta_b=v.bulk, eta_bar=v.bending, eta_bar_b=v.bending_bulk)
 
 
-class AxisymmetricRun:
+class AxisymmetricRun(RunChecks):
     """A scene with ``model: axisymmetric`` ready to run (the counterpart of
     :class:`~cortex_ti.simulation.core.Simulation`)."""
 
@@ -269,11 +270,13 @@ class AxisymmetricRun:
             self.result = exc.result  # its frames are written, then the run fails (run)
             self._warn_unresolved(exc.result)
             self._warn_compressed(exc.result)
+            self._warn_negative_myosin(exc.result)
             return exc.result
         except ValueError as exc:
             raise CortexError(f"scene '{s.name}', axisymmetric model: {exc}") from None
         self._warn_unresolved(res)
         self._warn_compressed(res)
+        self._warn_negative_myosin(res)
         if s.division_neck is not None and res.stopped.startswith("neck"):
             msg = "division.neck_radius reached, %s: the file ends at the cut (daughters: division.simulate_division)"
             log.warning("%s (axisymmetric): " + msg, s.name, res.stopped)
@@ -304,23 +307,6 @@ class AxisymmetricRun:
                 res.furrow_radius[k],
                 evolution_options(self.settings)["parametrization"],
                 "folded" if not np.isfinite(res.stretch[k]) else f"stretched {res.stretch[k]:.3g} > {STRETCH_LIMIT:g}",
-            )
-
-    def _warn_compressed(self, res) -> None:
-        """One line when the cortex turns compressive without bending resistance: its short waves
-        then grow the faster the shorter, so the frames after it stop converging in n
-        (docs/validation/constriction.md, "Where the model ends")."""
-        bad = np.flatnonzero(np.asarray(res.min_stress) < 0.0)
-        if bad.size and not (self.settings.has("bending_viscosity") or self.settings.has("bending_rigidity")):
-            k = int(bad[0])
-            log.warning(
-                "%s (axisymmetric): from t = %.4g (neck %.4g R0) the cortex is compressed (smallest principal "
-                "stress %.3g): without bending resistance its short waves grow, and the frames after it are "
-                "not converged in axisymmetric.n",
-                self.settings.name,
-                res.t[k],
-                res.neck_radius[k] if np.isfinite(res.neck_radius[k]) else res.furrow_radius[k],
-                res.min_stress[k],
             )
 
     # ------------------------------------------------------------------------------- writing
