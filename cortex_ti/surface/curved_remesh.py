@@ -28,12 +28,13 @@ point, the fields linearly interpolated there): the comparison of
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 
 import numpy as np
 
 from .closest import closest_points
 from .curved import CELL_EDGES, p2_cells, p2_shape, triangle_rule
-from .measures import area_centroid
+from .measures import area_centroid, min_angles
 from .mesh import split_faces
 from .remesh import RemeshOptions, RemeshResult, edge_curvature, keep_amount, offset_to_volume, triangulate
 from .transport import DENSITY
@@ -251,6 +252,45 @@ def restore_curved_volume(points, faces, volume: float, rtol: float = 1e-14, max
     return offset_to_volume(points, faces, volume, measure, "the curved cells' volume", rtol, max_iter)
 
 
+#: a placed corner mesh below ``RemeshOptions.min_angle`` is triangulated again with MMG's floor and the
+#: repair's goal raised by this (deg), at most :data:`PLACED_RETRIES` times, the best placed mesh kept
+PLACED_RAISE = 4.0
+PLACED_RETRIES = 2
+
+
+def _placed_corners(points, faces, corners, corner_faces, kappa, options: RemeshOptions, mirror, p0):
+    """The new corner triangulation (:func:`~cortex_ti.surface.remesh.triangulate`, or mirrored) and its
+    nodes placed on the old curved cells (a node on the mirror plane kept on it). MMG's floor
+    ``options.min_angle`` holds on the flat corner mesh it makes; the placement moves each node by up
+    to the cells' sagitta, which at a neck skews a few triangles by several degrees. A placed mesh below
+    the floor is made again with the floor and the repair's goal raised by :data:`PLACED_RAISE` (at most
+    :data:`PLACED_RETRIES` times; the placed mesh with the largest smallest angle is kept). Returns the
+    triangulation, the placed corners' cells and reference coordinates on the old cells and positions."""
+    opts = corner_options(options)
+    best = None
+    for attempt in range(PLACED_RETRIES + 1):
+        if mirror is None:
+            new = triangulate(corners, corner_faces, opts, kappa, CORNER_HAUSD)
+        else:
+            from .mirror import mirror_triangulate
+
+            new = mirror_triangulate(corners, corner_faces, p0, mirror, opts, kappa, CORNER_HAUSD)
+        cell, ref, at = curved_closest(points, faces, new.points)
+        if mirror is not None:
+            from .mirror import keep_on_plane
+
+            at = keep_on_plane(at, new.points, p0, mirror)
+        angle = float(min_angles(at, new.faces).min())
+        if best is None or angle > best[0]:
+            best = (angle, new, cell, ref, at)
+        if options.min_angle is None or best[0] >= options.min_angle or attempt == PLACED_RETRIES:
+            break
+        log.info("remeshing: the placed corners' smallest angle %.2f deg < %g: made again", angle, options.min_angle)
+        raised = (opts.min_angle or options.min_angle) + PLACED_RAISE
+        opts = replace(opts, min_angle=raised, quality=max(opts.quality, raised + 5.0))
+    return best[1:]
+
+
 def remesh_curved(
     points: np.ndarray,
     faces: np.ndarray,
@@ -279,19 +319,13 @@ def remesh_curved(
     # the size field's curvature from the split mesh (its edges are half the corner mesh's: a deep
     # neck's meridian, ~80 / R0 at amplitude 12, is smoothed away by the corner mesh's own estimate)
     kappa = edge_curvature(points, faces)[corner_ids]
-    if mirror is None:
-        new = triangulate(corners, corner_faces, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD)
-    else:
-        from .mirror import mirror_triangulate
-
-        p0 = area_centroid(points, faces)
-        new = mirror_triangulate(
-            corners, corner_faces, p0, mirror, corner_options(options or RemeshOptions()), kappa, CORNER_HAUSD
-        )
+    p0 = None if mirror is None else area_centroid(points, faces)
+    new, cell, ref, at = _placed_corners(
+        points, faces, corners, corner_faces, kappa, options or RemeshOptions(), mirror, p0
+    )
     edges, split = split_faces(new.faces, len(new.points))
     new_faces = np.ascontiguousarray(split, dtype=np.int32)
     if placement == "curved":
-        cell, ref, at = curved_closest(points, faces, new.points)
         mids = 0.5 * (at[edges[:, 0]] + at[edges[:, 1]])
         cell_m, ref_m, at_m = curved_closest(points, faces, mids)
         cell, ref, nodes = np.concatenate([cell, cell_m]), np.vstack([ref, ref_m]), np.vstack([at, at_m])
@@ -302,11 +336,11 @@ def remesh_curved(
         tri_m, bary_m = closest_points(points, faces, mids)
         tri, bary = np.concatenate([tri, tri_m]), np.vstack([bary, bary_m])
         nodes = np.einsum("qk,qkc->qc", bary, points[faces[tri]])
-    if mirror is not None:  # a node on the plane stays there (cortex_ti.surface.mirror)
+    if mirror is not None:  # a midpoint on the plane stays there (cortex_ti.surface.mirror; corners: _placed_corners)
         from .mirror import keep_on_plane
 
         straight = np.vstack([new.points, 0.5 * (new.points[edges[:, 0]] + new.points[edges[:, 1]])])
-        nodes = keep_on_plane(nodes, straight, area_centroid(points, faces), mirror)
+        nodes = keep_on_plane(nodes, straight, p0, mirror)
     nodes, _ = unfold(nodes, new_faces)
     nodes, delta = restore_curved_volume(nodes, new_faces, target) if restore else (nodes, 0.0)
     out, kinds = {}, dict(kinds or {})
