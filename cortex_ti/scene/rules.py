@@ -383,13 +383,14 @@ def _check_division(data: dict) -> None:
 
 
 def _check_multistep(data: dict) -> None:
-    """``bdf2`` and ``bdf3`` (the ``dense`` schemes: a tolerance and a one-step start): their semi-implicit tension only with
-    the formulation that implements it, a tolerance the solves can honour, a start step within the
-    largest step. Only for a 3D run that evolves its shape (the axisymmetric model has its own
-    integrator)."""
+    """``bdf2`` and ``bdf3`` (the ``dense`` schemes: a tolerance and a one-step start): their
+    semi-implicit tension only with the formulation that implements it, a tolerance the solves can
+    honour, a start step within the largest step. Only for a 3D run that evolves its shape (the
+    axisymmetric model has its own integrator)."""
     time = data.get("time") or {}
     scheme = SCHEMES.get(time.get("scheme", "euler"))
-    if scheme is None or not scheme.dense or data.get("model", "3d") != "3d" or "shape_evolution" not in data["effects"]:
+    evolves = data.get("model", "3d") == "3d" and "shape_evolution" in data["effects"]
+    if scheme is None or not scheme.dense or not evolves:
         return
     name = time["scheme"]
     formulation = data["numerics"]["formulation"]

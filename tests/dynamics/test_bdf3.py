@@ -79,9 +79,8 @@ def test_order_three_by_step_halving_on_a_nonlinear_equation():
     def exact(t):
         return beta / ((beta + 1.0) * math.exp(beta * t) - 1.0)
 
-    errors = [
-        abs(run_scalar(Scalar(lambda x: -(x**2), beta), 1.0, 1.0, h, h * h / 2) - exact(1.0)) for h in (0.04, 0.02, 0.01)
-    ]
+    model = Scalar(lambda x: -(x**2), beta)
+    errors = [abs(run_scalar(model, 1.0, 1.0, h, h * h / 2) - exact(1.0)) for h in (0.04, 0.02, 0.01)]
     ratios = [errors[0] / errors[1], errors[1] / errors[2]]
     assert all(7.0 < r < 9.2 for r in ratios), (ratios, errors)
 
