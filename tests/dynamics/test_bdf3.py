@@ -190,7 +190,11 @@ def test_order_three_on_the_cortex_a_uniform_myosin_excess_decays_as_its_exponen
     for h in (0.1, 0.05, 0.025):
         end = {}
         scheme = make_scheme("bdf3", sim.evaluate, tol=1e9, dt_max=h, implicit=True)
-        integrate(sim.evaluate, sim.state0, 0.0, t_end, h * h / 2, scheme, t_end, lambda t, ev, dt, final=False: end.update(s=ev.state), implicit=True)  # fmt: skip
+
+        def frame(t, ev, dt, final=False, end=end):
+            end["s"] = ev.state
+
+        integrate(sim.evaluate, sim.state0, 0.0, t_end, h * h / 2, scheme, t_end, frame, implicit=True)
         s = end["s"]
         c, a = s.fields["myosin"], dual_areas(s.points, s.faces)
         errors.append(abs(float(np.sum(c * a) / np.sum(a)) - (1.0 + excess * math.exp(-t_end))))
