@@ -29,15 +29,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import subprocess
 import tempfile
-import time
 from pathlib import Path
 
 import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
-from _bench import header, write_block
+from _bench import header, timed_command, write_block
 
 
 def run_one(scene: str, nodes: int, scheme: str, tol: str, workdir: Path, sets=(), t_end=None) -> dict:
@@ -52,14 +49,7 @@ def run_one(scene: str, nodes: int, scheme: str, tol: str, workdir: Path, sets=(
         cmd += ["--set", f"time.t_end={t_end}"]
     for kv in sets:
         cmd += ["--set", kv]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    started = time.perf_counter()
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - started
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"time_error: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    wall, cpu = timed_command(cmd, "time_error")
     s = json.loads(summary.read_text())
     from cortex_ti.axisymmetric.compare import compare
     from cortex_ti.io import Trajectory
@@ -76,7 +66,7 @@ def run_one(scene: str, nodes: int, scheme: str, tol: str, workdir: Path, sets=(
         steps=s["steps"],
         rejected=s.get("rejected", 0),
         solves=s["solves"],
-        cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        cpu_s=cpu,
         wall_s=wall,
         radii=radii,
         times=times,
