@@ -201,3 +201,28 @@ def test_order_three_on_the_cortex_a_uniform_myosin_excess_decays_as_its_exponen
         assert np.ptp(c) < 1e-6 and np.abs(s.points - sim.state0.points).max() < 1e-6
     ratios = [errors[0] / errors[1], errors[1] / errors[2]]
     assert all(7.0 < r < 9.0 for r in ratios), (ratios, errors)
+
+
+def test_frames_are_the_cubic_through_the_last_four_states():
+    """Steps of 0.05 (from a start at 1e-3) and frames every 0.01 on dx/dt = -x: every frame lands on
+    its time, and between two steps it is off e^-t by at most the larger of the two steps' own errors
+    plus 1e-6: the cubic through the last four states adds at most h^4 / 24 |x''''| = 2.6e-7 between
+    the steps, where a quadratic through three would add up to 0.064 h^3 |x'''| (3-8e-6 here)."""
+    steps = []
+
+    class Recording(BDF3):
+        def _accept(self, t, state, ev):
+            steps.append((t, abs(float(state.points[0, 2]) - math.exp(-t))))
+            super()._accept(t, state, ev)
+
+    model = Scalar(lambda x: -x, 0.0)
+    frames = {}
+    integrate(
+        model, State(Z.copy()), 0.0, 1.0, 1e-3, Recording(model, tol=1e9, dt_max=0.05), 0.01,
+        lambda t, ev, dt, final=False: frames.update({t: abs(float(ev.points[0, 2]) - math.exp(-t))}),
+    )  # fmt: skip
+    times = np.array(sorted(frames))
+    assert len(times) == 101 and np.allclose(times, np.linspace(0.0, 1.0, 101), atol=1e-12)
+    for (ta, ea), (tb, eb) in zip([(0.0, 0.0), *steps[:-1]], steps, strict=True):
+        inside = [frames[t] for t in times if ta < t < tb]
+        assert all(e <= max(ea, eb) + 1e-6 for e in inside), (ta, tb, ea, eb, inside)
