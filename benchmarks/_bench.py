@@ -123,6 +123,23 @@ def reference_seconds(repeats: int = 5) -> float:
     return best
 
 
+def timed_command(cmd: list[str], who: str) -> tuple[float, float]:
+    """Run ``cmd`` in a child process on one thread (OpenMP, MKL, OpenBLAS); its wall seconds and CPU
+    seconds (user + system of the child). A failure ends the benchmark naming ``who`` and the command."""
+    import resource
+    import subprocess
+
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    started = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - started
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise SystemExit(f"{who}: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 def folder() -> Path:
     """A fresh temporary folder for a smoke run's files."""
     return Path(tempfile.mkdtemp(prefix="cortex-ti-smoke-"))

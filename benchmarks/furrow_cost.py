@@ -40,15 +40,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
-from _bench import header, reference_seconds, write_block
+from _bench import header, reference_seconds, timed_command, write_block
 
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
 
@@ -74,14 +71,7 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path, sets=())
         cmd += ["--set", f"time.t_end={t_end}"]
     for kv in sets:
         cmd += ["--set", kv]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"furrow_cost: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    wall, cpu = timed_command(cmd, "furrow_cost")
     s = json.loads(summary.read_text())
     from cortex_ti.axisymmetric.compare import compare
 
@@ -91,7 +81,7 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path, sets=())
         nodes=nodes,
         formulation=f"{s.get('formulation', '?')}, {s.get('fit', '?')}",
         wall_s=wall,
-        cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        cpu_s=cpu,
         steps=s["steps"],
         solves=s["solves"],
         factorizations=s.get("factorizations"),

@@ -374,6 +374,7 @@ class BDF2(Scheme):
     semi_implicit = True
     dense = True
     SAFETY, GROW, SHRINK = 0.9, 2.0, 0.2
+    KEEP = 3  # the states a step reads (its error estimate's quadratic)
     default_tol = 4e-6  # at TOL_NODES nodes, and for a mesh file; scaled with the mesh (default_tol_for)
     TOL_NODES = 10242
     default_dt_max = 0.2
@@ -463,20 +464,26 @@ class BDF2(Scheme):
             pred = weights[0] * s_q.points + weights[1] * s_p.points + weights[2] * s_n.points
             c = bdf2_error_constant(dt, h_prev, t_p - t_q)
             err = c * float(np.max(np.linalg.norm(new.points - pred, axis=1)))
+        return self._judge(err, dt, t_n, s_n, new, ev_new, 3)
+
+    def _judge(self, err: float, dt: float, t_n: float, s_n: State, new: State, ev_new, order: int) -> StepResult:
+        """Accept the step to ``new`` (solved by ``ev_new``) or reject it, by its estimated error
+        against ``tol``; the next step ``dt (tol / err)^(1 / order)`` times ``SAFETY``, within
+        ``[SHRINK, GROW] dt``, at most ``dt_max``."""
         ratio = 0.0 if math.isnan(err) else err / self.tol
-        factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio ** (-1.0 / 3.0)))
+        factor = self.GROW if ratio == 0 else min(self.GROW, max(self.SHRINK, self.SAFETY * ratio ** (-1.0 / order)))
         if ratio > 1.0:
             if dt <= self.dt_min:
                 raise StabilityError(
-                    f"bdf2: the step cannot be made small enough at t = {t_n:.6g}: dt = {dt:.3g} (the smallest, "
-                    f"{self.dt_min:g}) still leaves an estimated error {err:.2e} > time.tol = {self.tol:g}"
+                    f"{self.name}: the step cannot be made small enough at t = {t_n:.6g}: dt = {dt:.3g} (the "
+                    f"smallest, {self.dt_min:g}) still leaves an estimated error {err:.2e} > time.tol = {self.tol:g}"
                 )
             return StepResult(s_n, dt, err, accepted=False, dt_next=max(dt * factor, self.dt_min), solves=1)
         self._accept(t_n + dt, new, ev_new)
         return StepResult(new, dt, err, dt_next=min(self.dt_max, dt * factor), solves=1)
 
     def _accept(self, t: float, state: State, ev: Evaluation | None) -> None:
-        self.history = [*self.history[-2:], (t, state, ev)]
+        self.history = [*self.history[1 - self.KEEP :], (t, state, ev)]
 
     def checkpoint(self) -> dict[str, np.ndarray]:
         """The step history as named arrays, from which :meth:`restore` continues exactly: the

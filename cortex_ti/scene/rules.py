@@ -383,32 +383,35 @@ def _check_division(data: dict) -> None:
 
 
 def _check_multistep(data: dict) -> None:
-    """``bdf2`` (a scheme with a tolerance and a one-step start): its semi-implicit tension only with
-    the formulation that implements it, a tolerance the solves can honour, a start step within the
-    largest step. Only for a 3D run that evolves its shape (the axisymmetric model has its own
-    integrator)."""
+    """``bdf2`` and ``bdf3`` (the ``dense`` schemes: a tolerance and a one-step start): their
+    semi-implicit tension only with the formulation that implements it, a tolerance the solves can
+    honour, a start step within the largest step. Only for a 3D run that evolves its shape (the
+    axisymmetric model has its own integrator)."""
     time = data.get("time") or {}
-    if time.get("scheme") != "bdf2" or data.get("model", "3d") != "3d" or "shape_evolution" not in data["effects"]:
+    scheme = SCHEMES.get(time.get("scheme", "euler"))
+    evolves = data.get("model", "3d") == "3d" and "shape_evolution" in data["effects"]
+    if scheme is None or not scheme.dense or not evolves:
         return
+    name = time["scheme"]
     formulation = data["numerics"]["formulation"]
     if not FORMULATIONS[formulation].centred_implicit and time.get("implicit_tension") is True:
         raise SceneError(
-            f"time.scheme = bdf2 with time.implicit_tension = true centres the semi-implicit tension on the last "
-            f"step's rate, which numerics.formulation = {formulation} does not implement: use "
-            "rayleigh_p1, time.implicit_tension: auto (bdf2 then runs explicit), or time.scheme = euler"
+            f"time.scheme = {name} with time.implicit_tension = true centres the semi-implicit tension on the "
+            f"last step's rate, which numerics.formulation = {formulation} does not implement: use "
+            f"rayleigh_p1, time.implicit_tension: auto ({name} then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]
     mesh = data.get("mesh") or {}
     nodes = mesh.get("nodes") if mesh.get("file") is None else None
-    tol, dt_max = SCHEMES["bdf2"].resolve_step_control(time.get("tol"), time.get("dt_max"), nodes)
+    tol, dt_max = scheme.resolve_step_control(time.get("tol"), time.get("dt_max"), nodes)
     if tol < 10.0 * rtol:
         raise SceneError(
-            f"time.tol = {fmt_value(tol)} is below what bdf2 can honour: each solve leaves a relative "
+            f"time.tol = {fmt_value(tol)} is below what {name} can honour: each solve leaves a relative "
             f"error solver.rtol = {fmt_value(rtol)} in the velocity; set time.tol >= {fmt_value(10.0 * rtol)}"
         )
     if time["dt"] > dt_max:
         raise SceneError(
-            f"time.dt = {fmt_value(time['dt'])} (bdf2's first, one-step Euler step) is larger than time.dt_max = "
+            f"time.dt = {fmt_value(time['dt'])} ({name}'s first, one-step Euler step) is larger than time.dt_max = "
             f"{fmt_value(dt_max)}: set time.dt <= time.dt_max"
         )
 

@@ -18,7 +18,7 @@ scene        (the base scene)                   built-in scene name or YAML file
 nodes        ``mesh.nodes``                     icosphere node count N
 formulation  ``numerics.formulation``           rayleigh_p1 (the default) or paper
 fit          ``numerics.fit``                   quadratic (one ring) or quartic
-scheme       ``time.scheme``                    bdf2, euler, heun, adaptive, adaptive_euler
+scheme       ``time.scheme``                    bdf2, bdf3, euler, heun, adaptive, adaptive_euler
 implicit     ``time.implicit_tension``          true / false: semi-implicit tension ('auto'
                                                 is resolved for the row's scheme)
 residual     ``numerics.fit_residual_weight``   weight of the fit-residual rows (0: off)

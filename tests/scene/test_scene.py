@@ -353,7 +353,7 @@ def test_error_names_the_scene_file(tmp_path):
         ("active_stress.0.terms.0.coeff=.inf", "active_stress.0.terms.0.coeff must be a finite number, got inf"),
         # enums
         ("solver.backend=mkl", "solver.backend must be one of: auto, superlu, pardiso, cholmod; got 'mkl'"),
-        ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler, bdf2; got 'rk4'"),
+        ("time.scheme=rk4", "time.scheme must be one of: euler, heun, adaptive, adaptive_euler, bdf2, bdf3; got 'rk4'"),
     ],
 )
 def test_schema_errors_name_the_key(override, expected):
