@@ -485,6 +485,7 @@ def _guard(sim) -> StabilityGuard:
     can say where the stress is compressive."""
     ph = sim.physics
     flat = "bending_viscosity" not in ph.effects or (ph.eta_bar == 0.0 and ph.eta_bar_b == 0.0)
+    flat = flat and ("bending_rigidity" not in ph.effects or ph.kappa == 0.0)  # rigidity resists bending too
     eta_s = ph.eta_s if "shear_viscosity" in ph.effects else 0.0
     eta_b = ph.eta_b if "bulk_viscosity" in ph.effects else 0.0
     return StabilityGuard(

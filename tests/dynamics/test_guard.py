@@ -174,3 +174,21 @@ def test_guard_names_where_a_collapsed_step_meets_a_compressed_cortex():
         with pytest.raises(StabilityError, match="already fallen") as exc:
             guard.check(0.1001, 1e-4, x, 1.3 * x, ev(x), np.full(len(x), 0.01))
         assert said in str(exc.value)
+
+
+def test_the_run_names_compression_only_for_a_cortex_without_bending_resistance():
+    """The run's guard is given the in-plane viscosities (so a stop names the compressed triangles, where a
+    cortex wrinkles at the mesh scale) only without bending resistance: neither bending viscosity nor
+    bending rigidity. A rigid cortex compressed after its cut (cytokinesis_rigid's daughters at a
+    5124-node budget) was told it "has no bending resistance"."""
+    from cortex_ti.simulation.run import _guard
+
+    def sim(effects, eta_bar=0.0, kappa=0.0):
+        ph = SimpleNamespace(effects=set(effects), eta_bar=eta_bar, eta_bar_b=0.0, eta_s=1.0, eta_b=2.0, kappa=kappa)
+        return SimpleNamespace(physics=ph, mesh=SimpleNamespace(faces=np.zeros((1, 3), int)), zeta=None, settings=None)
+
+    base = ["shear_viscosity", "bulk_viscosity"]
+    assert _guard(sim(base)).viscosity == (1.0, 2.0)
+    assert _guard(sim([*base, "bending_viscosity"], eta_bar=0.1)).viscosity is None
+    assert _guard(sim([*base, "bending_rigidity"], kappa=0.1)).viscosity is None
+    assert _guard(sim([*base, "bending_rigidity"], kappa=0.0)).viscosity == (1.0, 2.0)
