@@ -125,6 +125,7 @@ def _rayleigh_p2(geometry, physics, zeta, faces, numerics, dt, implicit_rate=Non
         implicit_rate=implicit_rate,
         active_force=numerics.active_force,
         pressure_weights=numerics.pressure_weights,
+        implicit_weight=numerics.implicit_tension_weight,
     )
 
 
@@ -153,7 +154,7 @@ FORMULATIONS: dict[str, Formulation] = {
         "the same Rayleighian on curved six-node cells (midpoints on the fitted surface) with quadratic "
         "velocities, the normal speed along the smooth normal: symmetric positive semidefinite; third order",
         _rayleigh_p2,
-        keys=("pressure_weights", "active_force"),
+        keys=("pressure_weights", "active_force", "implicit_tension_weight"),
         centred_implicit=True,
         curved=True,
         dynamic_caveat="with numerics.active_force balanced (the default) its shape dynamics is not stable by "

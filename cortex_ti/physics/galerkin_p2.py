@@ -177,13 +177,15 @@ def assemble_p2(
     implicit_rate: np.ndarray | None = None,
     active_force: str = "balanced",
     pressure_weights: str = "petrov",
+    implicit_weight: float = 1.0,
 ) -> EnergySystem:
     """The Rayleighian system of the effects in ``physics`` on the curved cells of ``geometry``
     (module docstring); ``implicit_dt > 0``: the semi-implicit tension of a step of that length,
     centred on the nodes' rate ``implicit_rate`` (N, 3) when given; ``pressure_weights``: ``petrov``, the
     pressure pushing along the smooth normal speed's rows, or ``exact``, along the exact rate of the
-    curved cells' volume it holds (:mod:`cortex_ti.physics.terms.constraints`). Its unknowns are the velocities
-    of all the mesh's nodes (the cells' corners and midpoints)."""
+    curved cells' volume it holds (:mod:`cortex_ti.physics.terms.constraints`); ``implicit_weight`` the
+    factor on the semi-implicit tension's drag (:mod:`cortex_ti.physics.terms.implicit_tension`). Its
+    unknowns are the velocities of all the mesh's nodes (the cells' corners and midpoints)."""
     zeta = check_inputs(physics, zeta, implicit_dt)
     faces = np.asarray(faces)
     surf = curved_surface(geometry, faces)
@@ -201,6 +203,7 @@ def assemble_p2(
         surface=surf,
         active_force=active_force,
         pressure_weights=pressure_weights,
+        implicit_weight=float(implicit_weight),
     )
     terms = terms_for(ctx)
     for term in terms:

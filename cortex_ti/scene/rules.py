@@ -356,9 +356,10 @@ def _check_division(data: dict) -> None:
     formulation = data["numerics"]["formulation"]
     weight = division.get("implicit_tension_weight")
     if weight is not None and "implicit_tension_weight" not in FORMULATIONS[formulation].keys:
+        weighted = " or ".join(n for n, f in FORMULATIONS.items() if "implicit_tension_weight" in f.keys)
         raise SceneError(
             f"division.implicit_tension_weight = {fmt_value(weight)}: numerics.formulation = {formulation} has no "
-            "weight on its semi-implicit tension (rayleigh_p1 only); remove it"
+            f"weight on its semi-implicit tension ({weighted} only); remove it"
         )
     if formulation not in ("rayleigh_p1", "rayleigh_p2"):
         raise SceneError(

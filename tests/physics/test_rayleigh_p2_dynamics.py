@@ -179,3 +179,20 @@ def test_the_start_warns_of_the_balanced_force_only():
     assert "balanced" in p2.caveat("balanced") and "growing" in p2.caveat("balanced")
     assert p2.caveat("gradient") == ""
     assert FORMULATIONS["rayleigh_p1"].caveat("balanced") == ""
+
+
+def test_the_weight_multiplies_the_semi_implicit_drag_only():
+    """``numerics.implicit_tension_weight`` on curved cells: the step's drag ``theta dt zeta |grad (v_n - r_n)|^2``
+    is the only term of furrow_p4_a1 (no rigidity) that reads the step, so a step dt with weight 2 is the
+    step 2 dt with weight 1, to the solver's tolerance; and the weight changes the step (it is read)."""
+    base = ["mesh.nodes=162", *P2]
+    x = None
+    out = {}
+    for weight, dt in ((2.0, 0.01), (1.0, 0.02), (1.0, 0.01)):
+        sim = Simulation(load_scene("furrow_p4_a1", [*base, f"numerics.implicit_tension_weight={weight}"]))
+        x = sim.mesh.points * np.array([1.0, 1.0, 1.1]) if x is None else x
+        rate = 0.1 * sim.solve(x).velocity
+        out[(weight, dt)] = sim.solve(x, dt=dt, implicit_rate=rate).velocity
+    scale = np.abs(out[(1.0, 0.02)]).max()
+    assert np.abs(out[(2.0, 0.01)] - out[(1.0, 0.02)]).max() < 1e-9 * scale
+    assert np.abs(out[(1.0, 0.01)] - out[(1.0, 0.02)]).max() > 1e-4 * scale

@@ -233,6 +233,7 @@ class P2Context(Context):
     #: numerics.pressure_weights: ``petrov`` (the pressure pushes along the smooth normal speed's rows) or
     #: ``exact`` (along the volume rows it holds: then the dynamics is a constrained gradient flow)
     pressure_weights: str = "petrov"
+    implicit_weight: float = 1.0  # numerics.implicit_tension_weight: the factor on the semi-implicit tension's drag
     #: (M,): a tension whose force is the exact gradient ``-dE_h/dx`` of ``E_h = int zeta dA`` over the
     #: curved cells (:meth:`~cortex_ti.surface.curved.CurvedSurface.energy_gradient`), numerics.active_force
     #: gradient

@@ -36,10 +36,10 @@ velocity, ``O(dt^2)`` on a smooth flow, and still holds down every stiff mode. O
 ``rayleigh_p1`` implements it (the scene rules refuse ``bdf2`` with ``numerics.formulation:
 paper``).
 
-**Its weight** (``numerics.implicit_tension_weight``, ``theta``, default 1): ``rayleigh_p1`` multiplies
-the drag by ``theta``. The drag is the continuum Hessian's leading part, not the discrete tension's
-stiffness: on a mode the viscous dissipation hardly resists (a mesh-scale near-isometry of a saddle,
-where the stub of a just-divided daughter meets its lobe), extrapolated BDF2 maps the mode by
+**Its weight** (``numerics.implicit_tension_weight``, ``theta``, default 1): ``rayleigh_p1`` and
+``rayleigh_p2`` multiply the drag by ``theta``. The drag is the continuum Hessian's leading part, not
+the discrete tension's stiffness: on a mode the viscous dissipation hardly resists (a mesh-scale
+near-isometry of a saddle, where the stub of a just-divided daughter meets its lobe), extrapolated BDF2 maps the mode by
 ``z^2 - 2 a z + a = 0``, ``a = 1 - rho / theta``, ``rho`` the ratio of the discrete tension's
 stiffness to the drag on it, stable only for ``rho < 4 theta / 3``; on flat triangles with the nodes
 moving along their normals ``rho`` reaches 2.0 (icospheres) to 3.2 (the daughters' MMG meshes), so
@@ -98,10 +98,10 @@ class ImplicitTension(Term):
             )
 
     def rayleigh_p2(self, ctx: P2Context) -> None:
-        # dt zeta |grad (v_n - r_n)|^2 at the quadrature points, zeta clipped at 0
+        # theta dt zeta |grad (v_n - r_n)|^2 at the quadrature points, zeta clipped at 0
         surf = ctx.surface
         zq = np.clip(surf.at_quadrature(ctx.zeta), 0.0, None)
         n = surf.qnormal
         proj = np.eye(3) - n[..., :, None] * n[..., None, :]
         centre = None if ctx.implicit_rate is None else np.asarray(ctx.implicit_rate)
-        ctx.add_normal_form((ctx.implicit_dt * zq)[..., None, None] * proj, None, centre)
+        ctx.add_normal_form((ctx.implicit_weight * ctx.implicit_dt * zq)[..., None, None] * proj, None, centre)
