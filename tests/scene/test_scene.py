@@ -237,7 +237,15 @@ def test_defaults_and_canonical_numbers():
     assert scene["viscosity"] == {"shear": 2.0, "bulk": 0.0, "bending": 0.0, "bending_bulk": 0.0}
     assert type(scene["viscosity.shear"]) is float
     assert scene["active_stress"] == [
-        {"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}
+        {
+            "type": "ring",
+            "zeta0": 1.0,
+            "amplitude": 1.0,
+            "sigma": 10.0,
+            "p": 8.0,
+            "axis": [0.0, 0.0, 1.0],
+            "center": math.pi / 2,
+        }
     ]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
     assert list(scene.data) == [
