@@ -57,7 +57,7 @@ MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "my
 #: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
 FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid", "polarised_swimmer"]
 #: issue 35's scenes: one cell becoming two
-DIVISION = ["cytokinesis", "cytokinesis_rigid"]
+DIVISION = ["cytokinesis", "cytokinesis_rigid", "cytokinesis_asymmetric"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
