@@ -162,7 +162,8 @@ _STUDIES += (
         "cytokinesis",
         ("scene", "model", "zeta_hat", "center", "bending", "remesh", "neck", "nodes", "save_every", "t_end"),
         "One cell becomes two (issue 35): prescribed rings of strength zeta_hat with bending rigidity `bending` "
-        "closed to the cut at the neck radius `neck`, in 3D (scenes cytokinesis, cytokinesis_rigid: the cut and "
+        "closed to the cut at the neck radius `neck`, in 3D (scenes cytokinesis, cytokinesis_rigid, "
+        "cytokinesis_asymmetric: the cut and "
         "the two daughters) and in the axisymmetric model (constriction_p4, constriction_rigid with the same ring: "
         "the run stops at the cut). Per run: complete or failed division, the constriction time t_c, the neck "
         "radius against time and the exponent a of neck ~ (t_c - t)^a near the cut, and the volume ratio of the "
