@@ -54,19 +54,28 @@ def lobe_rate(
 
 
 def fastest_mode(
-    zeta, y: np.ndarray, *, kappa: float = 0.0, filtered: bool = True, **viscosities
+    zeta,
+    y: np.ndarray,
+    *,
+    kappa: float = 0.0,
+    filtered: bool = True,
+    mode: str = "adaptive",
+    gauge: str = "velocity",
+    **viscosities,
 ) -> tuple[float, float]:
-    """(the largest real part (1/t_a) of the eigenvalues of the full-meridian adaptive dynamics at its state
-    ``y`` = (r, z, u), how much that mode's r part zigzags: ``|diff v| / |v|``, 2 for a pure node-to-node
-    zigzag, small for a resolved mode). ``filtered``: with the node-rate filter of a problem without
-    up-down symmetry (:data:`~cortex_ti.axisymmetric.dynamics.FILTER_STRENGTH`). A growth rate that
-    converges in n is the model's; one that grows with n and zigzags is the discretisation's."""
+    """(the largest real part (1/t_a) of the eigenvalues of the full-meridian dynamics at its state ``y``
+    = (r, z, u) (``mode='lagrangian'``: (r, z)), how much that mode's r part zigzags: ``|diff v| / |v|``, 2
+    for a pure node-to-node zigzag, small for a resolved mode). ``filtered``: with the node-rate filter of
+    a problem without up-down symmetry (:data:`~cortex_ti.axisymmetric.dynamics.FILTER_STRENGTH`);
+    ``mode``, ``gauge``: as :func:`~cortex_ti.axisymmetric.evolve.simulate`'s ``parametrization`` and
+    ``gauge``. A growth rate that converges in n is the model's; one that grows with n and zigzags is the
+    discretisation's."""
     y = np.asarray(y, dtype=float)
-    n = y.size // 3
+    n = y.size // (2 if mode == "lagrangian" else 3)
     sp = Spectral(n, False)
     visc = {"eta_s": 1.0, "eta_b": 1.0, "eta_bar": 0.0, "eta_bar_b": 0.0, "radius": 1.0, **viscosities}
     ph = check_visc(**visc, kappa=kappa)
-    dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge("velocity")), zeta, "adaptive", filtered=filtered)
+    dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge(gauge)), zeta, mode, filtered=filtered)
     w, vec = np.linalg.eig(dyn.jac(0.0, y))
     k = int(np.argmax(w.real))
     v = vec[:n, k]
