@@ -52,6 +52,20 @@ ADAPT_TENSION = 0.6
 ADAPT_WIDTH = 0.03
 ADAPT_RATE = 20.0
 
+#: The full meridian's node rates are low-pass filtered, ``exp(-FILTER_STRENGTH (k / n)^FILTER_ORDER)`` on
+#: mode k of n (Hou and Li's filter, J. Comput. Phys. 226, 2007: modes below n/2 keep all but 5e-10 of
+#: themselves, the last one e^-36). A body that translates (an off-centre ring: the velocity gauge fixes its
+#: mean velocity, not its centroid) moves its normally moving points along its own surface, a parametric
+#: drift of variable sign, which Fourier collocation turned into a grid-scale mode growing at a rate
+#: proportional to n (the ring at pi/2 - 0.2, A = 20, kappa = 0.01 at t = 0.1: the fastest rate 4.37, 4.65,
+#: 13.1 / t_a at n = 48, 64, 96, a zigzag; it ended that run at t = 0.24). Filtered, the fastest rate is
+#: 4.36646 at every n, its mode smooth (docs/validation/division_axisymmetric.md, "The ring off the
+#: equator"). Only a problem without up-down symmetry is filtered (``Dynamics(filtered=True)``, which
+#: :func:`~cortex_ti.axisymmetric.evolve.simulate` sets for it): a symmetric one does not translate, and its
+#: rates stay exact at any n (the shape-mode tests).
+FILTER_STRENGTH = 36.0
+FILTER_ORDER = 36
+
 
 def first_unresolved(stretch: ArrayF, limit: float = STRETCH_LIMIT) -> int | None:
     """The first frame whose material stretch exceeds ``limit`` or whose label map has folded
@@ -92,6 +106,13 @@ class _ZetaSeries:
         return -(np.sin(np.outer(u, self.k)) * self.k) @ self.c
 
 
+def _low_pass(sp: Spectral, cls: str) -> ArrayF:
+    """The nodal matrix of the exponential filter ``exp(-FILTER_STRENGTH (k / n)^FILTER_ORDER)`` on the
+    k-th basis function of class ``cls``."""
+    s = np.exp(-FILTER_STRENGTH * (np.arange(sp.n) / sp.n) ** FILTER_ORDER)
+    return sp.B[cls] @ (s[:, None] * sp.Binv[cls])
+
+
 class Dynamics:
     """Right-hand side of the shape evolution at the nodes and its exact Jacobian.
 
@@ -99,6 +120,7 @@ class Dynamics:
     with ``v_n n``).  ``arclength``: state ``(r, z, u)`` at computational points ``sigma`` that
     move with ``v_n n + w e_s``, ``w`` chosen so that ``|dX/dsigma|`` stays uniform (= L/pi);
     the material label is carried along, ``du/dt = (w / h) du/dsigma`` (``h = |dX/dsigma|``).
+    ``filtered``: on the full meridian, low-pass filter the node rates (see ``FILTER_STRENGTH``).
     """
 
     def __init__(
@@ -111,6 +133,7 @@ class Dynamics:
         carried: bool = False,
         monitor: float = 0.0,
         myosin: Myosin | None = None,
+        filtered: bool = False,
     ):
         self.sp, self.system, self.zeta_fn, self.mode = sp, system, zeta, mode
         self.myosin = myosin
@@ -142,6 +165,11 @@ class Dynamics:
             self.zeta_nodes = eval_zeta(zeta, sp.u)
         else:
             self.series = _ZetaSeries(zeta)
+        self.filters = (
+            None
+            if sp.symmetric or not filtered
+            else [_low_pass(sp, c) for c in ("R", "Z", "O")[: 3 if self.labelled else 2]]
+        )
 
     def geometry(self, y: ArrayF) -> dict:
         n = self.n
@@ -241,6 +269,9 @@ class Dynamics:
             out.append(_my.rate(sp, self.myosin, g, x[..., :n], w, self.poles))
         if sp.FR is not None:
             out[0] = out[0] @ sp.FR.T
+        if self.filters is not None:  # the rates of r, z (and the label): see FILTER_STRENGTH
+            for i, f in enumerate(self.filters):
+                out[i] = out[i] @ f.T
         return np.concatenate(out, axis=-1)
 
     def residual(self, x: ArrayF, g: dict) -> ArrayF:

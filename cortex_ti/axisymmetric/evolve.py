@@ -204,9 +204,11 @@ def simulate(
     eval_zeta(zeta, np.linspace(0.0, np.pi, 7))
     if myosin is not None and not isinstance(myosin, Myosin):
         raise ValueError(f"myosin must be a Myosin or None, got {type(myosin).__name__}")
+    # up-down symmetric problems do not translate; the others' node rates are filtered (dynamics.FILTER_STRENGTH)
+    mirror_symmetric = is_symmetric(zeta) and (myosin is None or myosin.symmetric())
+    mirror_symmetric = mirror_symmetric and (fluids is None or fluids.symmetric)
     if symmetric is None:
-        symmetric = is_symmetric(zeta) and (myosin is None or myosin.symmetric())
-        symmetric = symmetric and (fluids is None or fluids.symmetric)
+        symmetric = mirror_symmetric
     if parametrization == "auto":
         parametrization = "lagrangian" if symmetric else "arclength"
     if monitor and parametrization != "arclength":
@@ -220,6 +222,7 @@ def simulate(
         carried=tension == "material",
         monitor=monitor,
         myosin=myosin,
+        filtered=not mirror_symmetric,
     )
     y0 = [R * np.sin(sp.u), R * np.cos(sp.u)] + ([sp.u.copy()] if dyn.labelled else [])
     if myosin is not None:  # q = c r h on the sphere (h = R)

@@ -17,7 +17,7 @@ from .balance import ForceBalance, check_gauge, check_visc
 from .dynamics import Dynamics
 from .spectral import Spectral
 
-__all__ = ["lobe_rate"]
+__all__ = ["lobe_rate", "fastest_mode"]
 
 
 def lobe_rate(
@@ -51,3 +51,32 @@ def lobe_rate(
     odd = np.linalg.norm(reflect @ vec + vec, axis=0) < np.linalg.norm(reflect @ vec - vec, axis=0)
     keep = odd & (np.abs(w) > 1e-6)
     return float(w[keep].real.max()) if keep.any() else float("nan")
+
+
+def fastest_mode(
+    zeta,
+    y: np.ndarray,
+    *,
+    kappa: float = 0.0,
+    filtered: bool = True,
+    mode: str = "adaptive",
+    gauge: str = "velocity",
+    **viscosities,
+) -> tuple[float, float]:
+    """(the largest real part (1/t_a) of the eigenvalues of the full-meridian dynamics at its state ``y``
+    = (r, z, u) (``mode='lagrangian'``: (r, z)), how much that mode's r part zigzags: ``|diff v| / |v|``, 2
+    for a pure node-to-node zigzag, small for a resolved mode). ``filtered``: with the node-rate filter of
+    a problem without up-down symmetry (:data:`~cortex_ti.axisymmetric.dynamics.FILTER_STRENGTH`);
+    ``mode``, ``gauge``: as :func:`~cortex_ti.axisymmetric.evolve.simulate`'s ``parametrization`` and
+    ``gauge``. A growth rate that converges in n is the model's; one that grows with n and zigzags is the
+    discretisation's."""
+    y = np.asarray(y, dtype=float)
+    n = y.size // (2 if mode == "lagrangian" else 3)
+    sp = Spectral(n, False)
+    visc = {"eta_s": 1.0, "eta_b": 1.0, "eta_bar": 0.0, "eta_bar_b": 0.0, "radius": 1.0, **viscosities}
+    ph = check_visc(**visc, kappa=kappa)
+    dyn = Dynamics(sp, ForceBalance(sp, ph, check_gauge(gauge)), zeta, mode, filtered=filtered)
+    w, vec = np.linalg.eig(dyn.jac(0.0, y))
+    k = int(np.argmax(w.real))
+    v = vec[:n, k]
+    return float(w[k].real), float(np.linalg.norm(np.diff(v)) / np.linalg.norm(v))

@@ -13,9 +13,10 @@ Pattern types (registry :data:`PATTERNS`, extensible with :func:`register_patter
     ``zeta = sum c Y_lm(theta, phi)`` with the orthonormal real harmonics of
     :func:`real_sph_harm`, (theta, phi) the direction of the point from the origin about +z.
 ``"ring"``
-    ``zeta0, amplitude, sigma, p, axis=(0, 0, 1)``: paper Eq. 59,
-    ``zeta = zeta0 + amplitude * exp(-sigma |theta - pi/2|^p)``, theta the polar angle of the
-    point (seen from the origin) from ``axis``.
+    ``zeta0, amplitude, sigma, p, axis=(0, 0, 1), center=pi/2``: paper Eq. 59,
+    ``zeta = zeta0 + amplitude * exp(-sigma |theta - center|^p)``, theta the polar angle of the
+    point (seen from the origin) from ``axis``; ``center`` (radians) places the ring off the
+    equator (``center < pi/2``: toward the pole ``axis`` points to).
 ``"fold"``
     the ring with its amplitude modulated in phi (paper Sec. 4.3), see :func:`fold_pattern`.
 ``"field"``
@@ -248,6 +249,10 @@ def _number(description: str, default=None, **bounds) -> dict:
     return out if default is None else {**out, "default": default}
 
 
+#: The equator's polar angle: the default ``center`` of a ring (paper Eq. 59).
+EQUATOR = 0.5 * np.pi
+
+
 def _ring_parameters(amplitude: float, sigma: float, p: float) -> dict:
     """The parameters of Eq. 59 (shared by the ring and the fold), with a pattern's defaults."""
     return {
@@ -263,22 +268,37 @@ def _ring_parameters(amplitude: float, sigma: float, p: float) -> dict:
             "maxItems": 3,
             "default": [0, 0, 1],
         },
+        "center": _number(
+            "Polar angle of the ring's centre line from axis, in radians (a cone's angle: independent of the "
+            "radius, and the label the axisymmetric model's meridian carries): pi/2 the equator (paper Eq. 59), "
+            "smaller toward the pole axis points to. 0 < center < pi.",
+            EQUATOR,
+            exclusiveMinimum=0,
+            exclusiveMaximum=np.pi,
+        ),
     }
 
 
 _RING_SCHEMA = _pattern_schema(
     "ring",
-    "Contractile ring, paper Eq. 59: zeta0 + amplitude * exp(-sigma |theta - pi/2|^p), theta measured from axis.",
+    "Contractile ring, paper Eq. 59: zeta0 + amplitude * exp(-sigma |theta - center|^p), theta the polar angle "
+    "from axis, center (default pi/2, the equator) the ring's.",
     **_ring_parameters(amplitude=1.0, sigma=10.0, p=8),
 )
 
 
 @register_pattern("ring", schema=_RING_SCHEMA)
-def ring_pattern(points, zeta0, amplitude, sigma, p, axis=(0.0, 0.0, 1.0)) -> np.ndarray:
-    """Contractile ring, paper Eq. 59: ``zeta0 + amplitude * exp(-sigma |theta - pi/2|^p)``.
+def ring_pattern(points, zeta0, amplitude, sigma, p, axis=(0.0, 0.0, 1.0), center=EQUATOR) -> np.ndarray:
+    """Contractile ring, paper Eq. 59: ``zeta0 + amplitude * exp(-sigma |theta - center|^p)``.
 
     ``theta`` is the polar angle of the point (seen from the origin) from ``axis``; the ring
-    sits on the great circle perpendicular to ``axis``.  Requires ``sigma >= 0`` and ``p > 0``.
+    sits on the cone ``theta = center`` (default ``pi/2``: the great circle perpendicular to
+    ``axis``; smaller: nearer the pole ``axis`` points to).  Requires ``sigma >= 0``, ``p > 0``
+    and ``0 < center < pi``.
+
+    >>> pts = np.array([[np.sin(1.2), 0.0, np.cos(1.2)], [1.0, 0.0, 0.0]])
+    >>> ring_pattern(pts, 1.0, 5.0, 10.0, 4, center=1.2).round(6).tolist()
+    [6.0, 5.138789]
     """
     z0 = finite_number(zeta0, "ring zeta0")
     amp = finite_number(amplitude, "ring amplitude")
@@ -288,9 +308,12 @@ def ring_pattern(points, zeta0, amplitude, sigma, p, axis=(0.0, 0.0, 1.0)) -> np
         raise SceneError(f"ring sigma must be >= 0, got {sigma!r}")
     if pp <= 0.0:
         raise SceneError(f"ring p must be > 0, got {p!r}")
+    c = finite_number(center, "ring center")
+    if not 0.0 < c < np.pi:
+        raise SceneError(f"ring center must lie in (0, pi) (a polar angle from axis, radians), got {center!r}")
     a = _axis_param(axis, "ring axis")
     theta, _ = direction_angles(points, axis=a)
-    return z0 + amp * np.exp(-sig * np.abs(theta - 0.5 * np.pi) ** pp)
+    return z0 + amp * np.exp(-sig * np.abs(theta - c) ** pp)
 
 
 _FOLD_SCHEMA = _pattern_schema(
@@ -304,9 +327,9 @@ _FOLD_SCHEMA = _pattern_schema(
 
 
 @register_pattern("fold", schema=_FOLD_SCHEMA)
-def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 1.0)) -> np.ndarray:
+def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 1.0), center=EQUATOR) -> np.ndarray:
     """Fold stripe, paper Sec. 4.3 (conventions.md): the ring of Eq. 59 with its amplitude term
-    modulated in phi, ``zeta0 + amplitude exp(-sigma |theta - pi/2|^p) exp(-sigma_phi d^4)``.
+    modulated in phi, ``zeta0 + amplitude exp(-sigma |theta - center|^p) exp(-sigma_phi d^4)``.
 
     ``d`` is the azimuthal distance (in radians, about ``axis``) from the nearest of the meridians
     ``phi = pi/2`` and ``phi = 3 pi/2``: together one great circle through both poles (the
@@ -316,7 +339,7 @@ def fold_pattern(points, zeta0, amplitude, sigma, p, sigma_phi, axis=(0.0, 0.0, 
     sphi = finite_number(sigma_phi, "fold sigma_phi")
     if sphi < 0.0:
         raise SceneError(f"fold sigma_phi must be >= 0, got {sigma_phi!r}")
-    base = ring_pattern(points, 0.0, amplitude, sigma, p, axis)  # amplitude term only
+    base = ring_pattern(points, 0.0, amplitude, sigma, p, axis, center)  # amplitude term only
     _, phi = direction_angles(points, axis=_axis_param(axis, "fold axis"))
     d = np.abs(np.mod(phi - 0.5 * np.pi + 0.5 * np.pi, np.pi) - 0.5 * np.pi)  # distance to pi/2 or 3 pi/2
     return finite_number(zeta0, "fold zeta0") + base * np.exp(-sphi * d**4)

@@ -10,6 +10,7 @@ from ..dynamics.schemes import SCHEMES
 from ..errors import SceneError
 from ..physics.formulations import FORMULATIONS
 from ..physics.model import EFFECTS
+from ..physics.patterns import EQUATOR
 from ..surface.mesh import icosphere_sizes
 from ..surface.remesh import H_MIN_DIVISOR
 from .rules_fluids import FLUIDS_MAX_NODES, check_fluids, fluids_size_message
@@ -326,6 +327,12 @@ def _check_mirror(data: dict) -> None:
             "mesh.remesh.mirror = true reflects a half of the curved remeshing: it needs model 3d, "
             f"numerics.formulation rayleigh_p2 and mesh.remesh.min_angle (not {data['model']}, {formulation})"
         )
+    for i, pattern in enumerate(data.get("active_stress") or []):
+        if pattern.get("type") in ("ring", "fold") and float(pattern.get("center", EQUATOR)) != EQUATOR:
+            raise SceneError(
+                f"mesh.remesh.mirror = true keeps the equator a plane of symmetry, but active_stress.{i}.center = "
+                f"{fmt_value(pattern['center'])} puts the ring off it: set mirror: false"
+            )
 
 
 def _check_division(data: dict) -> None:

@@ -9,8 +9,11 @@ frame (3D; an upper bound by one frame interval) or of the last frame (axisymmet
 Its *volume ratio* :func:`volume_ratio` is larger over smaller of the two sides at its last frame
 that has both (the daughters after a 3D cut, else the split at the neck's plane); a ratio above
 1 + :data:`SLIP_RATIO` counts as *slipping* (the furrow moved off the equator: the up-down lobe
-mode grew), else *symmetric*. The *late-time law* :func:`neck_law` fits neck = A (t_p - t)^a to the
-frames whose neck is below :data:`LAW_NECK` (t_p: the pinch time, past the last frame), and the neck's
+mode grew), else *symmetric*; a ring placed off the equator (the ``center`` column, its polar angle,
+not pi/2) is *off-centre* whatever its ratio: the ring and the lobe mode set it (its truth is the
+axisymmetric model's ratio for the same ring, docs/validation/division.md). The *late-time law*
+:func:`neck_law` fits neck = A (t_p - t)^a to the frames whose neck is below :data:`LAW_NECK` (t_p: the
+pinch time, past the last frame), and the neck's
 rate d ln r / dt at the cut stands beside the rigidity-free law as r -> 0, -(1 + zeta_hat) / (2 eta_b)
 (docs/derivations/neck_late_time.md: an exponential closing, no finite-time pinch), which a neck of
 0.1 R0 has not reached yet. Beside them,
@@ -34,6 +37,7 @@ __all__ = [
     "LAW_NECK",
     "PUBLISHED",
     "divided",
+    "centred",
     "cut_time",
     "volume_ratio",
     "neck_law",
@@ -162,10 +166,23 @@ def lobe_growth(ds: xr.Dataset, i: int) -> tuple[float, float, float]:
     return float(rate[k[0]]), float(rate[k[-1]]), float(np.trapezoid(rate[k], t))
 
 
+def centred(ds: xr.Dataset, i: int) -> bool:
+    """Whether run ``i``'s ring sits on the equator (its ``center`` pi/2; a store without the column: yes)."""
+    c = float(ds["center"].values[i]) if "center" in ds else math.nan
+    return not math.isfinite(c) or abs(c - 0.5 * math.pi) <= 1e-12
+
+
+def _furrow(ds: xr.Dataset, i: int, ratio: float) -> str:
+    if not centred(ds, i):
+        return f"off-centre (ring at {float(ds['center'].values[i]):.6g} rad)"
+    return "symmetric" if ratio <= 1.0 + SLIP_RATIO else ("slipping" if ratio == ratio else "n/a")
+
+
 def _name(ds: xr.Dataset, i: int) -> str:
     kind = "axisymmetric" if _axisymmetric(ds, i) else f"3D N={int(ds['nodes'].values[i])}"
     ratio, kappa = 1 + float(ds["zeta_hat"].values[i]), float(ds["bending"].values[i])
-    return f"{kind}, 1 + $\\hat\\zeta$ = {ratio:g}, $\\kappa$ = {kappa:g}"
+    where = "" if centred(ds, i) else f", ring at {float(ds['center'].values[i]):.6g}"
+    return f"{kind}, 1 + $\\hat\\zeta$ = {ratio:g}, $\\kappa$ = {kappa:g}{where}"
 
 
 def cytokinesis_figure(ds: xr.Dataset) -> Figure:
@@ -244,7 +261,7 @@ def cytokinesis_numbers(stores) -> pd.DataFrame:
                 "d ln r / dt at the cut; r -> 0 law": f"{-1.0 / closing_time(ds, i):.3g}; {_asymptote(ds, i):.3g}",
                 "lobe rate at neck 0.5, at the end (1/t_a); G": "{:+.2f}, {:+.2f}; {:.2f}".format(*lobe_growth(ds, i)),
                 "volume ratio": f"{ratio:.6f}",
-                "furrow": "symmetric" if ratio <= 1.0 + SLIP_RATIO else ("slipping" if ratio == ratio else "n/a"),
+                "furrow": _furrow(ds, i, ratio),
             }
         )
     for who, ring, result in PUBLISHED:

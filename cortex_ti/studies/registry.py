@@ -160,14 +160,16 @@ _STUDIES += (
 _STUDIES += (
     Study(
         "cytokinesis",
-        ("scene", "model", "zeta_hat", "bending", "remesh", "neck", "nodes", "save_every", "t_end"),
+        ("scene", "model", "zeta_hat", "center", "bending", "remesh", "neck", "nodes", "save_every", "t_end"),
         "One cell becomes two (issue 35): prescribed rings of strength zeta_hat with bending rigidity `bending` "
-        "closed to the cut at the neck radius `neck`, in 3D (scenes cytokinesis, cytokinesis_rigid: the cut and "
+        "closed to the cut at the neck radius `neck`, in 3D (scenes cytokinesis, cytokinesis_rigid, "
+        "cytokinesis_asymmetric: the cut and "
         "the two daughters) and in the axisymmetric model (constriction_p4, constriction_rigid with the same ring: "
         "the run stops at the cut). Per run: complete or failed division, the constriction time t_c, the neck "
         "radius against time and the exponent a of neck ~ (t_c - t)^a near the cut, and the volume ratio of the "
-        "two sides (the daughters' bodies after a 3D cut; before it, the split at the neck's plane). The ring "
-        "sits on the equator: no scene takes a ring position yet.",
+        "two sides (the daughters' bodies after a 3D cut; before it, the split at the neck's plane). `center` is "
+        "the ring's polar angle (rad; pi/2 the equator; scene cytokinesis_asymmetric: pi/2 - 0.001): an "
+        "off-centre ring's ratio is set by the ring and the lobe mode, so it is not called slipping.",
         variables=(
             "neck_radius",
             "furrow_radius",

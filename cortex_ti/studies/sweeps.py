@@ -91,6 +91,7 @@ PARAMETERS: dict[str, str] = {
     "dt_max": "time.dt_max",
     "t_end": "time.t_end",
     "zeta_hat": "active_stress.0.amplitude",
+    "center": "active_stress.0.center",
     "p": "active_stress.0.p",
     "gamma": "mesh.shear",
     "tilt": "active_stress.0.axis",
@@ -111,7 +112,7 @@ PARAMETERS: dict[str, str] = {
 #: The columns read from the scene's first active-stress pattern: column -> its key there. A scene
 #: without a pattern has them ``null``, and a ``null`` sets nothing (:func:`scene_overrides`); the
 #: stores keep it as nan.
-PATTERN_COLUMNS = {"zeta_hat": "amplitude", "p": "p"}
+PATTERN_COLUMNS = {"zeta_hat": "amplitude", "p": "p", "center": "center"}
 
 #: The columns read from the scene's myosin field: column -> path inside ``fields.myosin``.
 _MYOSIN = {
@@ -163,7 +164,7 @@ def _settings_value(settings, column: str):
         return round(math.degrees(math.atan2(ax, az)), 9)
     if column in PATTERN_COLUMNS:
         # a scene without a prescribed pattern (a myosin ring that forms by itself) has none: null
-        return settings.patterns[0][PATTERN_COLUMNS[column]] if settings.patterns else None
+        return settings.patterns[0].get(PATTERN_COLUMNS[column]) if settings.patterns else None
     if column == "model":
         return settings.model
     if column == "bending":  # 0 without the effect bending_rigidity

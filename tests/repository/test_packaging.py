@@ -24,8 +24,8 @@ def test_the_wheel_carries_scenes_schema_and_reference_data(tmp_path):
     names = set(zipfile.ZipFile(wheel).namelist())
     scenes = {p.name for p in (ROOT / "cortex_ti" / "scene" / "scenes").glob("*.yaml")}
     # the paper's 12, issue 18's two deep rings, issue 20's four myosin scenes, issue 36's four in fluids,
-    # issue 35's cytokinesis (flat and curved with rigidity) and rigid ring
-    assert len(scenes) == 25
+    # issue 35's cytokinesis (flat, curved with rigidity, and its ring off the equator) and rigid ring
+    assert len(scenes) == 26
     assert {f"cortex_ti/scene/scenes/{s}" for s in scenes} <= names
     assert "cortex_ti/scene/scene.schema.json" in names
     data = {p.name for p in (ROOT / "cortex_ti" / "data" / "axisym").iterdir()}

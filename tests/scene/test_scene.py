@@ -57,7 +57,7 @@ MYOSIN = ["myosin_decay", "myosin_ring", "myosin_noise", "myosin_cued_ring", "my
 #: issue 36's scenes: a cell between a cytoplasm and a medium (effect fluids)
 FLUIDS = ["cell_in_shear", "sedimenting_cell", "furrow_in_fluid", "polarised_swimmer"]
 #: issue 35's scenes: one cell becoming two
-DIVISION = ["cytokinesis", "cytokinesis_rigid"]
+DIVISION = ["cytokinesis", "cytokinesis_rigid", "cytokinesis_asymmetric"]
 
 
 def test_builtin_names_are_exactly_the_shipped_scenes():
@@ -237,7 +237,15 @@ def test_defaults_and_canonical_numbers():
     assert scene["viscosity"] == {"shear": 2.0, "bulk": 0.0, "bending": 0.0, "bending_bulk": 0.0}
     assert type(scene["viscosity.shear"]) is float
     assert scene["active_stress"] == [
-        {"type": "ring", "zeta0": 1.0, "amplitude": 1.0, "sigma": 10.0, "p": 8.0, "axis": [0.0, 0.0, 1.0]}
+        {
+            "type": "ring",
+            "zeta0": 1.0,
+            "amplitude": 1.0,
+            "sigma": 10.0,
+            "p": 8.0,
+            "axis": [0.0, 0.0, 1.0],
+            "center": math.pi / 2,
+        }
     ]
     assert scene["time.dt"] == 5e-4 and scene["time.scheme"] == "euler"
     assert list(scene.data) == [

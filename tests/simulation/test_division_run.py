@@ -210,6 +210,11 @@ def test_the_solve_by_body_equals_each_body_alone():
         (["division.implicit_tension_weight=2"], "set division.neck_radius"),
         (["mesh.remesh.mirror=true"], "numerics.formulation rayleigh_p2"),
         (
+            ["mesh.remesh.mirror=true", "numerics.formulation=rayleigh_p2", "active_stress.0.center=1.3"],
+            "puts the ring off it",
+        ),
+        (["active_stress.0.center=3.3"], "active_stress.0.center must be"),
+        (
             ["division.neck_radius=0.2", "division.implicit_tension_weight=2", "numerics.formulation=paper"],
             "rayleigh_p1 or rayleigh_p2 only",
         ),

@@ -90,6 +90,14 @@ def test_volume_ratio_symmetric_or_slipping(store):
     assert c.volume_ratio(store, 2) == pytest.approx(2.2 / 1.8, rel=1e-14)
     table = c.cytokinesis_numbers([store])
     assert list(table["furrow"][:4]) == ["symmetric", "symmetric", "slipping", "symmetric"]
+    off = store.assign_coords(center=("run", np.array([np.pi / 2, np.pi / 2, np.pi / 2 - 0.001, np.pi / 2])))
+    # an off-centre ring's ratio is the ring's, not a slip (the centred ones unchanged)
+    assert list(c.cytokinesis_numbers([off])["furrow"][:4]) == [
+        "symmetric",
+        "symmetric",
+        "off-centre (ring at 1.5698 rad)",
+        "symmetric",
+    ]
     assert list(table["division"][:4]) == ["complete", "failed", "complete", "failed"]
     assert table["run"].str.startswith("published").sum() == len(c.PUBLISHED)
 
