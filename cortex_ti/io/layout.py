@@ -51,7 +51,10 @@ def _same_scene_but_time(a, b) -> bool:
 
 def scene_difference(stored, new) -> str | None:
     """The first key (dotted) in which two scene YAML texts differ outside their ``time`` section,
-    as ``"mesh.nodes is 642 in the file, 162 now"``; None if they agree there."""
+    as ``"mesh.nodes is 642 in the file, 162 now"``; None if they agree there. The stored scene is
+    read, as the new one, as today's loader would have written it
+    (:func:`~cortex_ti.scene.loader.stored_scene_data`): a key added since it was written counts as
+    its default."""
     import yaml
 
     try:
@@ -60,6 +63,10 @@ def scene_difference(stored, new) -> str | None:
         return None if stored == new else "the stored scene cannot be read"
     if not isinstance(da, dict) or not isinstance(db, dict):
         return None if stored == new else "the stored scene is not a mapping"
+    from ..scene.loader import stored_scene_data
+
+    # both as today's loader writes them: a key added since the file was written compares at its default
+    da, db = stored_scene_data(da), stored_scene_data(db)
     da.pop("time", None)
     db.pop("time", None)
     if "division" not in da and (db.get("division") or {}).get("neck_radius") is None:

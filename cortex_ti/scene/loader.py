@@ -260,7 +260,25 @@ def scene_from_yaml(text: str) -> Scene:
         data = load_yaml(text)
     except yaml.YAMLError as exc:
         raise SceneError(f"the stored scene is not valid YAML: {yaml_problem(exc)}") from None
+    return scene_from_dict(_stored_legacy(data))
+
+
+def _stored_legacy(data):
+    """A stored scene mapping with the keys whose absence meant something else when it was written:
+    ``numerics`` without ``formulation`` (but with ``fit``) is the paper's (:func:`scene_from_yaml`)."""
     numerics = data.get("numerics") if isinstance(data, dict) else None
     if isinstance(numerics, dict) and "fit" in numerics and "formulation" not in numerics:
         numerics["formulation"] = "paper"
-    return scene_from_dict(data)
+    return data
+
+
+def stored_scene_data(data: dict) -> dict:
+    """A stored scene mapping as today's loader would have written it: the legacy keys of
+    :func:`_stored_legacy`, then today's defaults for the keys added since (a ring's ``center``), so
+    that a file from before a new key compares equal to today's scene where it kept its default. A
+    mapping today's schema refuses is returned with the legacy keys only."""
+    data = _stored_legacy(copy.deepcopy(data))
+    try:
+        return fill_defaults(current_schema(), data, "")
+    except (SceneError, TypeError, KeyError, ValueError):
+        return data
