@@ -98,6 +98,20 @@ def _check_rigidity(data: dict, seen: set[str]) -> None:
         )
 
 
+def step_control_nodes(data: dict) -> int | None:
+    """The node count a scheme's default ``time.tol`` follows (:meth:`~cortex_ti.dynamics.schemes.BDF2.
+    default_tol_for`): the mesh's, or the remeshing's budget ``mesh.remesh.nodes`` when that is larger
+    (after the first remeshing the mesh is the budget's, its error that of its node count; a tolerance
+    for the coarser start let a 10242-node budget's step move a node half its edge); None for a mesh
+    file without a budget."""
+    mesh = data.get("mesh") or {}
+    nodes = mesh.get("nodes") if mesh.get("file") is None else None
+    budget = (mesh.get("remesh") or {}).get("nodes")
+    if budget is not None and (nodes is None or budget > nodes):
+        return int(budget)
+    return nodes
+
+
 def _check_formulation_keys(numerics: dict) -> None:
     """A key that only one formulation reads (:attr:`Formulation.keys`) is not set to anything but
     its default under another formulation: it would be silently ignored."""
@@ -409,9 +423,7 @@ def _check_multistep(data: dict) -> None:
             f"rayleigh_p1, time.implicit_tension: auto ({name} then runs explicit), or time.scheme = euler"
         )
     rtol = data["solver"]["rtol"]
-    mesh = data.get("mesh") or {}
-    nodes = mesh.get("nodes") if mesh.get("file") is None else None
-    tol, dt_max = scheme.resolve_step_control(time.get("tol"), time.get("dt_max"), nodes)
+    tol, dt_max = scheme.resolve_step_control(time.get("tol"), time.get("dt_max"), step_control_nodes(data))
     if tol < 10.0 * rtol:
         raise SceneError(
             f"time.tol = {fmt_value(tol)} is below what {name} can honour: each solve leaves a relative "

@@ -27,6 +27,7 @@ from ..physics.patterns import pattern_axis
 from ..solve.dense import DENSE_BACKEND
 from ..solve.factorizations import choose_factorization
 from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
+from .rules import step_control_nodes
 
 __all__ = [
     "RunSettings",
@@ -246,9 +247,7 @@ class RunSettings:
         mesh, visc, num, sol, tim = (data[k] for k in ("mesh", "viscosity", "numerics", "solver", "time"))
         dynamic = "shape_evolution" in effects
         scheme = SCHEMES[tim["scheme"]]
-        tol, dt_max = scheme.resolve_step_control(
-            tim["tol"], tim["dt_max"], mesh["nodes"] if mesh["file"] is None else None
-        )
+        tol, dt_max = scheme.resolve_step_control(tim["tol"], tim["dt_max"], step_control_nodes(data))
         implicit = (
             dynamic
             and "normal_balance" in effects

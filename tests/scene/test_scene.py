@@ -858,3 +858,18 @@ def test_static_solve_with_field_and_python_patterns_equals_the_ring(tmp_path, m
 def test_holding_the_centroid_needs_the_normal_balance():
     with pytest.raises(SceneError, match="translation = centroid needs the normal force balance"):
         load_scene("sphere_y20_tangential", ["translation=centroid"])
+
+
+def test_the_default_tolerance_follows_the_remeshing_budget():
+    """bdf2's default ``time.tol`` follows the mesh's error, ~1/N: after the first remeshing the mesh
+    has the budget's nodes, so a larger ``mesh.remesh.nodes`` sets it (a 10242-node budget on a
+    2562-node start got 2562's tolerance, and its step moved a node half its edge at t = 0.31)."""
+    from cortex_ti.dynamics.schemes import BDF2
+
+    def tol(*over):
+        return load_scene("cytokinesis_rigid", list(over)).settings.time.tol
+
+    assert tol() == BDF2.default_tol_for(2562)
+    assert tol("mesh.remesh.nodes=10242") == BDF2.default_tol_for(10242) < tol()
+    assert tol("mesh.remesh.nodes=642") == tol()  # a smaller budget: the start's, the finer, keeps it
+    assert tol("mesh.remesh.nodes=10242", "time.tol=1e-5") == 1e-5
