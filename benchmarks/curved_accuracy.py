@@ -131,6 +131,7 @@ def deformed(nodes_list, forms, times, bending_form):
 
 
 def furrow(nodes_list, forms, t_end, sets, folder, bending_form):
+    from cortex_ti.axisymmetric.compare import node_radii, pole_and_equator
     from cortex_ti.io.trajectory import Trajectory
     from cortex_ti.simulation import Simulation
 
@@ -154,11 +155,8 @@ def furrow(nodes_list, forms, t_end, sets, folder, bending_form):
             if res is None or len(res.pole_radius) != len(tr.times):
                 res = _twin(float(tr.times[-1]), tr.times, bending_form)
             x = tr.ds["points"].values
-            x0 = x[0]
-            pole = int(np.argmax(x0[:, 2]))
-            eq = np.flatnonzero(np.abs(x0[:, 2]) < 1e-12)
-            ep = np.abs(x[:, pole, 2] - res.pole_radius).max()
-            ef = np.abs(np.hypot(x[:, eq, 0], x[:, eq, 1]).mean(axis=1) - res.furrow_radius).max()
+            pole, eq = pole_and_equator(x[0])
+            ep, ef = node_radii(x[:, pole], x[:, eq], res)
             cells.append(f"{ep:.2e} / {ef:.2e} ({wall:.0f} s)")
         print(f"| {form} | " + " | ".join(cells) + " |")
 

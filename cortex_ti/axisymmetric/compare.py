@@ -21,7 +21,7 @@ from .evolve import simulate
 from .fluids import axisymmetric_fluids
 from .run import AxisymmetricRun, evolution_options, viscosities
 
-__all__ = ["PROFILE_TIMES", "twin_of", "compare", "twin_report"]
+__all__ = ["PROFILE_TIMES", "twin_of", "compare", "node_radii", "pole_and_equator", "twin_report"]
 
 PROFILE_TIMES = (0.1, 1.5, 3.0)
 
@@ -49,23 +49,28 @@ def twin_of(tr: Trajectory):
     )
 
 
-def _node_radii(x: np.ndarray, res) -> tuple[float, float]:
-    """The radii at the nodes against the twin, largest deviation over the frames: the pole node's
-    height (the node of largest z at t = 0) and the mean radius of the nodes on the initial equator
-    (nan if none lies there). Nodes lie on both formulations' surfaces, so unlike the section radii
-    (a flat section of ``rayleigh_p1`` is O(h^2) inside its sphere) this measures flat and curved cells
-    alike."""
-    pole = int(np.argmax(x[0, :, 2]))
-    eq = np.flatnonzero(np.abs(x[0, :, 2]) < 1e-12 * max(1.0, float(np.abs(x[0]).max())))
-    ep = float(np.abs(x[:, pole, 2] - res.pole_radius).max())
-    if eq.size == 0:
+def pole_and_equator(x0: np.ndarray) -> tuple[int, np.ndarray]:
+    """The pole node (largest z at t = 0) and the nodes on the initial equator (z = 0 to round-off) of
+    the initial points ``x0``: the nodes :func:`node_radii` measures."""
+    eq = np.flatnonzero(np.abs(x0[:, 2]) < 1e-12 * max(1.0, float(np.abs(x0).max())))
+    return int(np.argmax(x0[:, 2])), eq
+
+
+def node_radii(pole: np.ndarray, equator: np.ndarray, res) -> tuple[float, float]:
+    """The radii at the nodes against the twin ``res``, largest deviation over the frames: the pole
+    node's height (``pole``, (F, 3) over the frames) and the mean radius of the equator's nodes
+    (``equator``, (F, k, 3); nan if k = 0), the nodes of :func:`pole_and_equator`. Nodes lie on both
+    formulations' surfaces, so unlike the section radii (a flat section of ``rayleigh_p1`` is O(h^2)
+    inside its sphere) this measures flat and curved cells alike."""
+    ep = float(np.abs(pole[:, 2] - res.pole_radius).max())
+    if equator.shape[1] == 0:
         return ep, float("nan")
-    return ep, float(np.abs(np.hypot(x[:, eq, 0], x[:, eq, 1]).mean(axis=1) - res.furrow_radius).max())
+    return ep, float(np.abs(np.hypot(equator[..., 0], equator[..., 1]).mean(axis=1) - res.furrow_radius).max())
 
 
 def compare(path: str, times=PROFILE_TIMES) -> dict:
     """Radii (largest deviation over the frames, its time, the deviation at the last frame; and at
-    the nodes, ``node_radii``: :func:`_node_radii`) and
+    the nodes, ``node_radii``: :func:`node_radii`) and
     velocity profiles at ``times`` (largest / rms deviation of v_n and |v_t| at the nodes, and
     their scales) of a 3D trajectory against its axisymmetric twin."""
     tr = Trajectory(path, lazy=True)
@@ -76,7 +81,9 @@ def compare(path: str, times=PROFILE_TIMES) -> dict:
         d = np.abs(ds[name].values - getattr(res, name))
         out[name] = (float(d.max()), float(tr.times[np.argmax(d)]), float(d[-1]))
     x0 = ds["points"].isel(time=0).values
-    out["node_radii"] = _node_radii(ds["points"].values, res)
+    pole, eq = pole_and_equator(x0)
+    at = ds["points"].isel(node=[pole, *eq.tolist()]).values  # the frames of these nodes only
+    out["node_radii"] = node_radii(at[:, 0], at[:, 1:], res)
     labels = np.arccos(np.clip(x0[:, 2] / np.linalg.norm(x0, axis=1), -1.0, 1.0))
     for t in times:
         if t > tr.times[-1] + 1e-9:
