@@ -65,12 +65,11 @@ def scene_difference(stored, new) -> str | None:
         return None if stored == new else "the stored scene is not a mapping"
     from ..scene.loader import stored_scene_data
 
-    # both as today's loader writes them: a key added since the file was written compares at its default
+    # both as today's loader writes them: a key added since the file was written (the ring's center, the
+    # division section) compares at its default
     da, db = stored_scene_data(da), stored_scene_data(db)
     da.pop("time", None)
     db.pop("time", None)
-    if "division" not in da and (db.get("division") or {}).get("neck_radius") is None:
-        db.pop("division", None)  # a file from before the key: it did not divide, as the default does not
 
     def first(a, b, key):
         if isinstance(a, dict) and isinstance(b, dict):
