@@ -9,6 +9,7 @@ this registry.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,7 +17,9 @@ import scipy.sparse as sp
 
 from .topology import Topology
 
-__all__ = ["FitScheme", "FIT_SCHEMES", "register_fit", "StencilChooser"]
+__all__ = ["FitScheme", "FIT_SCHEMES", "register_fit", "StencilChooser", "lowered", "quadratic_fallback"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -172,3 +175,66 @@ class StencilChooser:
         self.level[can] += 1
         self._cache = None
         return can.size > 0
+
+
+_LOWERED = {"calls": 0}
+
+
+def lowered(name: str, bad: np.ndarray, quality: np.ndarray) -> None:
+    """Say (the first time, then every 1000th) that nodes took :func:`quadratic_fallback`."""
+    _LOWERED["calls"] += 1
+    if _LOWERED["calls"] % 1000 == 1:
+        log.info(
+            "the %s fit is rank deficient at %d node(s) even on the widest stencil (first: node %d, scaled pivot "
+            "%.2e): those take its quadratic terms alone (second order there)",
+            name,
+            bad.size,
+            bad[0],
+            quality[bad[0]],
+        )
+
+
+def quadratic_fallback(design: np.ndarray, ssize: np.ndarray, nodes: np.ndarray, distance: np.ndarray, qmin=1e-8):
+    """The fit operators ``(len(nodes), P, S)`` of ``nodes`` from the first five (quadratic) columns of
+    their ``design`` alone, the higher coefficients zero, on each node's nearest stencil nodes (by
+    ``distance`` (N, S), from five on, as few as give a well-posed quadratic: a wide stencil's far side
+    folds over the node's tangent plane), and their quality (the scaled pivot of the 5 x 5 normal
+    matrix, as ``Geometry.fit_quality``); None if no number of them determines a quadratic.
+
+    Points on two circles through the node determine no quartic (the product of the circles' equations,
+    of degree 4 and without a constant term, vanishes on them) but every quadratic:
+
+    >>> t = np.linspace(0.0, 2.0 * np.pi, 9)[:-1] + 0.2
+    >>> u = np.r_[1.0 + np.cos(t), np.cos(t)]  # the circles about (1, 0) and (0, 1), radius 1
+    >>> w = np.r_[np.sin(t), 1.0 + np.sin(t)]
+    >>> pw = FIT_SCHEMES["quartic"].powers
+    >>> from math import factorial
+    >>> d = np.stack([u**a * w**b / (factorial(a) * factorial(b)) for a, b in pw], 1)[None]
+    >>> bool(np.linalg.matrix_rank(d[0]) < len(pw))
+    True
+    >>> op, q = quadratic_fallback(d, np.array([16]), np.array([0]), np.hypot(u, w)[None])
+    >>> h = 0.3 * u - 0.1 * w + 0.5 * 0.7 * u * u - 0.5 * 0.2 * w * w + 0.4 * u * w  # A..E = .3 -.1 .7 -.2 .4
+    >>> np.round(op[0] @ h, 12)[:6].tolist()
+    [0.3, -0.1, 0.7, -0.2, 0.4, 0.0]
+    """
+    k = FIT_SCHEMES["quadratic"].n_terms
+    out = np.zeros((len(nodes), design.shape[2], design.shape[1]))
+    quality = np.zeros(len(nodes))
+    for m, i in enumerate(nodes):
+        order = np.argsort(distance[i, : ssize[i]], kind="stable")
+        for size in range(k, ssize[i] + 1):
+            rows = order[:size]
+            d = design[i, rows, :k]
+            normal = d.T @ d
+            diag = np.diag(normal)
+            try:
+                pivots = np.diag(np.linalg.cholesky(normal)) ** 2
+            except np.linalg.LinAlgError:
+                continue
+            quality[m] = float(pivots.min() / diag.max())
+            if quality[m] > qmin:
+                out[m, :k, rows] = np.linalg.solve(normal, d.T).T
+                break
+        else:
+            return None
+    return out, quality

@@ -20,7 +20,10 @@ Per node ``i`` (all Taichi kernels, one thread per node):
    mean stencil edge length so the matrix is well conditioned).  Its smallest
    scaled pivot is stored as ``fit_quality``: a value near zero means the stencil
    cannot determine a quadratic (rank deficiency) and the node is given the
-   two-ring stencil instead (:func:`compute_geometry`).
+   two-ring stencil instead (:func:`compute_geometry`). A node whose higher-order (quartic) fit
+   stays rank deficient even on the widest stencil takes the quadratic terms alone there
+   (:func:`~cortex_ti.surface.fits.quadratic_fallback`: second order at that node, logged), where a quadratic fit is
+   still well posed; only a stencil that cannot see a quadratic either is a :class:`MeshError`.
 4. **Surface patch**: the same operator applied to the heights ``h_a = (x_a - x_i) . n``
    gives the local Monge patch ``X(xi, eta) = x_i + xi e_xi + eta e_eta + h n``, whence the
    tangent vectors ``e_1 = e_xi + h_xi n``, ``e_2 = e_eta + h_eta n``, the metric
@@ -40,7 +43,7 @@ import numpy as np
 
 from ..errors import MeshError
 from ..runtime import f64_1, f64_2, f64_3, f64_4, i32_1, i32_2, kernel, ti
-from .fits import StencilChooser
+from .fits import StencilChooser, lowered, quadratic_fallback
 from .topology import Topology
 
 __all__ = ["FIT_TERMS", "FIT_QUALITY_MIN", "Geometry", "compute_geometry"]
@@ -468,6 +471,17 @@ def compute_geometry(
         if bad.size == 0:
             break
         if not stencils.widen(bad):
+            low = None
+            if scheme.n_terms > len(FIT_TERMS):
+                low = quadratic_fallback(design, ssize, bad, _stencil_distances(x, stencil, ssize), FIT_QUALITY_MIN)
+            if low is not None:
+                lowered(scheme.name, bad, quality)
+                quality[bad] = low[1]
+                if operators:
+                    fit_full[bad] = low[0]
+                else:
+                    coef[bad] = np.einsum("nps,ns->np", low[0], _stencil_heights(x, stencil, ssize, frame)[bad])
+                break
             raise MeshError(
                 f"the {scheme.name} fit is rank deficient at {bad.size} node(s) even on the widest stencil "
                 f"(first: node {bad[0]}, scaled pivot {quality[bad[0]]:.2e}): the mesh is too distorted there"
@@ -508,12 +522,23 @@ def compute_geometry(
     )
 
 
+def _stencil_distances(x, stencil, ssize) -> np.ndarray:
+    """(N, S): each stencil node's distance from the node (padded slots infinite)."""
+    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
+    return np.where(valid, np.linalg.norm(x[np.where(valid, stencil, 0)] - x[:, None, :], axis=2), np.inf)
+
+
+def _stencil_heights(x, stencil, ssize, frame) -> np.ndarray:
+    """(N, S): each stencil node's height over the node's tangent plane (padded slots zero)."""
+    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
+    d = x[np.where(valid, stencil, 0)] - x[:, None, :]
+    return np.where(valid, np.einsum("nsc,nc->ns", d, frame[:, 2]), 0.0)
+
+
 def _height_poly(x, stencil, ssize, frame, fit_full, scale, powers) -> np.ndarray:
     """(N, P): the fit operator applied to the stencil heights over each node's tangent plane, in
     unscaled coordinates (all the fitted coefficients, not only the five of ``height_fit``)."""
-    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
-    d = x[np.where(valid, stencil, 0)] - x[:, None, :]
-    h = np.where(valid, np.einsum("nsc,nc->ns", d, frame[:, 2]), 0.0)
+    h = _stencil_heights(x, stencil, ssize, frame)
     degree = powers.sum(axis=1)
     return np.einsum("nps,ns->np", fit_full, h) / scale[:, None] ** degree[None, :]
 

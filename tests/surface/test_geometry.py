@@ -485,6 +485,24 @@ def test_degenerate_one_ring_is_widened(lab):
     assert polynomial_fit_errors(g, 2, seed=4).max() < 1e-10
 
 
+@pytest.mark.parametrize("operators", [True, False])
+def test_a_quartic_fit_no_stencil_determines_takes_the_quadratic_terms_on_the_nearest_nodes(lab, operators):
+    """The icosahedron (12 nodes): every node's widest stencil is the 11 others, fewer than the quartic's
+    14 monomials, so no quartic fit exists. Instead of a MeshError each node takes the quadratic terms
+    alone on its nearest stencil nodes (its five neighbours): the paper's one-ring quadratic fit, so the
+    same normals (radial, by the icosahedron's symmetry) and curvature (1.382, the coarse ring's) as the
+    quadratic scheme."""
+    mesh = lab.icosphere(12)
+    topo = build_topology(mesh)
+    quartic = compute_geometry(mesh.points, topo, StencilChooser(topo, "quartic"), operators=operators)
+    quadratic = compute_geometry(mesh.points, topo, StencilChooser(topo, "quadratic"))
+    radial = mesh.points / np.linalg.norm(mesh.points, axis=1)[:, None]
+    assert np.abs(np.einsum("nc,nc->n", quartic.normal_fit, radial) - 1.0).max() < 1e-13
+    assert np.abs(quartic.curvature - quadratic.curvature).max() < 1e-12
+    assert np.all(quartic.fit_quality > 1e-8)
+    assert np.abs(quartic.height_poly[:, 5:]).max() == 0.0  # no cubic or quartic term
+
+
 @pytest.mark.parametrize("scheme", SCHEMES)
 def test_hopelessly_flat_mesh_raises_mesh_error(lab, scheme):
     """A closed icosphere squashed to 1e-4 of its height: along the rim no stencil can see a
