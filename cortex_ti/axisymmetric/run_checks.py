@@ -36,7 +36,8 @@ class RunChecks:
         diluted, diffused and turned over toward c0 > 0), so a negative value past round-off (1e-6 of
         its largest) is the meridian points failing to resolve its profile (a ring that gathers it
         faster than it diffuses: the points' spectral interpolant rings), and the frames from there
-        on are not converged in axisymmetric.n."""
+        on are not converged in axisymmetric.n: the shape too where the myosin makes tension (its law's
+        zeta0 not 0), the myosin alone where it does not (a tracer: ``cytokinesis_rigid``'s)."""
         if res.c is None:
             return
         c = np.asarray(res.c, dtype=float).reshape(len(res.t), -1)
@@ -44,9 +45,10 @@ class RunChecks:
         bad = np.flatnonzero(low < -1e-6 * high)
         if bad.size:
             k = int(bad[0])
+            tracer = float(self.settings.field("myosin")["tension"]["zeta0"]) == 0.0
             log.warning(
                 "%s (axisymmetric): from t = %.4g the myosin density is negative (smallest %.3g, largest %.3g): "
-                "its profile is not resolved by axisymmetric.n = %d points (%s), and the frames after it are not "
+                "its profile is not resolved by axisymmetric.n = %d points (%s), and %s after it are not "
                 "converged; raise axisymmetric.n or take axisymmetric.points: adaptive",
                 self.settings.name,
                 res.t[k],
@@ -54,4 +56,5 @@ class RunChecks:
                 high[k],
                 self.settings.axisymmetric.n,
                 self.settings.axisymmetric.points,
+                "its values (not the shape: its tension law's zeta0 is 0)" if tracer else "the frames",
             )

@@ -86,3 +86,11 @@ def test_a_negative_myosin_density_is_reported(caplog):
     assert len(lines) == 1 and "from t = 0.2 the myosin density is negative (smallest -0.3, largest 5)" in lines[0], (
         lines
     )
+    assert "the frames after it" in lines[0], lines
+    # a myosin that makes no tension (zeta0 = 0, as cytokinesis_rigid's): the shape does not depend on it
+    caplog.clear()
+    tracer = AxisymmetricRun(load_scene("myosin_constriction", [*over, "fields.myosin.tension.zeta0=0"]))
+    with caplog.at_level(logging.WARNING, logger="cortex_ti.axisymmetric.run"):
+        tracer._warn_negative_myosin(SimpleNamespace(t=t, c=bad))
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 1 and "its values (not the shape: its tension law's zeta0 is 0) after it" in lines[0], lines
