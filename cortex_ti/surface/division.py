@@ -42,10 +42,14 @@ from .measures import min_angles
 from .remesh import (
     RemeshOptions,
     RemeshResult,
+    budget_scale,
+    edge_curvature,
     enclosed_volume,
     keep_amount,
+    predicted_nodes,
     remesh,
     restore_volume,
+    sizes,
     transfer_fields,
     triangulate,
 )
@@ -382,6 +386,37 @@ def side_surface(points, faces, s, band: float, side: int, axis, options: Remesh
     return triangulate(domed, flat.faces, options)  # and the whole remeshed to the usual quality
 
 
+def budget_shares(points, faces, labels: np.ndarray, n: int, options: RemeshOptions) -> np.ndarray:
+    """Each body's share (n,) of the node budget ``options.nodes``: what one size field over all the
+    bodies gives it, ``clip(s / kappa, h_min, h_max)`` with the scale ``s`` of :func:`budget_scale` for
+    the whole (:func:`~cortex_ti.surface.remesh.predicted_nodes` on each body). Where the clips do not
+    act that is ``int kappa^2 dA``: two spheres get equal shares whatever their radii, so a small
+    daughter is resolved by as many edges around as a large one (a share by area gave a daughter of a
+    third of the radius a ninth of the nodes: three times coarser in angle). Without a budget or the
+    lengths, the shares of the areas.
+
+    >>> from cortex_ti.surface.mesh import icosphere
+    >>> m = icosphere(642)
+    >>> faces = np.concatenate([m.faces, m.faces + 642])
+    >>> labels = np.repeat([0, 1], 642)
+    >>> options = RemeshOptions(h_min=0.01, h_max=1.0, nodes=1284)
+    >>> budget_shares(np.vstack([m.points, 0.3 * m.points]), faces, labels, 2, options).round(3).tolist()
+    [0.5, 0.5]
+    """
+    area = dual_areas(points, faces)
+    if options.nodes is None or options.h_min is None or options.h_max is None:
+        return np.bincount(labels, area, n) / area.sum()
+    kappa = edge_curvature(points, faces)
+    h = sizes(
+        kappa,
+        budget_scale(points, faces, options.nodes, options.h_min, options.h_max, kappa=kappa),
+        options.h_min,
+        options.h_max,
+    )
+    want = np.array([predicted_nodes(area[labels == b], h[labels == b]) for b in range(n)])
+    return want / want.sum()
+
+
 def remesh_bodies(
     points: np.ndarray,
     faces: np.ndarray,
@@ -392,20 +427,20 @@ def remesh_bodies(
 ) -> RemeshResult:
     """:func:`~cortex_ti.surface.remesh.remesh` (or ``method``, with its arguments: the curved cells'
     :func:`~cortex_ti.surface.curved_remesh.remesh_curved`) of each body of ``(points, faces)`` on its
-    own: its own enclosed volume restored, a density's amount on it kept, a node budget shared by the
-    bodies' areas; the bodies in the order of :func:`body_labels`."""
+    own: its own enclosed volume restored, a density's amount on it kept, the node budget shared as
+    :func:`budget_shares` says; the bodies in the order of :func:`body_labels`."""
     options = options or RemeshOptions()
     fields, kinds = dict(fields or {}), dict(kinds or {})
     n, labels = body_labels(faces, len(points))
     flab = face_labels(faces, labels)
-    area = dual_areas(points, faces)
+    shares = budget_shares(points, faces, labels, n, options)
     out_p, out_f, parts, offset, offsets = [], [], {name: [] for name in fields}, 0, 0.0
     scale, predicted = [], 0.0
     for b in range(n):
         nodes = np.flatnonzero(labels == b)
         local = np.full(len(points), -1, dtype=np.int64)
         local[nodes] = np.arange(nodes.size)
-        share = float(area[nodes].sum() / area.sum())
+        share = float(shares[b])
         opts = options if options.nodes is None else replace(options, nodes=max(int(round(options.nodes * share)), 12))
         res = method(points[nodes], local[faces[flab == b]], {k: v[nodes] for k, v in fields.items()}, kinds, opts)
         out_p.append(res.points)
