@@ -34,6 +34,31 @@ import taichi as ti  # noqa: E402  (after the environment it reads at import)
 
 log = logging.getLogger(__name__)
 
+
+class _OneLine:
+    """Stands in for :class:`textwrap.TextWrapper` in Taichi's source positions: Taichi 1.7 formats
+    a position (the line and a caret under the node) for every node of every kernel it transforms,
+    wrapping both at 80 columns, and the wrapping was ~0.3 s of a process's start-up (issue 32,
+    docs/validation/curved_cost.md); the positions only show in Taichi's own error messages, which
+    keep their lines and carets, unwrapped."""
+
+    def __init__(self, width: int = 80):
+        self.width = width
+
+    @staticmethod
+    def wrap(text: str) -> list[str]:
+        return [text] if text.strip() else []
+
+
+def _unwrapped_positions() -> None:
+    from taichi.lang.ast import ast_transformer_utils as utils
+
+    if getattr(utils, "TextWrapper", None) is not None:
+        utils.TextWrapper = _OneLine
+
+
+_unwrapped_positions()
+
 __all__ = ["ARCHES", "init", "ensure", "kernel", "ti", "f64_1", "f64_2", "f64_3", "f64_4", "i32_1", "i32_2"]
 
 #: The Taichi architectures ``--arch`` / ``CORTEX_TI_ARCH`` accept.

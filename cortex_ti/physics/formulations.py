@@ -68,6 +68,9 @@ class Formulation:
     #: ``(nabla_c B^cd) d_d v_n``, zero on a sphere); a run's axisymmetric twin solves the same
     #: (docs/validation/curved.md, "The furrow's dynamics")
     bending_form: str = "dissipation"
+    #: with ``bdf2`` / ``bdf3`` and ``solver.rtol`` unset, its GMRES tolerance follows the step's:
+    #: ``time.tol / 100``, never tighter than 1e-10 (:func:`cortex_ti.scene.rules.solver_rtol`)
+    rtol_from_step: bool = False
 
     def caveat(self, active_force: str) -> str:
         """What a run that evolves its shape with ``active_force`` is told at its start ("" for nothing)."""
@@ -157,6 +160,7 @@ FORMULATIONS: dict[str, Formulation] = {
         keys=("pressure_weights", "active_force", "implicit_tension_weight"),
         centred_implicit=True,
         curved=True,
+        rtol_from_step=True,
         dynamic_caveat="with numerics.active_force balanced (the default) its shape dynamics is not stable by "
         "construction: on shear_075's sheared start the spectrum tool finds 238 normal modes growing faster than "
         "1/t_a at 642 nodes (rayleigh_p1: 33) and the mesh collapses by t = 0.2-0.3; 'gradient' (a gradient flow) "

@@ -27,7 +27,7 @@ from ..physics.patterns import pattern_axis
 from ..solve.dense import DENSE_BACKEND
 from ..solve.factorizations import choose_factorization
 from ..surface.remesh import H_MIN_DIVISOR, RemeshOptions
-from .rules import step_control_nodes
+from .rules import solver_rtol, step_control_nodes
 
 __all__ = [
     "RunSettings",
@@ -290,7 +290,7 @@ class RunSettings:
             solver=SolverSettings(
                 backend=choose_factorization(sol["backend"]).name,
                 reuse=bool(sol["reuse"]),
-                rtol=float(sol["rtol"]),
+                rtol=solver_rtol(data),
                 refine=bool(sol["refine"]),
             ),
             time=TimeSettings(

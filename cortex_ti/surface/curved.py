@@ -20,7 +20,7 @@ and not the cells' own, is in :mod:`cortex_ti.physics.galerkin_p2`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from math import factorial
 
 import numpy as np
@@ -213,6 +213,8 @@ class CurvedSurface:
     qnormal: np.ndarray
     qcurvature: np.ndarray
     grads: np.ndarray
+    #: rigid_motion_rows by gauge (the constraints and the rigid projection both ask, once a solve)
+    _rigid_rows: dict = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def n_nodes(self) -> int:
@@ -250,6 +252,12 @@ class CurvedSurface:
         enclosed volume's centroid held, ``int (x - x_c) (n . v) dA = 0`` with the cells' own normal (a
         rigid translation U moves it at U exactly); zero angular momentum ``int (x - x_c) x v dA = 0``,
         ``x_c`` the area centroid."""
+        key = bool(centroid_gauge)
+        if key not in self._rigid_rows:
+            self._rigid_rows[key] = self._rigid_motion_rows(key)
+        return self._rigid_rows[key].copy()
+
+    def _rigid_motion_rows(self, centroid_gauge: bool) -> np.ndarray:
         mass = self.node_integral()
         first = self.node_integral(self.qpoint)
         centre = first.sum(0) / mass.sum()
