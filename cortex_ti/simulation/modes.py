@@ -33,6 +33,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from scipy.sparse.linalg import ArpackNoConvergence
 
 from ..errors import CortexError
 
@@ -74,7 +75,14 @@ def _spectrum(normal_spectrum, sim, pts, dt, growing, stiffest, arpack):
     for count, which in ((growing, "LR"), (stiffest, "SR")):
         if count:
             # a few more than shown: ARPACK converges the wanted end of the spectrum better with room
-            sp = normal_spectrum(sim, pts, dt=dt, k=count + 4, dense=False, modes=True, which=which, tol=ARPACK_TOL)
+            try:
+                sp = normal_spectrum(sim, pts, dt=dt, k=count + 4, dense=False, modes=True, which=which, tol=ARPACK_TOL)
+            except ArpackNoConvergence as err:
+                raise CortexError(
+                    f"ARPACK (which='{which}') did not converge to {count + 4} eigenvalues of this {len(pts)}-node "
+                    f"frame: {len(err.eigenvalues)} converged (fewer --growing/--stiffest, or a frame of <= "
+                    f"{DENSE_NODES} nodes densely)"
+                ) from None
             w, v = np.asarray(sp.eigenvalues), np.asarray(sp.modes)
             keep = slice(0, count) if which == "LR" else slice(len(w) - count, len(w))
             parts.append((w[keep], v[:, keep]))
