@@ -349,13 +349,15 @@ def normal_spectrum(
     ncv: int | None = None,
     maxiter: int | None = None,
     which: str = "LR",
+    jacobian: NormalJacobian | BodyJacobians | None = None,
 ) -> Spectrum:
     """Eigenvalues of ``J`` (largest real part first): all of them with ``dense`` (default up to
     3000 nodes), else ``k`` of them by ARPACK with a deterministic start vector: those of
     largest real part (``which='LR'``, the growing modes) or of largest magnitude
-    (``which='LM'``, the stiffest mode, which sets the explicit step limit)."""
+    (``which='LM'``, the stiffest mode, which sets the explicit step limit; ``'SR'``, the most
+    negative real part). ``jacobian``: one :func:`normal_jacobian` already built at ``points``, ``dt``."""
     x = sim.mesh.points if points is None else points
-    jac = normal_jacobian(sim, x, dt)
+    jac = normal_jacobian(sim, x, dt) if jacobian is None else jacobian
     n = jac.n_nodes
     dense = n <= 3000 if dense is None else dense
     t0 = time.perf_counter()

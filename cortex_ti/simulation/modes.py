@@ -71,12 +71,17 @@ def _spectrum(normal_spectrum, sim, pts, dt, growing, stiffest, arpack):
     if not arpack:
         sp = normal_spectrum(sim, pts, dt=dt, modes=True, dense=True)
         return np.asarray(sp.eigenvalues), np.asarray(sp.modes), "dense"
+    from ..dynamics.spectrum import normal_jacobian
+
+    jac = normal_jacobian(sim, pts, dt)  # once for both ends
     parts = []
     for count, which in ((growing, "LR"), (stiffest, "SR")):
         if count:
             # a few more than shown: ARPACK converges the wanted end of the spectrum better with room
             try:
-                sp = normal_spectrum(sim, pts, dt=dt, k=count + 4, dense=False, modes=True, which=which, tol=ARPACK_TOL)
+                sp = normal_spectrum(
+                    sim, pts, dt=dt, k=count + 4, dense=False, modes=True, which=which, tol=ARPACK_TOL, jacobian=jac
+                )
             except ArpackNoConvergence as err:
                 raise CortexError(
                     f"ARPACK (which='{which}') did not converge to {count + 4} eigenvalues of this {len(pts)}-node "
