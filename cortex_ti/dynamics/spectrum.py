@@ -106,10 +106,11 @@ def distance_colouring(adj: sp.csr_matrix, separation: int) -> np.ndarray:
     return colour
 
 
-def influence_radius(sim) -> int:
+def influence_radius(sim, stencils=None) -> int:
     """Graph radius within which moving one node changes the KKT conditions (see module doc):
-    three stencil radii (the node's fit, the fits of its stencil nodes' normals, the transpose)."""
-    return 3 * int(np.max(sim.stencils.level))
+    three stencil radii (the node's fit, the fits of its stencil nodes' normals, the transpose);
+    ``stencils``: one body's (default the mesh's)."""
+    return 3 * int(np.max((sim.stencils if stencils is None else stencils).level))
 
 
 @dataclass
@@ -185,20 +186,72 @@ class _Assembled:
         )
 
 
+class BodyJacobians:
+    """``J`` of a mesh of several bodies (after a division): block diagonal, one
+    :class:`NormalJacobian` per body (the bodies do not interact without a surrounding fluid, and
+    each has its own volume constraint and rigid-motion gauge, :mod:`cortex_ti.simulation.bodies`)."""
+
+    def __init__(self, n_nodes: int, nodes: list, blocks: list):
+        self.n_nodes, self.nodes, self.blocks = n_nodes, nodes, blocks
+        self.leak = max(b.leak for b in blocks)
+        self.seconds = {k: sum(b.seconds[k] for b in blocks) for k in blocks[0].seconds}
+
+    def matvec(self, s: np.ndarray) -> np.ndarray:
+        out = np.zeros(self.n_nodes, dtype=np.result_type(s, float))
+        for idx, b in zip(self.nodes, self.blocks, strict=True):
+            out[idx] = b.matvec(np.asarray(s).reshape(-1)[idx])
+        return out
+
+    def dense(self) -> np.ndarray:
+        out = np.zeros((self.n_nodes, self.n_nodes))
+        for idx, b in zip(self.nodes, self.blocks, strict=True):
+            out[np.ix_(idx, idx)] = b.dense()
+        return out
+
+    def operator(self) -> spla.LinearOperator:
+        return spla.LinearOperator((self.n_nodes, self.n_nodes), matvec=self.matvec, dtype=float)
+
+
 def normal_jacobian(
     sim, points: np.ndarray, dt: float = 0.0, eps: float | None = None, backend: str = "auto"
-) -> NormalJacobian:
+) -> NormalJacobian | BodyJacobians:
     """Linearise the normal dynamics of ``sim``'s formulation at the shape ``points``.
 
     ``dt > 0``: the velocity a step of that length is solved for (the semi-implicit tension),
     i.e. ``J`` of the step map's rate. ``eps``: finite-difference displacement (default
     1e-5 of the mean edge length; central differences, so the truncation error is ~1e-10).
+    A mesh of several bodies (``sim.bodies``) is linearised body by body (:class:`BodyJacobians`).
     """
-    t0 = time.perf_counter()
     x0 = np.asarray(points, dtype=float)
+    if getattr(sim, "bodies", None) is not None:
+        blocks = [
+            _part_jacobian(sim, x0[b.nodes], dt, eps, backend, (b.topology, b.stencils, b.faces, b.nodes))
+            for b in sim.bodies
+        ]
+        return BodyJacobians(x0.shape[0], [b.nodes for b in sim.bodies], blocks)
+    return _part_jacobian(sim, x0, dt, eps, backend, None)
+
+
+def _part_jacobian(sim, x0, dt, eps, backend, part) -> NormalJacobian:
+    """:func:`normal_jacobian` of the whole mesh (``part`` None) or of one body (``part``: its
+    topology, fit stencils, triangles and nodes in the whole mesh)."""
+    from ..surface.geometry import compute_geometry
+
+    t0 = time.perf_counter()
+    if part is None:
+        topology, stencils, faces, zeta = sim.topology, sim.stencils, None, None
+        shape_geometry = sim.shape_geometry
+    else:
+        topology, stencils, faces, nodes = part
+        zeta = np.asarray(sim.zeta)[nodes]
+
+        def shape_geometry(pts):
+            uses = sim.settings.numerics.uses_fit_residual
+            return compute_geometry(pts, topology, stencils, residual=uses, operators=not sim.curved)
+
     solver = ConstrainedSolver(backend, reuse=False)
-    geo = sim.shape_geometry(x0)
-    system = sim.system(geo, dt)
+    geo = shape_geometry(x0)
+    system = sim.system(geo, dt, zeta, None, faces)
     unknowns, pressure, _ = solver.solve(system, x0)
     multipliers = solver.last_solution
     velocity = system.velocity(unknowns)
@@ -209,15 +262,15 @@ def normal_jacobian(
 
     def parts(pts):
         """The optimality conditions at the base solution on the shape ``pts``, and its normals."""
-        g = sim.shape_geometry(pts)
-        sysm = sim.system(g, dt)
+        g = shape_geometry(pts)
+        sysm = sim.system(g, dt, zeta, None, faces)
         if sysm.basis.shape != basis.shape:
             raise RuntimeError("the unknowns changed under a perturbation")
         vec, sc = sysm.kkt_parts(unknowns, pressure, multipliers)
         return vec, sc, g.normal
 
-    adj = adjacency(sim.topology.ring)
-    radius = influence_radius(sim)
+    adj = adjacency(topology.ring)
+    radius = influence_radius(sim, stencils)
     colour = distance_colouring(adj, 2 * radius + 1)
     gathered = _Assembled(n, basis.shape[1])
     for c in range(int(colour.max()) + 1):
@@ -296,13 +349,15 @@ def normal_spectrum(
     ncv: int | None = None,
     maxiter: int | None = None,
     which: str = "LR",
+    jacobian: NormalJacobian | BodyJacobians | None = None,
 ) -> Spectrum:
     """Eigenvalues of ``J`` (largest real part first): all of them with ``dense`` (default up to
     3000 nodes), else ``k`` of them by ARPACK with a deterministic start vector: those of
     largest real part (``which='LR'``, the growing modes) or of largest magnitude
-    (``which='LM'``, the stiffest mode, which sets the explicit step limit)."""
+    (``which='LM'``, the stiffest mode, which sets the explicit step limit; ``'SR'``, the most
+    negative real part). ``jacobian``: one :func:`normal_jacobian` already built at ``points``, ``dt``."""
     x = sim.mesh.points if points is None else points
-    jac = normal_jacobian(sim, x, dt)
+    jac = normal_jacobian(sim, x, dt) if jacobian is None else jacobian
     n = jac.n_nodes
     dense = n <= 3000 if dense is None else dense
     t0 = time.perf_counter()
