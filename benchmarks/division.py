@@ -153,10 +153,14 @@ def twin(paths: list[Path], ns: list[int | None], sets=()) -> str:
         ax = Trajectory(out).ds
         twins[n or scene.data["axisymmetric"]["n"]] = (_neck(ax), _cut_time(out, ax, neck_cut))
         print(f"<!-- the axisymmetric twin, n = {n or 'scene'}: {time.process_time() - c0:.0f} CPU s -->")
-    rows = ["| run | nodes | twin n | neck: largest abs deviation (at t, neck) | cut t (3D, twin) | cut t rel. diff |"]
+    rows = [
+        "| run | nodes (start / remeshing budget) | twin n | neck: largest abs deviation (at t, neck) "
+        "| cut t (3D, twin) | cut t rel. diff |"
+    ]
     rows.append("|---|---|---|---|---|---|")
     for path, ds in runs:
-        nodes = scene_from_yaml(ds.attrs["scene"]).data["mesh"]["nodes"]
+        mesh = scene_from_yaml(ds.attrs["scene"]).data["mesh"]
+        nodes = f"{mesh['nodes']} / {(mesh.get('remesh') or {}).get('nodes') or mesh['nodes']}"
         t3, r3 = _neck(ds)
         cut3 = _cut_time(path, ds, neck_cut)
         for n, ((ta, ra), cuta) in twins.items():
