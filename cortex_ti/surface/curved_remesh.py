@@ -246,10 +246,8 @@ def restore_curved_volume(points, faces, volume: float, rtol: float = 1e-14, max
     so that the curved cells enclose ``volume``: Newton's method, ``dV/ddelta = sum_i n_i . int N_i
     n dA``. Returns ``(points, delta)``."""
 
-    origin = np.asarray(points, dtype=float).mean(axis=0)  # a closed surface's volume about its own middle
-
     def measure(p: np.ndarray, normal: np.ndarray) -> tuple[float, float]:
-        return curved_volume(p - origin, faces), float(np.einsum("nc,nc->", _volume_rows(p, faces), normal))
+        return curved_volume(p, faces), float(np.einsum("nc,nc->", _volume_rows(p, faces), normal))
 
     return offset_to_volume(points, faces, volume, measure, "the curved cells' volume", rtol, max_iter)
 
