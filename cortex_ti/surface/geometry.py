@@ -524,16 +524,21 @@ def compute_geometry(
     )
 
 
+def _stencil_offsets(x, stencil, ssize) -> tuple[np.ndarray, np.ndarray]:
+    """(N, S, 3): each stencil node's offset from the node, and (N, S) which slots are not padding."""
+    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
+    return x[np.where(valid, stencil, 0)] - x[:, None, :], valid
+
+
 def _stencil_distances(x, stencil, ssize) -> np.ndarray:
     """(N, S): each stencil node's distance from the node (padded slots infinite)."""
-    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
-    return np.where(valid, np.linalg.norm(x[np.where(valid, stencil, 0)] - x[:, None, :], axis=2), np.inf)
+    d, valid = _stencil_offsets(x, stencil, ssize)
+    return np.where(valid, np.linalg.norm(d, axis=2), np.inf)
 
 
 def _stencil_heights(x, stencil, ssize, frame) -> np.ndarray:
     """(N, S): each stencil node's height over the node's tangent plane (padded slots zero)."""
-    valid = np.arange(stencil.shape[1])[None, :] < ssize[:, None]
-    d = x[np.where(valid, stencil, 0)] - x[:, None, :]
+    d, valid = _stencil_offsets(x, stencil, ssize)
     return np.where(valid, np.einsum("nsc,nc->ns", d, frame[:, 2]), 0.0)
 
 
