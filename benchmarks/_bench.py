@@ -123,6 +123,16 @@ def reference_seconds(repeats: int = 5) -> float:
     return best
 
 
+def run_command(scene: str, out, summary, sets=(), force: bool = False) -> list[str]:
+    """The ``cortex-ti run`` command of one timed benchmark run: ``scene`` to ``out`` on one thread, its
+    summary to ``summary``, each of ``sets`` a ``--set KEY=VALUE`` (in order), ``--force`` if asked."""
+    cmd = ["cortex-ti", "run", scene, "-o", str(out), *(["--force"] if force else []), "--threads", "1"]
+    cmd += ["--summary", str(summary)]
+    for kv in sets:
+        cmd += ["--set", kv]
+    return cmd
+
+
 def timed_command(cmd: list[str], who: str) -> tuple[float, float]:
     """Run ``cmd`` in a child process on one thread (OpenMP, MKL, OpenBLAS); its wall seconds and CPU
     seconds (user + system of the child). A failure ends the benchmark naming ``who`` and the command."""

@@ -45,7 +45,7 @@ import tempfile
 from pathlib import Path
 
 import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
-from _bench import header, reference_seconds, timed_command, write_block
+from _bench import header, reference_seconds, run_command, timed_command, write_block
 
 SCENES = ("furrow_p8_a1", "furrow_p4_a1", "furrow_p4_a3")
 
@@ -54,24 +54,8 @@ def run_one(scene: str, nodes: int, t_end: float | None, workdir: Path, sets=())
     """One ``cortex-ti run`` in a child process, its summary, CPU time and radius error."""
     out = workdir / f"{scene}_{nodes}.h5"
     summary = workdir / f"{scene}_{nodes}.json"
-    cmd = [
-        "cortex-ti",
-        "run",
-        scene,
-        "-o",
-        str(out),
-        "--threads",
-        "1",
-        "--summary",
-        str(summary),
-        "--set",
-        f"mesh.nodes={nodes}",
-    ]
-    if t_end is not None:
-        cmd += ["--set", f"time.t_end={t_end}"]
-    for kv in sets:
-        cmd += ["--set", kv]
-    wall, cpu = timed_command(cmd, "furrow_cost")
+    own = [f"mesh.nodes={nodes}", *([f"time.t_end={t_end}"] if t_end is not None else [])]
+    wall, cpu = timed_command(run_command(scene, out, summary, [*own, *sets]), "furrow_cost")
     s = json.loads(summary.read_text())
     from cortex_ti.axisymmetric.compare import compare
 

@@ -34,22 +34,17 @@ from pathlib import Path
 
 import _bench  # benchmarks/_bench.py: the helpers every benchmark shares
 import numpy as np
-from _bench import header, timed_command, write_block
+from _bench import header, run_command, timed_command, write_block
 
 
 def run_one(scene: str, nodes: int, scheme: str, tol: str, workdir: Path, sets=(), t_end=None) -> dict:
     """One ``cortex-ti run`` in a child process: its summary, CPU time, radii over the frames and error vs the twin."""
     out = workdir / f"{scene}_{nodes}_{scheme}_{tol}.h5"
     summary = out.with_suffix(".json")
-    cmd = ["cortex-ti", "run", scene, "-o", str(out), "--force", "--threads", "1", "--summary", str(summary)]
-    cmd += ["--set", f"mesh.nodes={nodes}", "--set", f"time.scheme={scheme}"]
-    if tol != "default":
-        cmd += ["--set", f"time.tol={tol}"]
-    if t_end is not None:
-        cmd += ["--set", f"time.t_end={t_end}"]
-    for kv in sets:
-        cmd += ["--set", kv]
-    wall, cpu = timed_command(cmd, "time_error")
+    own = [f"mesh.nodes={nodes}", f"time.scheme={scheme}"]
+    own += [f"time.tol={tol}"] if tol != "default" else []
+    own += [f"time.t_end={t_end}"] if t_end is not None else []
+    wall, cpu = timed_command(run_command(scene, out, summary, [*own, *sets], force=True), "time_error")
     s = json.loads(summary.read_text())
     from cortex_ti.axisymmetric.compare import compare
     from cortex_ti.io import Trajectory
