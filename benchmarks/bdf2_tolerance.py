@@ -30,31 +30,20 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import _bench  # benchmarks/_bench.py
 import numpy as np
-from _bench import header, write_block
+from _bench import header, run_command, timed_command, write_block
 
 SCENE = "furrow_p4_a1"
 
 
 def run_one(nodes: int, tol: float, t_end: float | None, workdir: Path) -> dict:
     out, summary = workdir / f"n{nodes}_tol{tol:.3g}.h5", workdir / f"n{nodes}_tol{tol:.3g}.json"
-    cmd = [sys.executable, "-m", "cortex_ti", "run", SCENE, "-o", str(out), "--force", "--threads", "1"]
-    cmd += ["--summary", str(summary), "--set", f"mesh.nodes={nodes}", "--set", f"time.tol={tol!r}"]
-    if t_end is not None:
-        cmd += ["--set", f"time.t_end={t_end}"]
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run(cmd, env=env, capture_output=True, text=True)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise SystemExit(f"bdf2_tolerance: {' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    sets = [f"mesh.nodes={nodes}", f"time.tol={tol!r}", *([f"time.t_end={t_end}"] if t_end is not None else [])]
+    _, cpu = timed_command(run_command(SCENE, out, summary, sets, force=True), "bdf2_tolerance")
     s = json.loads(summary.read_text())
     from cortex_ti.axisymmetric.compare import twin_of
     from cortex_ti.io import Trajectory
@@ -71,7 +60,7 @@ def run_one(nodes: int, tol: float, t_end: float | None, workdir: Path) -> dict:
         steps=s["steps"],
         rejected=s.get("rejected", 0),
         solves=s["solves"],
-        cpu_s=(after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
+        cpu_s=cpu,
         err=float(dev.max()),
         mesh_err=float(dev[:, 0].max()),  # the initial polyhedron's: no time error yet
         radii=radii,
